@@ -1,0 +1,201 @@
+"""The deployment side's ``biped`` subcommands: ``robot``, ``view``, ``render``.
+
+:mod:`evolve.cli` assembles these with the evolution commands into one ``biped``
+program.  Heavy imports (MuJoCo, rendering) happen inside the commands so that
+``biped --help`` is instant and the deploy path runs without them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+from pathlib import Path
+
+from sim2real.robot import DEFAULT_ROBOT, RobotSpec, available_robots, load_robot
+
+ROBOT_HELP = (
+    f"robot name from configs/robots/ ({', '.join(available_robots())}; presets as "
+    f"human:male_95) or a path to a robot YAML (default: {DEFAULT_ROBOT})"
+)
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    robot = sub.add_parser("robot", help="describe a robot or export its MuJoCo model",
+                           description="Describe a robot config or export its MuJoCo model.")
+    rsub = robot.add_subparsers(dest="robot_command", required=True, metavar="{show,mjcf}")
+    show = rsub.add_parser("show", help="joints, servos, masses, control tick and torque margins",
+                           description="Print the robot's joints, servos, masses, height, the control "
+                           "tick with its derivation, and each joint's torque margin in a half crouch.")
+    show.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    show.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    show.set_defaults(func=cmd_robot_show)
+
+    mjcf = rsub.add_parser("mjcf", help="write the robot as self-contained MJCF",
+                           description="Write self-contained MJCF: one position actuator per servo, "
+                           "named after its joint, and a keyframe 'home' with the standing pose.")
+    mjcf.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    mjcf.add_argument("-o", "--output", type=Path, help="output file (default: stdout)")
+    mjcf.set_defaults(func=cmd_robot_mjcf)
+
+    view = sub.add_parser("view", help="open the MuJoCo viewer on the standing robot",
+                          description="Open the interactive MuJoCo viewer on the robot standing at "
+                          "its home pose, held by its servos (needs a display).")
+    view.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    view.set_defaults(func=cmd_view)
+
+    render = sub.add_parser("render", help="render the standing robot to an image offscreen",
+                            description="Render the robot at its home pose to a PNG (offscreen: "
+                            "EGL by default, MUJOCO_GL=osmesa for software rendering).")
+    render.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    render.add_argument("-o", "--output", type=Path, default=Path("robot.png"),
+                        help="image file (default: robot.png)")
+    render.add_argument("--width", type=int, default=960)
+    render.add_argument("--height", type=int, default=720)
+    render.add_argument("--settle", type=float, default=1.0,
+                        help="simulated seconds to stand before the picture (default 1)")
+    render.set_defaults(func=cmd_render)
+
+
+# -- robot show -------------------------------------------------------------------------------
+def describe(robot: RobotSpec) -> dict:
+    """Everything ``biped robot show --json`` prints (SI units)."""
+    from sim2real.model_builder import build_model
+    from sim2real.statics import CROUCH_KNEE_DEG, holding_torques
+    from sim2real.timing import control_timing
+
+    model = build_model(robot)
+    timing = control_timing(robot)
+    torques = {t.joint: t for t in holding_torques(robot, model)}
+    joints = []
+    for j in robot.joints:
+        entry = {
+            "name": j.name, "side": j.side, "location": j.location, "axis": j.axis,
+            "range_rad": list(j.range_rad), "home_rad": j.home_rad,
+            "servo_id": j.servo.id if j.servo else None,
+            "servo_model": j.servo.profile.model if j.servo else None,
+            "direction": j.servo.direction if j.servo else None,
+            "zero_offset_rad": j.servo.zero_offset_rad if j.servo else None,
+            "holding_torque_nm": torques[j.name].torque_nm,
+            "torque_limit_nm": torques[j.name].limit_nm,
+            "torque_margin": torques[j.name].margin,
+        }
+        if j.servo is not None:
+            entry["max_goal_step_rad"] = j.servo.profile.motor.no_load_speed_rad_s * timing.tick_s
+        joints.append(entry)
+    return {
+        "name": robot.name,
+        "description": robot.description,
+        "source": robot.source,
+        "actuation": "servo" if robot.is_servo_robot else "pd",
+        "height_m": robot.body.height,
+        "mass_kg": robot.body.mass,
+        "leg_length_m": robot.body.leg_length,
+        "tick_s": timing.tick_s,
+        "bus_cycle_s": timing.bus_cycle_s,
+        "tick_derivation": {
+            "human_tick_s": timing.human_tick_s,
+            "human_leg_length_m": timing.human_leg_length_m,
+            "scaled_tick_s": timing.scaled_tick_s,
+            "bus_bytes_per_cycle": timing.bus_bytes,
+            "physics_dt_s": timing.physics_dt_s,
+            "substeps": timing.substeps,
+            "rule": timing.rule,
+        },
+        "bus": {"port": robot.bus.port, "baud": robot.bus.baud} if robot.bus else None,
+        "sensor_board": (
+            {"id": robot.sensor_board.id, "model": robot.sensor_board.profile.model}
+            if robot.sensor_board else None
+        ),
+        "anthropometry": robot.anthropometry or None,
+        "torque_margin_stance": f"single-leg stance, half crouch (knee {CROUCH_KNEE_DEG:g} deg)",
+        "control_sets": {k: list(v) for k, v in robot.control_sets.items()},
+        "joints": joints,
+    }
+
+
+def _print_description(d: dict) -> None:
+    deriv = d["tick_derivation"]
+    print(f"{d['name']}: {d['description']}")
+    print(f"  from {d['source']}")
+    print(f"  height {d['height_m']:.3f} m, mass {d['mass_kg']:.3f} kg, leg length {d['leg_length_m']:.3f} m")
+    if d["bus"]:
+        board = d["sensor_board"]
+        print(f"  bus {d['bus']['port']} at {d['bus']['baud']} baud; sensor board "
+              f"{board['model']} id {board['id']}" if board else "")
+    print(f"control tick {d['tick_s'] * 1e3:.1f} ms:")
+    print(f"  0.07 s x sqrt({d['leg_length_m']:.3f} m / {deriv['human_leg_length_m']:.3f} m human leg)"
+          f" = {deriv['scaled_tick_s'] * 1e3:.1f} ms")
+    print(f"  bus cycle {deriv['bus_bytes_per_cycle']} bytes = {d['bus_cycle_s'] * 1e3:.2f} ms"
+          + (f" at {d['bus']['baud']} baud" if d["bus"] else ""))
+    print(f"  rule: {deriv['rule']}")
+    print(f"joints (torque margin: stall / holding torque, {d['torque_margin_stance']}):")
+    print(f"  {'name':<18} {'id':>3} {'servo':<14} {'range [deg]':>16} {'home':>6} "
+          f"{'hold [N m]':>10} {'margin':>7} {'step/tick':>9}")
+    for j in d["joints"]:
+        lo, hi = (math.degrees(a) for a in j["range_rad"])
+        margin = "-" if j["torque_margin"] is None else f"{j['torque_margin']:.1f}x"
+        step = f"{math.degrees(j['max_goal_step_rad']):.1f} deg" if "max_goal_step_rad" in j else "-"
+        print(f"  {j['name']:<18} {j['servo_id'] if j['servo_id'] is not None else '-':>3} "
+              f"{j['servo_model'] or 'PD':<14} {f'[{lo:.1f}, {hi:.1f}]':>16} "
+              f"{math.degrees(j['home_rad']):>6.1f} {j['holding_torque_nm']:>10.3f} {margin:>7} {step:>9}")
+    weak = [j["name"] for j in d["joints"] if j["torque_margin"] is not None and j["torque_margin"] < 1.5]
+    if weak:
+        print(f"warning: torque margin below 1.5x at {', '.join(weak)}")
+
+
+def cmd_robot_show(args: argparse.Namespace) -> int:
+    d = describe(load_robot(args.robot))
+    if args.json:
+        print(json.dumps(d, indent=2))
+    else:
+        _print_description(d)
+    return 0
+
+
+def cmd_robot_mjcf(args: argparse.Namespace) -> int:
+    from sim2real.model_builder import to_mjcf
+
+    xml = to_mjcf(load_robot(args.robot))
+    if args.output is None:
+        sys.stdout.write(xml)
+    else:
+        args.output.write_text(xml)
+        print(f"wrote {args.output}", file=sys.stderr)
+    return 0
+
+
+# -- view / render ------------------------------------------------------------------------------
+def _standing(robot: RobotSpec, settle_s: float = 0.0):
+    import mujoco
+
+    from sim2real.model_builder import build_model
+
+    model = build_model(robot)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    for _ in range(int(round(settle_s / model.opt.timestep))):
+        mujoco.mj_step(model, data)
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise SystemExit("biped view needs a display; on a headless machine use `biped render -o robot.png`")
+    import mujoco.viewer
+
+    model, data = _standing(load_robot(args.robot))
+    mujoco.viewer.launch(model, data)
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from sim2real.rendering import render_image, save_image
+
+    model, data = _standing(load_robot(args.robot), args.settle)
+    save_image(args.output, render_image(model, data, args.width, args.height))
+    print(f"wrote {args.output}")
+    return 0

@@ -1,0 +1,240 @@
+"""Robot config -> MuJoCo model, with the servo model of :mod:`sim2real.servo_model`.
+
+The tree is the one of :mod:`sim2real.robot`: the pelvis is the floating root, the trunk
+sits on it through the waist joints, and each leg hangs from a hip joint at the pelvis'
+bottom.  Joints at one location share a body (hip: yaw, roll, pitch; ankle: pitch,
+roll), as a servo chain does.  Each joint gets a ``position`` actuator named after it.
+
+Collision filtering: legs collide with the floor and with the other leg, the trunk and
+pelvis only with the floor; links of one side never collide with each other (adjacent
+links overlap at the joints, and a servo bracket cannot pass through itself anyway).
+
+Sensors: ``<side>_foot_touch`` (normal force under each sole [N]), ``torso_up`` (the
+trunk's z axis in world coordinates, i.e. the normalized up-vector) and
+``<joint>_pos`` (joint angles [rad], unquantized: the robot-side readers quantize them).
+The keyframe ``home`` holds the standing pose in ``qpos`` and ``ctrl``.
+
+    model = build_model(load_robot("xl430_biped"))
+    xml = to_mjcf(load_robot("human:male_95"))
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from sim2real.robot import Joint, RobotSpec
+from sim2real.servo_model import ServoPhysics, servo_physics
+from sim2real.timing import control_timing
+
+FLOOR, LEFT, RIGHT, TORSO = 1, 2, 4, 8  # contype / conaffinity bits
+COLLISION_BITS = {  # (contype, conaffinity)
+    "floor": (FLOOR, LEFT | RIGHT | TORSO),
+    "left": (LEFT, FLOOR | RIGHT),
+    "right": (RIGHT, FLOOR | LEFT),
+    "center": (TORSO, FLOOR),
+}
+FLOOR_FRICTION = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling (rubber-ish soles on a hard floor)
+JOINT_ORDER = {"waist": ("yaw", "roll", "pitch"), "hip": ("yaw", "roll", "pitch"),
+               "knee": ("pitch",), "ankle": ("yaw", "pitch", "roll")}
+# Joint axes for the right side and the centre; the left side mirrors roll and yaw so that
+# one anatomical angle means one motion on both legs (see sim2real.robot).
+_AXES = {
+    ("waist", "yaw"): (0, 0, 1), ("waist", "roll"): (1, 0, 0), ("waist", "pitch"): (0, 1, 0),
+    ("hip", "yaw"): (0, 0, -1), ("hip", "roll"): (-1, 0, 0), ("hip", "pitch"): (0, -1, 0),
+    ("knee", "pitch"): (0, 1, 0),
+    ("ankle", "yaw"): (0, 0, -1), ("ankle", "roll"): (-1, 0, 0), ("ankle", "pitch"): (0, -1, 0),
+}
+COLORS = {"left": (0.85, 0.45, 0.2, 1), "right": (0.2, 0.5, 0.85, 1), "center": (0.75, 0.75, 0.78, 1)}
+SOLE_CLEARANCE_M = 0.0005  # the home keyframe starts the soles this far above the floor
+
+
+def joint_axis(joint: Joint) -> tuple[float, float, float]:
+    x, y, z = _AXES[(joint.location, joint.axis)]
+    if joint.side == "left" and joint.axis in ("roll", "yaw"):
+        x, z = -x, -z
+    return (float(x), float(y), float(z))
+
+
+def _box_geom(body, name, size, pos, mass, side):
+    contype, conaffinity = COLLISION_BITS[side]
+    return body.add_geom(
+        name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[s / 2 for s in size], pos=pos,
+        mass=mass, contype=contype, conaffinity=conaffinity, rgba=COLORS[side],
+    )
+
+
+def _add_joints(robot: RobotSpec, body, side: str, location: str) -> None:
+    here = [j for j in robot.joints if j.side == side and j.location == location]
+    for axis in JOINT_ORDER[location]:
+        for joint in here:
+            if joint.axis != axis:
+                continue
+            jnt = body.add_joint(
+                name=joint.name, type=mujoco.mjtJoint.mjJNT_HINGE, axis=joint_axis(joint),
+                range=list(joint.range_rad), limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            )
+            if joint.servo is not None:
+                configure_servo_joint(jnt, servo_physics(joint.servo.profile))
+
+
+def configure_servo_joint(jnt, phys: ServoPhysics) -> None:
+    """The motor side of the servo model on a hinge joint spec."""
+    jnt.armature, jnt.damping, jnt.frictionloss = phys.armature, phys.damping, phys.frictionloss
+
+
+def configure_servo_actuator(act, phys: ServoPhysics) -> None:
+    """The firmware side: a position loop saturating at the stall torque."""
+    act.set_to_position(kp=phys.kp)
+    act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    act.forcerange = [-phys.force_limit, phys.force_limit]
+
+
+def build_spec(robot: RobotSpec) -> mujoco.MjSpec:
+    """The robot as an editable :class:`mujoco.MjSpec` (gains of PD robots not yet scaled)."""
+    b = robot.body
+    timing = control_timing(robot)
+    spec = mujoco.MjSpec()
+    spec.modelname = robot.name.replace(":", "_")
+    spec.option.timestep = timing.physics_dt_s
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 720
+
+    spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, width=256, height=256,
+                     rgb1=[0.22, 0.25, 0.3], rgb2=[0.3, 0.33, 0.38])
+    grid = spec.add_material(name="grid", texrepeat=[1, 1], texuniform=True)
+    grid.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
+
+    world = spec.worldbody
+    scale = max(1.0, robot.body.height)
+    world.add_light(name="sun", pos=[0, 0, 3 * scale], dir=[0, 0, -1],
+                    type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
+    contype, conaffinity = COLLISION_BITS["floor"]
+    world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
+                   material="grid", friction=list(FLOOR_FRICTION),
+                   contype=contype, conaffinity=conaffinity)
+
+    pelvis = world.add_body(name="pelvis", pos=[0, 0, b.leg_length])
+    pelvis.add_freejoint(name="root")
+    _box_geom(pelvis, "pelvis", b.pelvis.size, [0, 0, b.pelvis.size[2] / 2], b.pelvis.mass, "center")
+    pelvis.add_camera(name="track", mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM,
+                      pos=[0.9 * scale, -2.2 * scale, 0.5 * scale],
+                      xyaxes=[1, 0.4, 0, -0.08, 0.2, 1])
+
+    trunk = pelvis.add_body(name="trunk", pos=[0, 0, b.pelvis.size[2]])
+    _add_joints(robot, trunk, "center", "waist")
+    _box_geom(trunk, "trunk", b.trunk.size, [0, 0, b.trunk.size[2] / 2], b.trunk.mass, "center")
+    trunk.add_site(name="imu", pos=[0, 0, b.trunk.size[2] / 2])
+
+    f = b.foot
+    for side, y in (("left", 1.0), ("right", -1.0)):
+        thigh = pelvis.add_body(name=f"{side}_thigh", pos=[0, y * b.hip_spacing / 2, 0])
+        _add_joints(robot, thigh, side, "hip")
+        _box_geom(thigh, f"{side}_thigh", b.thigh.size, [0, 0, -b.thigh.size[2] / 2], b.thigh.mass, side)
+        shank = thigh.add_body(name=f"{side}_shank", pos=[0, 0, -b.thigh.size[2]])
+        _add_joints(robot, shank, side, "knee")
+        _box_geom(shank, f"{side}_shank", b.shank.size, [0, 0, -b.shank.size[2] / 2], b.shank.mass, side)
+        foot = shank.add_body(name=f"{side}_foot", pos=[0, 0, -b.shank.size[2]])
+        _add_joints(robot, foot, side, "ankle")
+        sole_center = [f.length / 2 - f.heel, 0, -f.ankle_height + f.thickness / 2]
+        _box_geom(foot, f"{side}_foot", (f.length, f.width, f.thickness), sole_center, f.mass, side)
+        # The touch site covers the sole and a sliver below it, where contact points lie.
+        foot.add_site(name=f"{side}_sole", type=mujoco.mjtGeom.mjGEOM_BOX, pos=sole_center,
+                      size=[f.length / 2 + 1e-3, f.width / 2 + 1e-3, f.thickness], rgba=[0, 0, 0, 0])
+        spec.add_sensor(name=f"{side}_foot_touch", type=mujoco.mjtSensor.mjSENS_TOUCH,
+                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"{side}_sole")
+
+    spec.add_sensor(name="torso_up", type=mujoco.mjtSensor.mjSENS_FRAMEZAXIS,
+                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
+    for joint in robot.joints:
+        spec.add_sensor(name=f"{joint.name}_pos", type=mujoco.mjtSensor.mjSENS_JOINTPOS,
+                        objtype=mujoco.mjtObj.mjOBJ_JOINT, objname=joint.name)
+        _add_actuator(spec, joint)
+    return spec
+
+
+def _add_actuator(spec: mujoco.MjSpec, joint: Joint) -> None:
+    act = spec.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    act.ctrlrange = list(joint.range_rad)
+    if joint.servo is not None:
+        configure_servo_actuator(act, servo_physics(joint.servo.profile))
+    else:
+        act.set_to_position(kp=1.0, kv=0.0)  # scaled by the joint inertia in build_model
+
+
+def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
+    """Add keyframe ``home``: joints at home, root lowered until the soles touch the floor."""
+    data = mujoco.MjData(model)
+    home = home_ctrl(robot, model)
+    for i, joint in enumerate(robot.joints):
+        data.qpos[model.jnt_qposadr[model.joint(joint.name).id]] = home[i]
+    mujoco.mj_kinematics(model, data)
+    lowest = np.inf
+    for side in ("left", "right"):
+        geom = model.geom(f"{side}_foot").id
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        world = data.geom_xpos[geom] + (corners * model.geom_size[geom]) @ data.geom_xmat[geom].reshape(3, 3).T
+        lowest = min(lowest, world[:, 2].min())
+    qpos = data.qpos.copy()
+    qpos[2] -= lowest - SOLE_CLEARANCE_M
+    spec.add_key(name="home", qpos=qpos.tolist(), ctrl=home.tolist())
+
+
+def home_ctrl(robot: RobotSpec, model: mujoco.MjModel) -> np.ndarray:
+    """Actuator targets of the home pose, in actuator order (= robot.joints order) [rad]."""
+    return np.array([robot.joints[i].home_rad for i in range(model.nu)])
+
+
+def hold_ctrl(robot: RobotSpec, driven: set[str] | frozenset[str]) -> np.ndarray:
+    """Targets for joints a controller does not drive: the centre of their range [rad].
+
+    Driven joints get their home angle as a starting target.
+    """
+    return np.array([j.home_rad if j.name in driven else j.center_rad for j in robot.joints])
+
+
+def build_model(robot: RobotSpec) -> mujoco.MjModel:
+    """Compile the robot, with PD gains scaled by joint inertia and the ``home`` keyframe."""
+    spec = build_spec(robot)
+    model = spec.compile()
+    if robot.pd is not None:
+        _scale_pd_gains(robot, spec, model)
+    _home_keyframe(robot, spec, model)
+    return spec.compile()
+
+
+def build_spec_with_keyframe(robot: RobotSpec) -> mujoco.MjSpec:
+    """Like :func:`build_model` but returns the finished spec (for MJCF export)."""
+    spec = build_spec(robot)
+    model = spec.compile()
+    if robot.pd is not None:
+        _scale_pd_gains(robot, spec, model)
+    _home_keyframe(robot, spec, model)
+    return spec
+
+
+def to_mjcf(robot: RobotSpec) -> str:
+    """Self-contained MJCF text of the robot (no external assets)."""
+    spec = build_spec_with_keyframe(robot)
+    spec.compile()
+    return spec.to_xml()
+
+
+def _scale_pd_gains(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
+    """Seed 000 eq. 2: torque = I (kp e - kd qdot), I the joint-space inertia at home."""
+    assert robot.pd is not None
+    data = mujoco.MjData(model)
+    for i, joint in enumerate(robot.joints):
+        data.qpos[model.jnt_qposadr[model.joint(joint.name).id]] = joint.home_rad
+    mujoco.mj_forward(model, data)
+    full = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, full)
+    diag = np.diag(full)
+    for joint in robot.joints:
+        inertia = diag[model.jnt_dofadr[model.joint(joint.name).id]]
+        act = spec.actuator(joint.name)
+        act.set_to_position(kp=inertia * robot.pd.kp, kv=inertia * robot.pd.kd)
+        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.forcerange = [-robot.pd.max_torque_nm, robot.pd.max_torque_nm]

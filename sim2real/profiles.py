@@ -1,0 +1,254 @@
+"""Servo and sensor-board firmware profiles: the data in ``firmware_profiles/*.yaml``.
+
+A profile is what the e-manual says about one Dynamixel model (or our foot-sensor
+board): its model number and protocol, the control-table entries the project uses,
+its position resolution, its motor's stall torque and no-load speed, and its default
+gains with their conversion to physical units.  This module only reads and checks
+the data; :mod:`sim2real.servo_model` turns it into physics.
+
+    profile = load_profile("XL430-W250-T")
+    profile.register("goal_position").address      # 116
+    profile.motor.stall_torque_nm                   # 1.4 [N m]
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+from sim2real.errors import ConfigError
+from sim2real.paths import profiles_dir
+from sim2real.validation import Node, load_yaml
+
+
+@dataclass(frozen=True)
+class Register:
+    """One control-table entry."""
+
+    name: str
+    address: int
+    size: int  # [bytes]
+    signed: bool
+    access: str  # "R" or "RW"
+    area: str  # "EEPROM" or "RAM"
+    unit: str | None  # physical size of one LSB, e.g. "0.229 rpm"; None for codes
+    default: int = 0
+    encoding: str | None = None  # e.g. "sign_magnitude_bit10" (AX-12A speed and load)
+
+
+@dataclass(frozen=True)
+class PositionSpec:
+    """Encoder resolution and position range of a servo."""
+
+    resolution: int  # ticks a revolution (or over range_deg)
+    min_tick: int
+    max_tick: int
+    center_tick: int
+    range_deg: float  # angle covered by min_tick..max_tick+1 [deg]
+
+    @property
+    def rad_per_tick(self) -> float:
+        return math.radians(self.range_deg) / (self.max_tick - self.min_tick + 1)
+
+    @property
+    def range_rad(self) -> tuple[float, float]:
+        """Reachable angles relative to the centre tick [rad]."""
+        return (
+            (self.min_tick - self.center_tick) * self.rad_per_tick,
+            (self.max_tick - self.center_tick) * self.rad_per_tick,
+        )
+
+
+@dataclass(frozen=True)
+class MotorSpec:
+    """DC motor and gearbox at the nominal voltage, referred to the output shaft."""
+
+    nominal_voltage_v: float
+    stall_torque_nm: float
+    stall_current_a: float
+    no_load_speed_rpm: float
+    no_load_current_a: float
+    gear_ratio: float
+    armature_kgm2: float  # reflected rotor inertia [kg m^2]
+    viscous_friction_nms: float  # [N m s/rad]
+    coulomb_friction_nm: float  # [N m]
+    sources: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def no_load_speed_rad_s(self) -> float:
+        return self.no_load_speed_rpm * 2.0 * math.pi / 60.0
+
+
+@dataclass(frozen=True)
+class GainSpec:
+    """Default position-loop gains as table values (``type`` is ``pid`` or ``compliance``)."""
+
+    type: str
+    values: dict[str, float]
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class DeviceProfile:
+    """One device model on a Dynamixel bus: a servo or the foot-sensor board."""
+
+    model: str
+    kind: str  # "servo" or "sensor_board"
+    model_number: int
+    protocol: float  # 1.0 or 2.0
+    mass_kg: float
+    source: str
+    path: Path
+    control_table: dict[str, Register]
+    position: PositionSpec | None = None
+    motor: MotorSpec | None = None
+    gains: GainSpec | None = None
+    units: dict[str, float] = field(default_factory=dict)  # velocity_unit_rpm, ...
+    variants: tuple[str, ...] = ()
+    sensors: dict[str, Any] = field(default_factory=dict)
+
+    def register(self, name: str) -> Register:
+        try:
+            return self.control_table[name]
+        except KeyError:
+            raise KeyError(f"{self.model} has no control-table entry {name!r}") from None
+
+    @property
+    def is_servo(self) -> bool:
+        return self.kind == "servo"
+
+
+_SERVO_KEYS = ("position", "motor", "gains")
+_UNIT_KEYS = ("velocity_unit_rpm", "load_unit_percent", "voltage_unit_v")
+
+
+def _read_register(node: Node) -> Register:
+    node.mapping(
+        required=("name", "address", "size", "signed", "access", "area", "unit"),
+        optional=("default", "encoding"),
+    )
+    size = node["size"].integer()
+    if size not in (1, 2, 4):
+        raise node.error(f"must be 1, 2 or 4 bytes, got {size}", key="size")
+    unit = node["unit"].value
+    return Register(
+        name=node["name"].string(),
+        address=node["address"].integer(0, 0xFFFF),
+        size=size,
+        signed=node["signed"].boolean(),
+        access=node["access"].string(("R", "RW")),
+        area=node["area"].string(("EEPROM", "RAM")),
+        unit=None if unit is None else str(unit),
+        default=node.get("default", 0).integer(),
+        encoding=node["encoding"].string() if node.has("encoding") else None,
+    )
+
+
+def parse_profile(doc: Any, path: Path) -> DeviceProfile:
+    """Validate one profile document (already loaded from YAML)."""
+    root = Node(doc, str(path))
+    if not root.has("kind"):
+        raise root.error("missing required key 'kind' (servo or sensor_board)", key="kind")
+    kind = root["kind"].string(("servo", "sensor_board"))
+    common = ("model", "kind", "model_number", "protocol", "mass_kg", "source", "control_table")
+    if kind == "servo":
+        root.mapping(required=common + _SERVO_KEYS, optional=_UNIT_KEYS + ("variants",))
+    else:
+        root.mapping(required=common + ("sensors",), optional=("variants",))
+
+    table: dict[str, Register] = {}
+    for entry in root["control_table"].list(min_len=1):
+        reg = _read_register(entry)
+        if reg.name in table:
+            raise entry.error(f"duplicate control-table entry {reg.name!r}", key="name")
+        table[reg.name] = reg
+    for needed in ("model_number", "id", "return_delay_time"):
+        if needed not in table:
+            raise root.error(f"control table lacks {needed!r}", key="control_table")
+
+    protocol = root["protocol"].number()
+    if protocol not in (1.0, 2.0):
+        raise root.error(f"must be 1.0 or 2.0, got {protocol}", key="protocol")
+    profile = dict(
+        model=root["model"].string(),
+        kind=kind,
+        model_number=root["model_number"].integer(0, 0xFFFF),
+        protocol=protocol,
+        mass_kg=root["mass_kg"].number(positive=True),
+        source=root["source"].string(),
+        path=Path(path),
+        control_table=table,
+        variants=tuple(v.string() for v in root.get("variants", []).list()),
+    )
+    if kind == "sensor_board":
+        return DeviceProfile(**profile, sensors=dict(root["sensors"].free_mapping()))
+
+    pos = root["position"].mapping(
+        required=("resolution", "min_tick", "max_tick", "center_tick", "range_deg")
+    )
+    position = PositionSpec(
+        resolution=pos["resolution"].integer(2),
+        min_tick=pos["min_tick"].integer(),
+        max_tick=pos["max_tick"].integer(),
+        center_tick=pos["center_tick"].integer(),
+        range_deg=pos["range_deg"].number(positive=True, hi=360.0),
+    )
+    if not position.min_tick <= position.center_tick <= position.max_tick:
+        raise pos.error("center_tick must lie between min_tick and max_tick", key="center_tick")
+
+    mot = root["motor"]
+    numeric = [f for f in MotorSpec.__dataclass_fields__ if f != "sources"]
+    mot.mapping(required=numeric, optional=("sources",))
+    motor = MotorSpec(
+        **{f: mot[f].number(lo=0.0) for f in numeric},
+        sources={str(k): str(v) for k, v in (mot.get("sources", {}).value or {}).items()},
+    )
+    for f in ("stall_torque_nm", "no_load_speed_rpm", "nominal_voltage_v", "gear_ratio"):
+        mot[f].number(positive=True)
+    if motor.coulomb_friction_nm >= motor.stall_torque_nm:
+        raise mot.error("must be below stall_torque_nm", key="coulomb_friction_nm")
+
+    g = root["gains"]
+    if not g.has("type"):
+        raise g.error("missing required key 'type' (pid or compliance)", key="type")
+    gtype = g["type"].string(("pid", "compliance"))
+    values = {k: n.number() for k, n in g.items() if k not in ("type", "source")}
+    need = (
+        ("position_p", "p_divisor", "pwm_limit")
+        if gtype == "pid"
+        else ("cw_compliance_slope", "ccw_compliance_slope", "torque_limit")
+    )
+    for key in need:
+        if key not in values:
+            raise g.error(f"missing required key {key!r} for {gtype} gains", key=key)
+    gains = GainSpec(type=gtype, values=values, source=str(g.get("source", "").value))
+    units = {k: root[k].number(positive=True) for k in _UNIT_KEYS if root.has(k)}
+    return DeviceProfile(**profile, position=position, motor=motor, gains=gains, units=units)
+
+
+@lru_cache(maxsize=None)
+def _profiles_in(folder: Path) -> dict[str, DeviceProfile]:
+    by_name: dict[str, DeviceProfile] = {}
+    for path in sorted(folder.glob("*.yaml")):
+        profile = parse_profile(load_yaml(path), path)
+        for name in (profile.model, *profile.variants, path.stem):
+            by_name[name.upper()] = profile
+    return by_name
+
+
+def available_profiles(folder: Path | None = None) -> list[str]:
+    """Model names of every profile in ``firmware_profiles/``."""
+    return sorted({p.model for p in _profiles_in(folder or profiles_dir()).values()})
+
+
+def load_profile(name: str, folder: Path | None = None) -> DeviceProfile:
+    """The profile for a model name (``"XL430-W250-T"``), a variant or a file stem."""
+    profiles = _profiles_in(folder or profiles_dir())
+    try:
+        return profiles[name.upper()]
+    except KeyError:
+        known = ", ".join(available_profiles(folder))
+        raise KeyError(f"unknown servo profile {name!r} (known: {known})") from None

@@ -1,0 +1,392 @@
+"""Robot descriptions: ``configs/robots/*.yaml`` read into a frozen :class:`RobotSpec`.
+
+Every robot here is a biped of the same tree - trunk, pelvis (the root, seed 000's
+"waist"), and per leg thigh, shank and foot - with a configurable set of hinge joints
+at the waist, hips, knees and ankles.  A config gives the segment sizes [m] and masses
+[kg] (or, for the human character, anthropometric measures they are scaled from), the
+joints with their ranges, and for a servo robot each joint's Dynamixel (ID, model,
+direction, zero offset), the sensor board and the bus.
+
+Joint angles are anatomical and mirrored between the sides, so the same angle means the
+same motion on either leg (a symmetric controller relies on it): pitch is flexion
+(hip forward, knee bending, toes up), roll is abduction (leg outward; ankle the same
+sense), yaw is external rotation (toes outward).  At the waist, pitch bends the trunk
+forward, roll leans it right and yaw turns it left.
+
+    robot = load_robot("xl430_biped")          # or a path, or "human:female_50"
+    robot.joint("right_knee").range_rad
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from sim2real.errors import ConfigError
+from sim2real.paths import robots_dir
+from sim2real.profiles import DeviceProfile, load_profile
+from sim2real.validation import Node, load_yaml
+
+SIDES = ("left", "right", "center")
+LOCATIONS = ("waist", "hip", "knee", "ankle")
+AXES = ("yaw", "roll", "pitch")
+DEFAULT_ROBOT = "xl430_biped"
+
+
+@dataclass(frozen=True)
+class Box:
+    """A box-shaped segment: size along x (forward), y (left), z (up) [m] and mass [kg]."""
+
+    size: tuple[float, float, float]
+    mass: float
+
+
+@dataclass(frozen=True)
+class Foot:
+    length: float  # heel to toe [m]
+    width: float  # [m]
+    thickness: float  # sole plate [m]
+    ankle_height: float  # ankle axis above the sole [m]
+    heel: float  # ankle axis in front of the heel [m]
+    mass: float  # [kg]
+
+
+@dataclass(frozen=True)
+class Body:
+    trunk: Box
+    pelvis: Box
+    hip_spacing: float  # lateral distance between the hip joints [m]
+    thigh: Box  # size[2] is the hip-to-knee length
+    shank: Box  # size[2] is the knee-to-ankle length
+    foot: Foot
+
+    @property
+    def leg_length(self) -> float:
+        """Hip joint to sole with straight legs [m]."""
+        return self.thigh.size[2] + self.shank.size[2] + self.foot.ankle_height
+
+    @property
+    def height(self) -> float:
+        """Sole to top of the trunk, standing straight [m] (hips at the pelvis' bottom)."""
+        return self.leg_length + self.pelvis.size[2] + self.trunk.size[2]
+
+    @property
+    def mass(self) -> float:
+        """Total mass [kg]."""
+        legs = 2 * (self.thigh.mass + self.shank.mass + self.foot.mass)
+        return self.trunk.mass + self.pelvis.mass + legs
+
+
+@dataclass(frozen=True)
+class ServoMap:
+    """How a joint angle maps onto its servo: ``servo = direction * joint + zero_offset``."""
+
+    id: int
+    profile: DeviceProfile
+    direction: int  # +1 or -1
+    zero_offset_rad: float  # servo angle (from its centre tick) at joint angle 0 [rad]
+
+
+@dataclass(frozen=True)
+class Joint:
+    name: str
+    side: str  # left | right | center
+    location: str  # waist | hip | knee | ankle
+    axis: str  # yaw | roll | pitch
+    range_rad: tuple[float, float]
+    home_rad: float
+    servo: ServoMap | None = None
+
+    @property
+    def center_rad(self) -> float:
+        return 0.5 * (self.range_rad[0] + self.range_rad[1])
+
+
+@dataclass(frozen=True)
+class PDGains:
+    """Seed 000's eq. 2: torque = I (kp (target - q) - kd qdot), I the joint's inertia."""
+
+    kp: float  # [1/s^2]
+    kd: float  # [1/s]
+    max_torque_nm: float  # [N m]
+
+
+@dataclass(frozen=True)
+class SensorBoard:
+    id: int
+    profile: DeviceProfile
+
+
+@dataclass(frozen=True)
+class Bus:
+    port: str
+    baud: int  # [bit/s]
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    name: str
+    description: str
+    source: str  # file it was read from (and preset, if any)
+    body: Body
+    joints: tuple[Joint, ...]
+    control_sets: dict[str, tuple[str, ...]]
+    bus: Bus | None = None
+    sensor_board: SensorBoard | None = None
+    pd: PDGains | None = None  # set for seed 000's PD-actuated character, None for servos
+    control_tick_s: float | None = None  # overrides the derived tick when set
+    anthropometry: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.joints)
+
+    def joint(self, name: str) -> Joint:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise KeyError(f"robot {self.name} has no joint {name!r}")
+
+    @property
+    def is_servo_robot(self) -> bool:
+        return self.pd is None
+
+
+_ROBOT_KEYS = dict(
+    required=("name", "description", "body", "joints", "control_sets"),
+    optional=(
+        "actuation", "servo_model", "bus", "sensor_board", "pd_gains", "control_tick_s",
+        "anthropometry", "proportions", "shape",
+    ),
+)
+
+
+def resolve_robot_path(name_or_path: str | Path) -> tuple[Path, str | None]:
+    """A robot name (``xl430_biped``, ``human:male_95``) or a path -> (file, preset)."""
+    text = str(name_or_path)
+    preset = None
+    if ":" in text and not Path(text).exists():
+        text, preset = text.split(":", 1)
+    path = Path(text)
+    if path.suffix in (".yaml", ".yml") or path.exists():
+        if not path.exists():
+            raise FileNotFoundError(f"robot config {path} does not exist")
+        return path, preset
+    candidate = robots_dir() / f"{text}.yaml"
+    if not candidate.exists():
+        known = ", ".join(available_robots())
+        raise FileNotFoundError(f"unknown robot {text!r} (known: {known}; or give a path)")
+    return candidate, preset
+
+
+def available_robots() -> list[str]:
+    return sorted(p.stem for p in robots_dir().glob("*.yaml") if not p.stem.startswith("_"))
+
+
+def load_robot(name_or_path: str | Path = DEFAULT_ROBOT) -> RobotSpec:
+    """Read and validate a robot config; raises :class:`ConfigError` naming file and key."""
+    path, preset = resolve_robot_path(name_or_path)
+    return parse_robot(load_yaml(path), str(path), preset)
+
+
+def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpec:
+    from sim2real import anthropometry  # the human character's body comes from measures
+
+    root = Node(doc, source).mapping(**_ROBOT_KEYS)
+    actuation = root.get("actuation", "servo").string(("servo", "pd"))
+    if actuation == "pd":
+        body, measures = anthropometry.human_body(root, preset)
+        if not root.has("pd_gains"):
+            raise root.error("missing required key 'pd_gains' for actuation: pd", key="pd_gains")
+        pd = _read_pd(root["pd_gains"])
+    else:
+        if preset is not None:
+            raise root.error(f"robot has no presets, got {preset!r}", key="name")
+        for key in ("anthropometry", "proportions", "shape", "pd_gains"):
+            if root.has(key):
+                raise root.error("only allowed with actuation: pd", key=key)
+        body, measures, pd = _read_body(root["body"]), {}, None
+
+    default_model = root["servo_model"].string() if root.has("servo_model") else None
+    joints = tuple(
+        _read_joint(node, actuation == "servo", default_model) for node in root["joints"].list(1)
+    )
+    _check_joints(root, joints)
+    board = _read_sensor_board(root["sensor_board"]) if root.has("sensor_board") else None
+    if actuation == "servo":
+        for key in ("bus", "sensor_board"):
+            if not root.has(key):
+                raise root.error(f"missing required key {key!r} for a servo robot", key=key)
+        _check_ids(root, joints, board)
+
+    names = {j.name for j in joints}
+    control_sets = {}
+    for set_name, node in root["control_sets"].items():
+        members = tuple(n.string() for n in node.list(1))
+        for i, member in enumerate(members):
+            if member not in names:
+                raise node[i].error(f"unknown joint {member!r}")
+        control_sets[set_name] = members
+
+    name = root["name"].string()
+    return RobotSpec(
+        name=f"{name}:{measures['preset']}" if measures else name,
+        description=root["description"].string(),
+        source=source,
+        body=body,
+        joints=joints,
+        control_sets=control_sets,
+        bus=_read_bus(root["bus"]) if root.has("bus") else None,
+        sensor_board=board,
+        pd=pd,
+        control_tick_s=root["control_tick_s"].number(positive=True) if root.has("control_tick_s") else None,
+        anthropometry={k: v for k, v in measures.items() if k != "preset"},
+    )
+
+
+def _box(node: Node) -> Box:
+    node.mapping(required=("size", "mass"))
+    return Box(size=node["size"].vector(3, positive=True), mass=node["mass"].number(positive=True))
+
+
+def _read_body(node: Node) -> Body:
+    node.mapping(required=("trunk", "pelvis", "hip_spacing", "thigh", "shank", "foot"))
+    foot = node["foot"].mapping(
+        required=("length", "width", "thickness", "ankle_height", "heel", "mass")
+    )
+    body = Body(
+        trunk=_box(node["trunk"]),
+        pelvis=_box(node["pelvis"]),
+        hip_spacing=node["hip_spacing"].number(positive=True),
+        thigh=_box(node["thigh"]),
+        shank=_box(node["shank"]),
+        foot=Foot(**{k: foot[k].number(positive=True) for k in Foot.__dataclass_fields__}),
+    )
+    if body.foot.heel >= body.foot.length:
+        raise foot.error("must be shorter than the foot's length", key="heel")
+    if body.foot.thickness >= body.foot.ankle_height:
+        raise foot.error("must be below ankle_height", key="thickness")
+    return body
+
+
+def _read_pd(node: Node) -> PDGains:
+    node.mapping(required=("kp", "kd", "max_torque_nm"))
+    return PDGains(**{k: node[k].number(positive=True) for k in ("kp", "kd", "max_torque_nm")})
+
+
+def _read_joint(node: Node, servo_robot: bool, default_model: str | None) -> Joint:
+    node.mapping(
+        required=("name", "location", "axis", "range_deg"), optional=("side", "home_deg", "servo")
+    )
+    name = node["name"].string()
+    side = node.get("side", "center").string(SIDES)
+    location = node["location"].string(LOCATIONS)
+    if (location == "waist") != (side == "center"):
+        raise node.error("waist joints are side: center, leg joints left or right", key="side")
+    axis = node["axis"].string(AXES)
+    if location == "knee" and axis != "pitch":
+        raise node.error("a knee is a pitch joint", key="axis")
+    lo, hi = node["range_deg"].pair()
+    home = node.get("home_deg", 0.5 * (lo + hi) if not lo <= 0 <= hi else 0.0).number()
+    if not lo <= home <= hi:
+        raise node.error(f"{home} deg is outside range_deg [{lo}, {hi}]", key="home_deg")
+    servo = None
+    if servo_robot:
+        if not node.has("servo"):
+            raise node.error(f"joint {name!r} has no servo", key="servo")
+        servo = _read_servo(node["servo"], default_model, (lo, hi))
+    elif node.has("servo"):
+        raise node.error("servo blocks are only allowed with actuation: servo", key="servo")
+    return Joint(
+        name=name,
+        side=side,
+        location=location,
+        axis=axis,
+        range_rad=(math.radians(lo), math.radians(hi)),
+        home_rad=math.radians(home),
+        servo=servo,
+    )
+
+
+def _profile(node: Node) -> DeviceProfile:
+    try:
+        return load_profile(node.string())
+    except KeyError as exc:
+        raise node.error(exc.args[0]) from None
+
+
+def _read_servo(node: Node, default_model: str | None, range_deg: tuple[float, float]) -> ServoMap:
+    node.mapping(required=("id",), optional=("model", "direction", "zero_offset_deg"))
+    if node.has("model"):
+        profile = _profile(node["model"])
+    elif default_model is None:
+        raise node.error("no servo model: set servo.model or the robot's servo_model", key="model")
+    else:
+        profile = _profile(Node(default_model, node.source, "servo_model"))
+    if not profile.is_servo:
+        raise node.error(f"{profile.model} is not a servo", key="model")
+    direction = node.get("direction", 1).integer()
+    if direction not in (1, -1):
+        raise node.error(f"must be 1 or -1, got {direction}", key="direction")
+    servo = ServoMap(
+        id=node["id"].integer(0, 252),
+        profile=profile,
+        direction=direction,
+        zero_offset_rad=math.radians(node.get("zero_offset_deg", 0.0).number()),
+    )
+    assert profile.position is not None
+    s_lo, s_hi = profile.position.range_rad
+    ends = sorted(direction * math.radians(a) + servo.zero_offset_rad for a in range_deg)
+    if ends[0] < s_lo - 1e-9 or ends[1] > s_hi + 1e-9:
+        raise node.error(
+            f"joint range {list(range_deg)} deg needs servo angles "
+            f"[{math.degrees(ends[0]):.1f}, {math.degrees(ends[1]):.1f}] deg, outside the "
+            f"{profile.model}'s [{math.degrees(s_lo):.1f}, {math.degrees(s_hi):.1f}] deg"
+        )
+    return servo
+
+
+def _read_sensor_board(node: Node) -> SensorBoard:
+    node.mapping(required=("profile", "id"))
+    profile = _profile(node["profile"])
+    if profile.kind != "sensor_board":
+        raise node.error(f"{profile.model} is not a sensor board", key="profile")
+    return SensorBoard(id=node["id"].integer(0, 252), profile=profile)
+
+
+def _read_bus(node: Node) -> Bus:
+    node.mapping(required=("port", "baud"))
+    baud = node["baud"].integer(9600, 10_500_000)
+    return Bus(port=node["port"].string(), baud=baud)
+
+
+def _check_joints(root: Node, joints: tuple[Joint, ...]) -> None:
+    seen: dict[str, int] = {}
+    slots: dict[tuple[str, str, str], str] = {}
+    for i, joint in enumerate(joints):
+        key = f"joints[{i}].name"
+        if joint.name in seen:
+            raise ConfigError(root.source, key, f"duplicate joint name {joint.name!r}")
+        seen[joint.name] = i
+        slot = (joint.side, joint.location, joint.axis)
+        if slot in slots:
+            raise ConfigError(root.source, key, f"{joint.name!r} repeats the {' '.join(slot)} axis of {slots[slot]!r}")
+        slots[slot] = joint.name
+    for joint in joints:
+        if joint.side != "center":
+            other = "left" if joint.side == "right" else "right"
+            if (other, joint.location, joint.axis) not in slots:
+                raise ConfigError(root.source, "joints", f"{joint.name!r} has no {other} twin (bipeds are symmetric)")
+
+
+def _check_ids(root: Node, joints: tuple[Joint, ...], board: SensorBoard | None) -> None:
+    owners: dict[int, str] = {}
+    devices = [(j.servo.id, f"joint {j.name!r}") for j in joints if j.servo is not None]
+    if board is not None:
+        devices.append((board.id, "the sensor board"))
+    for i, (dxl_id, owner) in enumerate(devices):
+        if dxl_id in owners:
+            key = f"joints[{i}].servo.id" if i < len(joints) else "sensor_board.id"
+            raise ConfigError(root.source, key, f"duplicate ID {dxl_id}: used by {owners[dxl_id]} and {owner}")
+        owners[dxl_id] = owner

@@ -1,0 +1,99 @@
+"""The control tick of a robot and the bus time it has to fit in.
+
+Seed 000 updates its networks every 0.07 s for a human-sized character.  A smaller
+robot moves faster: by dynamic similarity (Froude scaling, time ~ sqrt(length / g)) its
+tick is ``0.07 * sqrt(L_robot / L_human)`` with L the leg length (hip joint to sole).
+The tick can never be shorter than one bus cycle - the sync write of every goal, the
+sync read of every present position and the read of the sensor board at the configured
+baud (10 bits a byte, Return Delay Time 0) - and it is rounded to a whole number of
+physics steps.  Within one tick a goal may move at most the servo's no-load speed times
+the tick.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+from sim2real.robot import RobotSpec, load_robot
+
+HUMAN_TICK_S = 0.07  # seed 000 section 8: spinal reflex delay
+REFERENCE_HUMAN = "human:male_50"  # whose leg length the 0.07 s belongs to
+PHYSICS_DT_S = 0.002  # MuJoCo timestep [s]
+BITS_PER_BYTE = 10  # start + 8 data + stop bits
+POSITION_BYTES = 4  # Present/Goal Position on protocol 2.0 servos
+SENSOR_BLOCK_BYTES = 8  # foot switches + up-vector on the sensor board
+
+
+@dataclass(frozen=True)
+class ControlTiming:
+    tick_s: float  # the control tick used, a multiple of physics_dt_s [s]
+    scaled_tick_s: float  # 0.07 * sqrt(leg / human_leg) before bounds and rounding [s]
+    human_tick_s: float
+    leg_length_m: float
+    human_leg_length_m: float
+    bus_cycle_s: float  # wire time of one read-activate-write cycle [s]
+    bus_bytes: int
+    physics_dt_s: float
+    substeps: int  # physics steps a tick
+    rule: str  # how tick_s was chosen, in words
+
+
+def bus_cycle_bytes(robot: RobotSpec) -> int:
+    """Bytes on the wire for one control cycle (instructions and status packets)."""
+    servos = [j.servo for j in robot.joints if j.servo is not None]
+    n = len(servos)
+    if n == 0:
+        return 0
+    if servos[0].profile.protocol == 1.0:
+        # SYNC_WRITE of 2-byte goals; READ each servo (no sync read in protocol 1.0)
+        write = 8 + 3 * n
+        read = n * (8 + 8)
+        board = 8 + 6 + SENSOR_BLOCK_BYTES
+    else:
+        write = 14 + n * (1 + POSITION_BYTES)  # header 7, inst, addr 2, len 2, CRC 2
+        read = (14 + n) + n * (11 + POSITION_BYTES)  # SYNC_READ + one status each
+        board = 14 + 11 + SENSOR_BLOCK_BYTES  # READ + status
+    return write + read + (board if robot.sensor_board is not None else 0)
+
+
+def bus_cycle_s(robot: RobotSpec) -> float:
+    """Wire time of one control cycle at the robot's baud rate [s] (0 without a bus)."""
+    if robot.bus is None:
+        return 0.0
+    return bus_cycle_bytes(robot) * BITS_PER_BYTE / robot.bus.baud
+
+
+@lru_cache(maxsize=1)
+def human_leg_length_m() -> float:
+    """Leg length of seed 000's 50th-percentile man, the 0.07 s tick's reference [m]."""
+    return load_robot(REFERENCE_HUMAN).body.leg_length
+
+
+def control_timing(robot: RobotSpec, physics_dt_s: float = PHYSICS_DT_S) -> ControlTiming:
+    leg = robot.body.leg_length
+    human_leg = human_leg_length_m()
+    scaled = HUMAN_TICK_S * math.sqrt(leg / human_leg)
+    cycle = bus_cycle_s(robot)
+    if robot.control_tick_s is not None:
+        wanted, rule = robot.control_tick_s, "fixed by the robot config (control_tick_s)"
+    elif scaled < cycle:
+        wanted, rule = cycle, "raised to the bus cycle time"
+    else:
+        wanted, rule = scaled, "0.07 s * sqrt(leg length / human leg length)"
+    substeps = max(1, round(wanted / physics_dt_s))
+    if substeps * physics_dt_s < cycle:
+        substeps = math.ceil(cycle / physics_dt_s)
+    return ControlTiming(
+        tick_s=substeps * physics_dt_s,
+        scaled_tick_s=scaled,
+        human_tick_s=HUMAN_TICK_S,
+        leg_length_m=leg,
+        human_leg_length_m=human_leg,
+        bus_cycle_s=cycle,
+        bus_bytes=bus_cycle_bytes(robot),
+        physics_dt_s=physics_dt_s,
+        substeps=substeps,
+        rule=rule + f", rounded to {substeps} physics steps of {physics_dt_s * 1e3:g} ms",
+    )
