@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 
 from sim2real.robot import Joint, RobotSpec
+from sim2real.statics import axis_inertia
 from sim2real.servo_model import ServoPhysics, servo_physics
 from sim2real.timing import control_timing
 
@@ -35,6 +36,9 @@ COLLISION_BITS = {  # (contype, conaffinity)
     "center": (TORSO, FLOOR),
 }
 FLOOR_FRICTION = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling (rubber-ish soles on a hard floor)
+# A hard floor: contact time constant 10 ms (MuJoCo's default 20 ms lets a stiff PD-held human
+# rock on its soles; >= 2 timesteps keeps it stable).
+FLOOR_SOLREF = (0.01, 1.0)
 JOINT_ORDER = {"waist": ("yaw", "roll", "pitch"), "hip": ("yaw", "roll", "pitch"),
                "knee": ("pitch",), "ankle": ("yaw", "pitch", "roll")}
 # Joint axes for the right side and the centre; the left side mirrors roll and yaw so that
@@ -54,6 +58,14 @@ def joint_axis(joint: Joint) -> tuple[float, float, float]:
     if joint.side == "left" and joint.axis in ("roll", "yaw"):
         x, z = -x, -z
     return (float(x), float(y), float(z))
+
+
+def _look_at(forward: np.ndarray) -> list[float]:
+    """Camera ``xyaxes`` looking along ``forward`` with the world's z up."""
+    f = forward / np.linalg.norm(forward)
+    x = np.cross(f, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    return [*x, *np.cross(x, f)]
 
 
 def _box_geom(body, name, size, pos, mass, side):
@@ -80,7 +92,8 @@ def _add_joints(robot: RobotSpec, body, side: str, location: str) -> None:
 
 def configure_servo_joint(jnt, phys: ServoPhysics) -> None:
     """The motor side of the servo model on a hinge joint spec."""
-    jnt.armature, jnt.damping, jnt.frictionloss = phys.armature, phys.damping, phys.frictionloss
+    jnt.armature, jnt.frictionloss = phys.armature, phys.frictionloss
+    jnt.damping = [phys.damping, 0.0, 0.0]  # linear term of MuJoCo's damping polynomial
 
 
 def configure_servo_actuator(act, phys: ServoPhysics) -> None:
@@ -96,6 +109,7 @@ def build_spec(robot: RobotSpec) -> mujoco.MjSpec:
     timing = control_timing(robot)
     spec = mujoco.MjSpec()
     spec.modelname = robot.name.replace(":", "_")
+    spec.compiler.degree = False  # every angle here is in radians (MJCF's default is degrees)
     spec.option.timestep = timing.physics_dt_s
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 720
@@ -103,24 +117,27 @@ def build_spec(robot: RobotSpec) -> mujoco.MjSpec:
     spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
                      builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, width=256, height=256,
                      rgb1=[0.22, 0.25, 0.3], rgb2=[0.3, 0.33, 0.38])
-    grid = spec.add_material(name="grid", texrepeat=[1, 1], texuniform=True)
+    tile = 4 / max(b.height, 0.1)  # checker squares of about a quarter of the robot's height
+    grid = spec.add_material(name="grid", texrepeat=[tile, tile], texuniform=True)
     grid.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
 
+    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, width=256, height=256,
+                     rgb1=[0.55, 0.7, 0.85], rgb2=[0.1, 0.12, 0.16])
     world = spec.worldbody
-    scale = max(1.0, robot.body.height)
-    world.add_light(name="sun", pos=[0, 0, 3 * scale], dir=[0, 0, -1],
+    world.add_light(name="sun", pos=[0, 0, 3 * max(1.0, b.height)], dir=[0, 0, -1],
                     type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
     contype, conaffinity = COLLISION_BITS["floor"]
     world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
-                   material="grid", friction=list(FLOOR_FRICTION),
+                   material="grid", friction=list(FLOOR_FRICTION), solref=list(FLOOR_SOLREF),
                    contype=contype, conaffinity=conaffinity)
 
     pelvis = world.add_body(name="pelvis", pos=[0, 0, b.leg_length])
     pelvis.add_freejoint(name="root")
     _box_geom(pelvis, "pelvis", b.pelvis.size, [0, 0, b.pelvis.size[2] / 2], b.pelvis.mass, "center")
-    pelvis.add_camera(name="track", mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM,
-                      pos=[0.9 * scale, -2.2 * scale, 0.5 * scale],
-                      xyaxes=[1, 0.4, 0, -0.08, 0.2, 1])
+    offset = 2.6 * b.height * np.array([0.45, -0.88, 0.12])  # front-right, slightly above
+    pelvis.add_camera(name="track", mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM, pos=offset.tolist(),
+                      xyaxes=_look_at(-offset))
 
     trunk = pelvis.add_body(name="trunk", pos=[0, 0, b.pelvis.size[2]])
     _add_joints(robot, trunk, "center", "waist")
@@ -141,7 +158,7 @@ def build_spec(robot: RobotSpec) -> mujoco.MjSpec:
         _box_geom(foot, f"{side}_foot", (f.length, f.width, f.thickness), sole_center, f.mass, side)
         # The touch site covers the sole and a sliver below it, where contact points lie.
         foot.add_site(name=f"{side}_sole", type=mujoco.mjtGeom.mjGEOM_BOX, pos=sole_center,
-                      size=[f.length / 2 + 1e-3, f.width / 2 + 1e-3, f.thickness], rgba=[0, 0, 0, 0])
+                      size=[f.length / 2 + 1e-3, f.width / 2 + 1e-3, f.thickness], group=3)
         spec.add_sensor(name=f"{side}_foot_touch", type=mujoco.mjtSensor.mjSENS_TOUCH,
                         objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"{side}_sole")
 
@@ -223,17 +240,18 @@ def to_mjcf(robot: RobotSpec) -> str:
 
 
 def _scale_pd_gains(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
-    """Seed 000 eq. 2: torque = I (kp e - kd qdot), I the joint-space inertia at home."""
+    """Seed 000 eq. 2: torque = I (kp e - kd qdot) with I "the total moment of inertia at the
+    joint".  We take I as the inertia, at home, of what the joint moves when its foot is on
+    the ground (the whole body above an ankle; the trunk for a waist joint), since a stance
+    leg's joints carry the body; a joint scaled by its distal inertia alone could not stand.
+    """
     assert robot.pd is not None
     data = mujoco.MjData(model)
-    for i, joint in enumerate(robot.joints):
-        data.qpos[model.jnt_qposadr[model.joint(joint.name).id]] = joint.home_rad
-    mujoco.mj_forward(model, data)
-    full = np.zeros((model.nv, model.nv))
-    mujoco.mj_fullM(model, data, full)
-    diag = np.diag(full)
     for joint in robot.joints:
-        inertia = diag[model.jnt_dofadr[model.joint(joint.name).id]]
+        data.qpos[model.jnt_qposadr[model.joint(joint.name).id]] = joint.home_rad
+    mujoco.mj_kinematics(model, data)
+    for joint in robot.joints:
+        inertia = axis_inertia(model, data, joint)
         act = spec.actuator(joint.name)
         act.set_to_position(kp=inertia * robot.pd.kp, kv=inertia * robot.pd.kd)
         act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from sim2real.robot import RobotSpec
+from sim2real.robot import Joint, RobotSpec
 
 CROUCH_KNEE_DEG = 60.0
 GRAVITY = np.array([0.0, 0.0, -9.81])
@@ -53,6 +53,26 @@ def _subtree(model: mujoco.MjModel, root: int) -> set[int]:
     return members
 
 
+def carried_bodies(model: mujoco.MjModel, joint: Joint) -> set[int]:
+    """Bodies a joint moves when its leg stands on the ground (the trunk, for a waist joint)."""
+    below = _subtree(model, model.jnt_bodyid[model.joint(joint.name).id])
+    return below if joint.location == "waist" else set(range(1, model.nbody)) - below
+
+
+def axis_inertia(model: mujoco.MjModel, data: mujoco.MjData, joint: Joint) -> float:
+    """Moment of inertia of the carried bodies about the joint's axis [kg m^2] (needs kinematics)."""
+    jid = model.joint(joint.name).id
+    anchor, axis = data.xanchor[jid], data.xaxis[jid]
+    total = 0.0
+    for b in carried_bodies(model, joint):
+        rot = data.ximat[b].reshape(3, 3)
+        local = rot.T @ axis
+        offset = data.xipos[b] - anchor
+        perp = offset - np.dot(offset, axis) * axis
+        total += float(np.dot(model.body_inertia[b], local**2) + model.body_mass[b] * np.dot(perp, perp))
+    return total
+
+
 def holding_torques(
     robot: RobotSpec, model: mujoco.MjModel, knee_deg: float = CROUCH_KNEE_DEG
 ) -> list[HoldingTorque]:
@@ -61,17 +81,13 @@ def holding_torques(
     for name, angle in crouch_pose(robot, knee_deg).items():
         data.qpos[model.jnt_qposadr[model.joint(name).id]] = angle
     mujoco.mj_kinematics(model, data)
-    mujoco.mj_comPos(model, data)
-    everything = set(range(1, model.nbody))
     result = []
     for joint in robot.joints:
         jid = model.joint(joint.name).id
-        below = _subtree(model, model.jnt_bodyid[jid])
-        carried = below if joint.location == "waist" else everything - below
         anchor, axis = data.xanchor[jid], data.xaxis[jid]
         torque = sum(
             np.dot(np.cross(data.xipos[b] - anchor, model.body_mass[b] * GRAVITY), axis)
-            for b in carried
+            for b in carried_bodies(model, joint)
         )
         if joint.servo is not None:
             limit = joint.servo.profile.motor.stall_torque_nm

@@ -1,0 +1,106 @@
+"""The MuJoCo model: every robot compiles, stands on its servos, and exports as MJCF."""
+
+import mujoco
+import numpy as np
+import pytest
+
+from conftest import all_robot_names
+from sim2real.model_builder import build_model, hold_ctrl, to_mjcf
+from sim2real.robot import load_robot
+from sim2real.statics import holding_torques
+
+
+@pytest.fixture(scope="module", params=all_robot_names())
+def robot_and_model(request):
+    robot = load_robot(request.param)
+    return robot, build_model(robot)
+
+
+def test_one_position_actuator_per_joint_named_after_it(robot_and_model):
+    robot, model = robot_and_model
+    assert model.nu == len(robot.joints)
+    for i, joint in enumerate(robot.joints):
+        assert model.actuator(i).name == joint.name
+        assert model.actuator_biastype[i] == mujoco.mjtBias.mjBIAS_AFFINE  # position servo
+        jid = model.joint(joint.name).id
+        assert model.jnt_range[jid] == pytest.approx(joint.range_rad)
+        if joint.servo is not None:
+            stall = joint.servo.profile.motor.stall_torque_nm
+            assert model.actuator_forcerange[i] == pytest.approx([-stall, stall])
+            assert model.dof_armature[model.jnt_dofadr[jid]] > 0
+            assert model.dof_damping[model.jnt_dofadr[jid]] > 0
+
+
+def test_robot_held_at_home_by_its_servos_stands_for_5_s(robot_and_model):
+    robot, model = robot_and_model
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    start_height = data.qpos[2]
+    weight = robot.body.mass * 9.81
+    for _ in range(int(5.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+        assert data.qpos[2] > 0.9 * start_height, f"fell at t={data.time:.2f} s"
+    assert data.sensor("torso_up").data[2] > 0.99  # still upright
+    feet = data.sensor("left_foot_touch").data[0] + data.sensor("right_foot_touch").data[0]
+    assert feet == pytest.approx(weight, rel=0.05)  # both soles carry the robot
+    assert np.abs(data.qvel).max() < 0.1  # and it is at rest (a hundredth of a servo's speed)
+
+
+def test_only_the_feet_touch_the_floor_at_home(robot_and_model):
+    _, model = robot_and_model
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    for _ in range(50):
+        mujoco.mj_step(model, data)
+    touching = {frozenset((model.geom(c.geom1).name, model.geom(c.geom2).name)) for c in data.contact}
+    assert touching <= {frozenset(("floor", "left_foot")), frozenset(("floor", "right_foot"))}
+    assert touching, "the feet should be on the floor"
+
+
+def test_adjacent_links_never_collide_but_the_legs_do():
+    model = build_model(load_robot())
+    geom = {model.geom(i).name: i for i in range(model.ngeom)}
+
+    def collide(a, b):
+        g1, g2 = geom[a], geom[b]
+        return bool(model.geom_contype[g1] & model.geom_conaffinity[g2]
+                    or model.geom_contype[g2] & model.geom_conaffinity[g1])
+
+    assert not collide("pelvis", "left_thigh") and not collide("left_thigh", "left_shank")
+    assert not collide("trunk", "pelvis") and not collide("left_shank", "left_foot")
+    assert collide("left_foot", "right_foot") and collide("left_shank", "right_shank")
+    assert collide("floor", "left_foot") and collide("floor", "trunk")
+
+
+def test_undriven_joints_hold_the_centre_of_their_range():
+    robot = load_robot()
+    ctrl = hold_ctrl(robot, set(robot.control_sets["walk"]))
+    for target, joint in zip(ctrl, robot.joints):
+        expected = joint.home_rad if joint.name in robot.control_sets["walk"] else joint.center_rad
+        assert target == pytest.approx(expected)
+
+
+@pytest.mark.parametrize("name", ["xl430_biped", "human:male_50"])
+def test_mjcf_export_is_self_contained_and_reloads(name, tmp_path):
+    robot = load_robot(name)
+    xml = to_mjcf(robot)
+    assert "file=" not in xml  # no external assets
+    path = tmp_path / "robot.xml"
+    path.write_text(xml)
+    model = mujoco.MjModel.from_xml_path(str(path))
+    original = build_model(robot)
+    assert model.nu == original.nu and model.nbody == original.nbody
+    home = model.key("home")
+    assert home.qpos == pytest.approx(original.key("home").qpos, abs=1e-6)
+    assert home.ctrl == pytest.approx([j.home_rad for j in robot.joints], abs=1e-6)
+    assert model.actuator_gainprm[:, 0] == pytest.approx(original.actuator_gainprm[:, 0], rel=1e-5)
+
+
+def test_holding_torque_of_a_stance_hip_roll_is_body_weight_times_half_hip_spacing():
+    robot = load_robot()
+    model = build_model(robot)
+    torques = {t.joint: t for t in holding_torques(robot, model)}
+    expected = robot.body.mass * 9.81 * robot.body.hip_spacing / 2  # roll axis at the hip
+    assert torques["right_hip_roll"].torque_nm == pytest.approx(expected, rel=1e-6)
+    assert torques["waist_yaw"].margin is None  # a yaw axis carries no gravity load
+    assert all(t.margin is None or t.margin > 1.5 for t in torques.values())
