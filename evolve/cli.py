@@ -32,6 +32,9 @@ def main(argv: list[str] | None = None) -> int:
         message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"biped: error: {message}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # e.g. `biped robot show | head`
+        sys.stdout = None
+        return 0
     except KeyboardInterrupt:
         print("biped: interrupted", file=sys.stderr)
         return 130
