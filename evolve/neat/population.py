@@ -1,0 +1,175 @@
+"""The NEAT loop: evaluate, speciate, reproduce - resumable from any generation.
+
+    pop = Population(NeatConfig(population_size=150), Layout(2, 1, 1), seed=3)
+    while pop.best is None or pop.best.fitness < 15.9:
+        pop.step(evaluate)            # evaluate(genomes) -> fitness per genome, each >= 0
+
+All randomness comes from one ``numpy.random.Generator`` seeded once; its state is part
+of the checkpoint, so a run resumed from any checkpoint continues exactly as the
+uninterrupted run would.  A checkpoint is taken between generations: the unevaluated
+population with its species, the innovation counters, the best genome so far.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from evolve.neat.checkpoint import read_json, write_json_atomic
+from evolve.neat.config import NeatConfig
+from evolve.neat.genome import Genome, InnovationTracker, Layout
+from evolve.neat.reproduction import reproduce
+from evolve.neat.species import SpeciesSet
+from evolve.neat.variation import initial_genome
+
+CHECKPOINT_FORMAT = "biped-neat-checkpoint"
+CHECKPOINT_VERSION = 1
+
+Evaluator = Callable[[list[Genome]], Sequence[float]]
+
+
+@dataclass(frozen=True)
+class GenerationStats:
+    generation: int
+    best_fitness: float
+    mean_fitness: float
+    best_ever_fitness: float
+    species: int
+    threshold: float
+    mean_connections: float  # enabled connections per genome
+    mean_hidden: float
+    evaluations: int  # cumulative
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+class Population:
+    def __init__(self, config: NeatConfig, layout: Layout, seed: int | None = None,
+                 modules: tuple[str, ...] = ("main",), *, _restore: bool = False):
+        self.config = config
+        self.layout = layout
+        if _restore:
+            return
+        if seed is None:
+            raise ValueError("seed: a Population needs a seed (a run must be reproducible)")
+        self.seed = seed
+        self.rng = np.random.default_rng(seed)
+        self.tracker = InnovationTracker(next_innovation=0, next_node=layout.n_interface)
+        self.genomes = [initial_genome(k, layout, config, self.tracker, self.rng, modules)
+                        for k in range(config.population_size)]
+        self.next_key = config.population_size
+        self.generation = 0
+        self.evaluations = 0
+        self.best: Genome | None = None
+        self.species = SpeciesSet(config)
+        self.species.speciate(self.genomes, self.generation)
+
+    # -- the loop ---------------------------------------------------------------------------
+    def evaluate(self, evaluate: Evaluator) -> GenerationStats:
+        """Score the current population (sets ``fitness``) and record the best."""
+        fitness = np.asarray(evaluate(self.genomes), dtype=float)
+        if fitness.shape != (len(self.genomes),):
+            raise ValueError(f"evaluate returned shape {fitness.shape}, expected ({len(self.genomes)},)")
+        if not np.all(np.isfinite(fitness)) or np.any(fitness < 0):
+            bad = int(np.flatnonzero(~np.isfinite(fitness) | (fitness < 0))[0])
+            raise ValueError(f"fitness must be finite and >= 0; genome {self.genomes[bad].key} got {fitness[bad]}")
+        for genome, f in zip(self.genomes, fitness):
+            genome.fitness = float(f)
+        self.evaluations += len(self.genomes)
+        champion = min(self.genomes, key=lambda g: (-g.fitness, g.key))
+        if self.best is None or champion.fitness > self.best.fitness:
+            self.best = champion.copy(champion.key)
+            self.best.fitness = champion.fitness
+        self.species.update_after_evaluation(self.generation)
+        return GenerationStats(
+            generation=self.generation,
+            best_fitness=champion.fitness,
+            mean_fitness=float(fitness.mean()),
+            best_ever_fitness=self.best.fitness,
+            species=len(self.species.species),
+            threshold=self.species.threshold,
+            mean_connections=float(np.mean([g.n_enabled for g in self.genomes])),
+            mean_hidden=float(np.mean([len(g.hidden) for g in self.genomes])),
+            evaluations=self.evaluations,
+        )
+
+    def reproduce(self) -> None:
+        """Breed the next generation from the evaluated one and speciate it."""
+        self.tracker.new_generation()
+        self.genomes, self.next_key = reproduce(self.species, self.config, self.tracker, self.rng,
+                                                self.generation, self.next_key)
+        self.generation += 1
+        self.species.speciate(self.genomes, self.generation)
+
+    def step(self, evaluate: Evaluator) -> GenerationStats:
+        """Evaluate this generation, then breed the next."""
+        stats = self.evaluate(evaluate)
+        self.reproduce()
+        return stats
+
+    def add_module(self, name: str) -> None:
+        """Freeze every genome's current modules and make ``name`` the active one (seed 002)."""
+        for genome in self.genomes:
+            if name in genome.modules:
+                raise ValueError(f"module {name!r} already exists")
+            genome.modules = genome.modules + (name,)
+        for s in self.species.species.values():
+            s.representative.modules = s.representative.modules + (name,)
+
+    # -- checkpoints ------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        return {
+            "format": CHECKPOINT_FORMAT,
+            "version": CHECKPOINT_VERSION,
+            "seed": self.seed,
+            "config": self.config.to_dict(),
+            "layout": [self.layout.n_inputs, self.layout.n_bias, self.layout.n_outputs],
+            "generation": self.generation,
+            "next_key": self.next_key,
+            "evaluations": self.evaluations,
+            "rng": self.rng.bit_generator.state,
+            "tracker": self.tracker.to_dict(),
+            "genomes": [g.to_dict() for g in self.genomes],
+            "species": self.species.to_dict(),
+            "best": None if self.best is None else self.best.to_dict(),
+        }
+
+    def save(self, path: Path | str) -> None:
+        """Write a checkpoint atomically (JSON, gzip if the name ends in .gz)."""
+        write_json_atomic(path, self.to_dict())
+
+    @classmethod
+    def from_dict(cls, data: dict, source: str = "<checkpoint>") -> "Population":
+        if data.get("format") != CHECKPOINT_FORMAT:
+            raise ValueError(f"{source}: not a NEAT checkpoint (format {data.get('format')!r})")
+        if data.get("version") != CHECKPOINT_VERSION:
+            raise ValueError(f"{source}: checkpoint version {data.get('version')} is not supported "
+                             f"(this code reads version {CHECKPOINT_VERSION})")
+        config = NeatConfig.from_mapping(data["config"], source, "config.")
+        layout = Layout(*data["layout"])
+        pop = cls(config, layout, _restore=True)
+        pop.seed = data["seed"]
+        pop.rng = np.random.default_rng()
+        pop.rng.bit_generator.state = data["rng"]
+        pop.tracker = InnovationTracker.from_dict(data["tracker"])
+        pop.genomes = [Genome.from_dict(g, layout) for g in data["genomes"]]
+        by_key = {g.key: g for g in pop.genomes}
+        pop.species = SpeciesSet.from_dict(data["species"], config, layout, by_key)
+        pop.generation = int(data["generation"])
+        pop.next_key = int(data["next_key"])
+        pop.evaluations = int(data["evaluations"])
+        pop.best = None if data["best"] is None else Genome.from_dict(data["best"], layout)
+        return pop
+
+    @classmethod
+    def load(cls, path: Path | str) -> "Population":
+        try:
+            data = read_json(path)
+        except (OSError, ValueError, EOFError) as exc:
+            raise ValueError(f"{path}: cannot read checkpoint: {exc}") from exc
+        return cls.from_dict(data, str(path))
