@@ -26,7 +26,7 @@ class NeatConfig:
     population_size: int = 512
     target_species: int = 30  # the compatibility threshold adapts to hold this many
     compat_threshold: float = 3.0  # starting threshold (table A.3)
-    compat_threshold_step: float = 0.3  # change a generation while off target
+    compat_threshold_adjust: float = 0.1  # relative change a generation while off target
     compat_threshold_min: float = 0.1
     compat_exponent: float = 1.0  # k in G / N^k (seed 000 uses 1; classic NEAT 0)
     compat_gene_coeff: float = 1.0  # weight of G, the unmatched genes

@@ -121,6 +121,33 @@ class Population:
         for s in self.species.species.values():
             s.representative.modules = s.representative.modules + (name,)
 
+    @classmethod
+    def on_top_of(cls, config: NeatConfig, ancestor: Genome, module: str, seed: int) -> "Population":
+        """A population that evolves a new, empty ``module`` on top of a frozen ``ancestor``
+        (seed 002: each stage of a hierarchy starts from the previous stage's champion)."""
+        if module in ancestor.modules:
+            raise ValueError(f"module {module!r} already exists in {list(ancestor.modules)}")
+        pop = cls(config, ancestor.layout, _restore=True)
+        pop.seed = seed
+        pop.rng = np.random.default_rng(seed)
+        pop.tracker = InnovationTracker(
+            next_innovation=max(ancestor.conns, default=-1) + 1,
+            next_node=max([ancestor.layout.n_interface - 1, *ancestor.hidden]) + 1,
+        )
+        pop.genomes = []
+        for key in range(config.population_size):
+            genome = ancestor.copy(key)
+            genome.modules = ancestor.modules + (module,)
+            genome.fitness = None
+            pop.genomes.append(genome)
+        pop.next_key = config.population_size
+        pop.generation = 0
+        pop.evaluations = 0
+        pop.best = None
+        pop.species = SpeciesSet(config)
+        pop.species.speciate(pop.genomes, 0)
+        return pop
+
     # -- checkpoints ------------------------------------------------------------------------
     def to_dict(self) -> dict:
         return {

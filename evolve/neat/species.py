@@ -2,7 +2,7 @@
 
 Genomes are assigned in population order to the first species (in id order) whose
 representative - its best member of the previous generation - is within the threshold, so
-the assignment is deterministic.  After each assignment the threshold moves by a fixed
+the assignment is deterministic.  After each assignment the threshold moves by a relative
 step toward the target species count (seed 000: 30 species for 512 genomes).
 """
 
@@ -77,10 +77,11 @@ class SpeciesSet:
 
     def _adapt_threshold(self) -> None:
         c = self.config
+        # relative steps: the distance's scale depends on k and on the genomes' size
         if len(self.species) > c.target_species:
-            self.threshold += c.compat_threshold_step
+            self.threshold *= 1.0 + c.compat_threshold_adjust
         elif len(self.species) < c.target_species:
-            self.threshold = max(c.compat_threshold_min, self.threshold - c.compat_threshold_step)
+            self.threshold = max(c.compat_threshold_min, self.threshold / (1.0 + c.compat_threshold_adjust))
 
     def update_after_evaluation(self, generation: int) -> None:
         """Record each species' best fitness and make its champion the next representative."""

@@ -142,12 +142,13 @@ def crossover(key: int, fitter: Genome, other: Genome, config: NeatConfig,
               rng: np.random.Generator) -> Genome:
     """Align genes by innovation: matching genes from either parent (or averaged), disjoint
     and excess genes from the fitter parent; a gene disabled in either parent stays disabled
-    with probability ``disable_inherit_prob``."""
+    with probability ``disable_inherit_prob``.  Genes of frozen modules come from the fitter
+    parent unchanged."""
     child = Genome(key, fitter.layout, fitter.modules)
     average = rng.random() < config.mate_average_prob
     for innovation, gene in fitter.conns.items():
         mate = other.conns.get(innovation)
-        if mate is None:
+        if mate is None or gene.module != fitter.active_module:  # frozen genes pass unchanged
             new = gene.copy()
         else:
             new = gene.copy() if rng.random() < 0.5 else mate.copy()
