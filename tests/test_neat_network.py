@@ -76,3 +76,18 @@ def test_switching_a_module_off_removes_its_nodes_and_connections():
         assert fast.activate(x[None])[0] == pytest.approx(a, abs=1e-12)
     with pytest.raises(ValueError, match="unknown module"):
         RecurrentNetwork(genome, disabled_modules=["walk"])
+
+
+def test_keeping_a_subset_of_networks_continues_them_unchanged():
+    genomes = grown_population(seed=8, generations=8).genomes
+    rng = np.random.default_rng(3)
+    full = PopulationNetwork(genomes)
+    part = PopulationNetwork(genomes)
+    keep = np.array([1, 4, 5, 17, 30])
+    for tick in range(60):
+        x = rng.uniform(-1, 1, (len(genomes), 5))
+        want = full.activate(x)
+        if tick == 20:
+            part.keep(keep)
+        got = part.activate(x if tick < 20 else x[keep])
+        assert np.array_equal(got, want if tick < 20 else want[keep])

@@ -129,6 +129,7 @@ class PopulationNetwork:
             computed.append(offset + np.arange(layout.n_inputs + layout.n_bias, n_nodes))
             offset += n_nodes
         self.n_nodes = offset
+        self._node_network = np.repeat(np.arange(self.n_networks), [cache[id(g)][0] for g in genomes])
         self._src = np.concatenate(src)
         self._dst = np.concatenate(dst)
         self._weight = np.concatenate(weight)
@@ -141,6 +142,34 @@ class PopulationNetwork:
             raise ValueError(f"bias_values: expected shape {biases.shape}, got {bias_values.shape}")
         self._bias_values = bias_values
         self.reset()
+
+    def keep(self, networks: np.ndarray) -> None:
+        """Keep only the listed networks (ascending indices into the current ones), with
+        their state; the others - finished episodes - stop costing anything."""
+        networks = np.asarray(networks, dtype=np.intp)
+        if networks.size and np.any(np.diff(networks) <= 0):
+            raise ValueError("networks: indices must be ascending and unique")
+        kept = np.zeros(self.n_networks, dtype=bool)
+        kept[networks] = True
+        node_kept = kept[self._node_network]
+        renumber = np.cumsum(node_kept) - 1
+        conn_kept = node_kept[self._dst]  # a connection never leaves its network
+        self._src = renumber[self._src[conn_kept]]
+        self._dst = renumber[self._dst[conn_kept]]
+        self._weight = self._weight[conn_kept]
+        self._computed = renumber[self._computed[node_kept[self._computed]]]
+        self._inputs = renumber[self._inputs[networks]]
+        self._biases = renumber[self._biases[networks]]
+        self._outputs = renumber[self._outputs[networks]]
+        self._bias_values = self._bias_values[networks]
+        self._node_network = np.cumsum(kept)[self._node_network[node_kept]] - 1
+        self.values = self.values[node_kept]
+        self.n_nodes = int(node_kept.sum())
+        self.n_networks = len(networks)
+
+    def state_of(self, network: int) -> np.ndarray:
+        """Node values of one network, in :func:`expressed` order (to continue it elsewhere)."""
+        return self.values[self._node_network == network]
 
     @property
     def n_connections(self) -> int:

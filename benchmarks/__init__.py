@@ -1,0 +1,2 @@
+"""Benchmarks: each module is runnable (``python -m benchmarks.NAME --json``) and prints
+one JSON object as its last line."""
