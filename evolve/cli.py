@@ -1,16 +1,23 @@
 """``biped``: the project's one command line, its subcommands from both packages.
 
 Subcommands of the deployment side (robot, view, render) come from
-:mod:`sim2real.cli`; the evolution side adds its own here.
+:mod:`sim2real.cli`; the evolution side's (evolve, eval, export) from
+:mod:`evolve.cli_commands`, which also lets view and render replay a controller.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
-from sim2real import cli as sim2real_cli
-from sim2real.errors import BipedError
+# Offscreen rendering on a headless machine needs MUJOCO_GL before mujoco is first imported.
+if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
+    os.environ.setdefault("MUJOCO_GL", "egl")
+
+from evolve import cli_commands  # noqa: E402
+from sim2real import cli as sim2real_cli  # noqa: E402
+from sim2real.errors import BipedError  # noqa: E402
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -21,6 +28,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     sim2real_cli.add_commands(sub)
+    cli_commands.add_commands(sub)
+    cli_commands.register_replay(sim2real_cli.CONTROLLER_HANDLERS)
     return parser
 
 

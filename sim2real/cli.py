@@ -22,6 +22,15 @@ ROBOT_HELP = (
 )
 
 
+# Replaying a controller file belongs to the evolution side; it registers handlers here
+# (``view`` and ``render`` of a .json argument) so that this package never imports it.
+CONTROLLER_HANDLERS: dict[str, "callable"] = {}
+
+
+def _is_controller(arg: str) -> bool:
+    return str(arg).endswith(".json")
+
+
 def add_commands(sub: argparse._SubParsersAction) -> None:
     robot = sub.add_parser("robot", help="describe a robot or export its MuJoCo model",
                            description="Describe a robot config or export its MuJoCo model.")
@@ -40,18 +49,23 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     mjcf.add_argument("-o", "--output", type=Path, help="output file (default: stdout)")
     mjcf.set_defaults(func=cmd_robot_mjcf)
 
-    view = sub.add_parser("view", help="open the MuJoCo viewer on the standing robot",
+    view = sub.add_parser("view", help="open the MuJoCo viewer on a robot or a controller",
                           description="Open the interactive MuJoCo viewer on the robot standing at "
-                          "its home pose, held by its servos (needs a display).")
-    view.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+                          "its home pose, held by its servos, or replaying a controller.json "
+                          "(needs a display).")
+    view.add_argument("robot", nargs="?", default=DEFAULT_ROBOT,
+                      help=ROBOT_HELP + "; or a controller .json to replay")
     view.set_defaults(func=cmd_view)
 
-    render = sub.add_parser("render", help="render the standing robot to an image offscreen",
-                            description="Render the robot at its home pose to a PNG (offscreen: "
-                            "EGL by default, MUJOCO_GL=osmesa for software rendering).")
-    render.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
-    render.add_argument("-o", "--output", type=Path, default=Path("robot.png"),
-                        help="image file (default: robot.png)")
+    render = sub.add_parser("render", help="render a robot (image) or a controller (video) offscreen",
+                            description="Render the robot at its home pose to a PNG, or a controller.json's "
+                            "replay to a video (.mp4 or .gif) with a camera that follows the robot "
+                            "(offscreen: EGL by default, MUJOCO_GL=osmesa for software rendering).")
+    render.add_argument("robot", nargs="?", default=DEFAULT_ROBOT,
+                        help=ROBOT_HELP + "; or a controller .json to replay")
+    render.add_argument("-o", "--output", type=Path, default=None,
+                        help="output file (default: robot.png, or walk.mp4 for a controller)")
+    render.add_argument("--seconds", type=float, help="replay length for a controller (default: its episode)")
     render.add_argument("--width", type=int, default=960)
     render.add_argument("--height", type=int, default=720)
     render.add_argument("--settle", type=float, default=1.0,
@@ -184,7 +198,10 @@ def _standing(robot: RobotSpec, settle_s: float = 0.0):
 
 def cmd_view(args: argparse.Namespace) -> int:
     if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        raise SystemExit("biped view needs a display; on a headless machine use `biped render -o robot.png`")
+        raise SystemExit("biped view needs a display; on a headless machine use `biped render -o robot.png` "
+                         "(or -o walk.mp4 for a controller)")
+    if _is_controller(args.robot):
+        return CONTROLLER_HANDLERS["view"](args)
     import mujoco.viewer
 
     model, data = _standing(load_robot(args.robot))
@@ -193,6 +210,10 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
+    if _is_controller(args.robot):
+        args.output = args.output or Path("walk.mp4")
+        return CONTROLLER_HANDLERS["render"](args)
+    args.output = args.output or Path("robot.png")
     from sim2real.rendering import render_image, save_image
 
     model, data = _standing(load_robot(args.robot), args.settle)

@@ -19,22 +19,40 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
 import mujoco  # noqa: E402
 
 
-def render_image(model: mujoco.MjModel, data: mujoco.MjData, width: int, height: int,
-                 camera: str = "track") -> np.ndarray:
-    """One RGB frame, shape (height, width, 3), from ``camera``."""
+def open_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+    """An offscreen renderer (close it, or use it in ``with``), with a clear error if no GL."""
     width = min(width, model.vis.global_.offwidth)
     height = min(height, model.vis.global_.offheight)
     try:
-        renderer = mujoco.Renderer(model, height=height, width=width)
+        return mujoco.Renderer(model, height=height, width=width)
     except Exception as exc:  # the GL backends raise a variety of errors
         raise RuntimeError(
             f"cannot open an offscreen OpenGL context (MUJOCO_GL={os.environ.get('MUJOCO_GL')}): {exc}. "
             "Install Mesa's EGL (Debian: libegl1 libgl1-mesa-dri) or OSMesa (libosmesa6, then "
             "MUJOCO_GL=osmesa)."
         ) from exc
-    with renderer:
+
+
+def render_image(model: mujoco.MjModel, data: mujoco.MjData, width: int, height: int,
+                 camera: str = "track") -> np.ndarray:
+    """One RGB frame, shape (height, width, 3), from ``camera``."""
+    with open_renderer(model, width, height) as renderer:
         renderer.update_scene(data, camera=camera)
         return renderer.render().copy()
+
+
+def save_video(path: Path, frames: list[np.ndarray], frame_s: float) -> None:
+    """An .mp4 (needs imageio-ffmpeg) or .gif from RGB frames ``frame_s`` apart [s]."""
+    try:
+        import imageio.v3 as iio
+    except ImportError as exc:
+        raise SystemExit("writing videos needs imageio: pip install 'servo-biped-evolve[plot]'") from exc
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix.lower() == ".gif":
+        iio.imwrite(path, np.stack(frames), duration=frame_s * 1000, loop=0)
+    else:
+        iio.imwrite(path, np.stack(frames), fps=round(1.0 / frame_s), codec="libx264", macro_block_size=8)
 
 
 def save_image(path: Path, image: np.ndarray) -> None:

@@ -143,3 +143,34 @@ class Node:
         if len(items) != n:
             raise self.error(f"must have {n} numbers, got {self.value!r}")
         return tuple(item.number(positive=positive) for item in items)
+
+
+def dataclass_from_mapping(cls: type, values: Any, source: str, prefix: str, what: str) -> Any:
+    """Build a frozen config dataclass from a YAML mapping, checking each value against its
+    field's default type; unknown keys and wrong types raise :class:`ConfigError`."""
+    import dataclasses
+
+    if values is None:
+        values = {}
+    if not isinstance(values, dict):
+        raise ConfigError(source, prefix.rstrip("."), f"must be a mapping, got {type(values).__name__}")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    kwargs: dict[str, Any] = {}
+    for key, value in values.items():
+        where = f"{prefix}{key}"
+        if key not in fields:
+            raise ConfigError(source, where, f"unknown {what} parameter {key!r}")
+        default = fields[key].default
+        if isinstance(default, bool):
+            ok = isinstance(value, bool)
+        elif isinstance(default, int):
+            ok = isinstance(value, int) and not isinstance(value, bool)
+        elif isinstance(default, float):
+            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+            value = float(value) if ok else value
+        else:
+            ok = isinstance(value, str)
+        if not ok:
+            raise ConfigError(source, where, f"must be a {type(default).__name__}, got {value!r}")
+        kwargs[key] = value
+    return cls(**kwargs)

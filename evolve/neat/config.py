@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from sim2real.errors import ConfigError
+from sim2real.validation import dataclass_from_mapping
 
 INITIAL_TOPOLOGIES = ("full", "none")
 
@@ -67,27 +68,7 @@ class NeatConfig:
     def from_mapping(cls, values: Mapping[str, Any] | None, source: str = "<config>",
                      prefix: str = "") -> "NeatConfig":
         """Build from a YAML mapping; unknown keys and wrong types are refused."""
-        values = dict(values or {})
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        kwargs: dict[str, Any] = {}
-        for key, value in values.items():
-            where = f"{prefix}{key}"
-            if key not in fields:
-                raise ConfigError(source, where, f"unknown NEAT parameter {key!r}")
-            default = fields[key].default
-            if isinstance(default, bool):
-                ok = isinstance(value, bool)
-            elif isinstance(default, int):
-                ok = isinstance(value, int) and not isinstance(value, bool)
-            elif isinstance(default, float):
-                ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-                value = float(value) if ok else value
-            else:
-                ok = isinstance(value, str)
-            if not ok:
-                raise ConfigError(source, where, f"must be a {type(default).__name__}, got {value!r}")
-            kwargs[key] = value
-        config = cls(**kwargs)
+        config = dataclass_from_mapping(cls, values, source, prefix, "NEAT")
         config.validate(source, prefix)
         return config
 

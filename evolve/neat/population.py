@@ -19,7 +19,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from evolve.neat.checkpoint import read_json, write_json_atomic
+from sim2real.atomic_json import read_json, write_json_atomic
 from evolve.neat.config import NeatConfig
 from evolve.neat.genome import Genome, InnovationTracker, Layout
 from evolve.neat.reproduction import reproduce

@@ -1,4 +1,4 @@
-"""Atomic JSON files: written to a temporary file beside the target, then renamed.
+"""Atomic JSON files (checkpoints, controllers, reports): written to a temporary file beside the target, then renamed.
 
 A reader never sees half a file, and a crash mid-write leaves the previous file intact.
 Names ending in ``.gz`` are gzip-compressed.  Data only: never pickle.
@@ -14,10 +14,10 @@ from pathlib import Path
 from typing import Any
 
 
-def write_json_atomic(path: Path | str, data: Any) -> None:
+def write_json_atomic(path: Path | str, data: Any, indent: int | None = None) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(data, separators=(",", ":")).encode()
+    text = (json.dumps(data, indent=indent) if indent else json.dumps(data, separators=(",", ":"))).encode()
     if path.suffix == ".gz":
         text = gzip.compress(text, compresslevel=6, mtime=0)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")

@@ -1,0 +1,159 @@
+"""The evolution side's ``biped`` subcommands: evolve, eval, export, and controller replay
+for view and render."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+DEFAULT_CONFIG = "walk"
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    ev = sub.add_parser("evolve", help="evolve walking controllers in MuJoCo",
+                        description="Evolve controllers with NEAT on the locomotion task of seed 000. "
+                        "Writes a run folder: config.yaml, checkpoints, stats.csv, fitness.png, controller.json.")
+    ev.add_argument("config", nargs="?", default=DEFAULT_CONFIG,
+                    help="evolution config: a name from configs/evolve/ or a YAML path (default: walk)")
+    ev.add_argument("--out", type=Path, help="run folder (default: runs/<config>-seed<S>)")
+    ev.add_argument("--seed", type=int, help="random seed (overrides the config)")
+    ev.add_argument("--generations", type=int, help="generations to run (overrides the config)")
+    ev.add_argument("--population", type=int, help="population size (overrides the config)")
+    ev.add_argument("--threads", type=int, help="simulation threads, 0 = all cores (overrides the config)")
+    ev.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    ev.add_argument("--quiet", action="store_true", help="no progress lines")
+    ev.set_defaults(func=cmd_evolve)
+
+    ex = sub.add_parser("export", help="write a run's best controller as JSON",
+                        description="Write the best controller of a run folder as controller JSON.")
+    ex.add_argument("run_dir", type=Path)
+    ex.add_argument("-o", "--output", type=Path, default=Path("controller.json"))
+    ex.set_defaults(func=cmd_export)
+
+    ea = sub.add_parser("eval", help="measure a controller: distance, time upright, falls",
+                        description="Run a controller on its robot in MuJoCo (no harness) and report "
+                        "distance walked, time upright and whether it fell.")
+    ea.add_argument("controller", type=Path)
+    ea.add_argument("--robot", help="robot (default: the one the controller was made for)")
+    ea.add_argument("--seconds", type=float, help="episode length (default: the controller's task)")
+    ea.add_argument("--episodes", type=int, default=1)
+    ea.add_argument("--json", action="store_true", help="print one JSON object")
+    ea.set_defaults(func=cmd_eval)
+
+
+def register_replay(handlers: dict) -> None:
+    handlers["view"] = cmd_view_controller
+    handlers["render"] = cmd_render_controller
+
+
+def cmd_render_controller(args: argparse.Namespace) -> int:
+    from evolve.replay import frames
+    from sim2real.rendering import save_video
+
+    if args.output.suffix.lower() not in (".mp4", ".gif"):
+        raise SystemExit(f"biped render: a controller replay is a video: use -o NAME.mp4 or NAME.gif, not {args.output}")
+    images, frame_s = frames(Path(args.robot), args.width, args.height, seconds=args.seconds,
+                             every=2 if args.output.suffix.lower() == ".gif" else 1)
+    save_video(args.output, images, frame_s)
+    print(f"wrote {args.output} ({len(images)} frames, {len(images) * frame_s:.1f} s)")
+    return 0
+
+
+def cmd_view_controller(args: argparse.Namespace) -> int:
+    import time
+
+    import mujoco
+    import mujoco.viewer
+
+    from evolve.replay import _setup
+
+    data, _, evaluator, genome = _setup(Path(args.robot), None, None, keep_going=True)
+    shown = mujoco.MjData(evaluator.model)
+    with mujoco.viewer.launch_passive(evaluator.model, shown) as viewer:
+        while viewer.is_running():
+            start = time.monotonic()
+
+            def show(ev, alive, t0=start):
+                d = ev.batch.get_data(0)
+                shown.qpos[:], shown.qvel[:] = d.qpos, d.qvel
+                mujoco.mj_forward(ev.model, shown)
+                viewer.sync()
+                time.sleep(max(0.0, t0 + d.time - time.monotonic()))  # real time
+
+            evaluator.evaluate([genome], data["sigmoid_steepness"], on_tick=show)
+    return 0
+
+
+def resolve_config(name: str) -> Path:
+    from sim2real.paths import data_root
+
+    path = Path(name)
+    if path.exists():
+        return path
+    candidate = data_root() / "configs" / "evolve" / f"{name}.yaml"
+    if candidate.exists():
+        return candidate
+    known = ", ".join(sorted(p.stem for p in (data_root() / "configs" / "evolve").glob("*.yaml")))
+    raise FileNotFoundError(f"unknown evolution config {name!r} (known: {known}; or give a path)")
+
+
+def cmd_evolve(args: argparse.Namespace) -> int:
+    from evolve.config import load_evolve_config
+    from evolve.run import Run
+
+    log = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
+    if args.resume:
+        if args.out is None:
+            raise SystemExit("biped evolve: --resume needs --out RUN_DIR")
+        if args.seed is not None or args.population is not None:
+            raise SystemExit("biped evolve: --seed and --population cannot change when resuming")
+        run = Run.resume(args.out, generations=args.generations, threads=args.threads, log=log)
+        log(f"resuming {args.out} at generation {run.population.generation}")
+    else:
+        path = resolve_config(args.config)
+        config = load_evolve_config(path)
+        changes = {k: getattr(args, k) for k in ("seed", "generations", "threads") if getattr(args, k) is not None}
+        if args.population is not None:
+            neat = config.neat.replace(population_size=args.population,
+                                       target_species=min(config.neat.target_species, max(1, args.population // 4)))
+            changes["neat"] = neat
+        config = config.replace(**changes)
+        out = args.out or Path("runs") / f"{path.stem}-seed{config.seed}"
+        run = Run.create(config, out, log=log)
+        log(f"evolving {config.robot} ({config.task.control_set} joints), population "
+            f"{config.neat.population_size}, {config.generations} generations -> {out}")
+    try:
+        best = run.evolve()
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: checkpoint of generation {run.population.generation} is in {run.out}; "
+              f"continue with: biped evolve --resume --out {run.out}", file=sys.stderr)
+        return 130
+    if best is not None:
+        log(f"best: fitness {best.fitness:.3f}, {best.distance_m:.3f} m, upright {best.upright_s:.1f} s "
+            f"(generation {best.generation}{', harness' if best.harness else ''}) -> {run.out / 'controller.json'}")
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from sim2real.controller import load_controller, save_controller
+
+    source = args.run_dir / "controller.json"
+    if not source.exists():
+        raise FileNotFoundError(f"{args.run_dir} has no controller.json yet (has the run finished a generation?)")
+    save_controller(args.output, load_controller(source))
+    print(f"wrote {args.output}")
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from evolve.replay import evaluate_controller
+
+    report = evaluate_controller(args.controller, robot=args.robot, seconds=args.seconds, episodes=args.episodes)
+    if args.json:
+        print(json.dumps(report))
+    else:
+        for key, value in report.items():
+            print(f"{key:>14}: {value}")
+    return 0

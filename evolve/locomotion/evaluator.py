@@ -1,0 +1,199 @@
+"""Whole-population evaluation of the locomotion task with ``mujoco.batch``.
+
+Every genome of a generation gets its own simulation in one :class:`mujoco.batch.Batch`.
+One batch call advances every living simulation by one control tick (``nstep``
+substeps, on all threads); between calls, one vectorized step reads every robot's
+sensors, activates both networks of every genome (:class:`PopulationNetwork`), maps
+outputs to rate-limited joint goals and checks termination.  Terminated simulations
+leave the ids and their networks leave the population network, so nothing is spent on
+them; there is no Python loop over individuals.  MuJoCo's batch is bit-identical at any
+thread count, and so are the results.
+
+Sensor readings are the batch's derived fields, one physics substep (2 ms) older than
+the state - the robot, too, reads its servos a little before it writes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import mujoco
+import numpy as np
+from mujoco.batch import Batch, SimulationError
+
+from evolve.locomotion.symmetry import bias_values, joint_outputs, network_inputs, symmetric_layout
+from evolve.locomotion.task import TaskConfig
+from evolve.neat import Genome, PopulationNetwork
+from sim2real.mapping import normalized_angle, output_to_angle, quantize, rate_limit
+from sim2real.model_builder import build_model, hold_ctrl
+from sim2real.robot import RobotSpec
+from sim2real.timing import control_timing
+
+GRAVITY = 9.81
+MAX_JOINT_SPEED = 1e3  # [rad/s] beyond this a simulation is numerically unstable
+
+
+@dataclass(frozen=True)
+class Episodes:
+    """Per-genome outcome of one evaluation, arrays of shape (n,)."""
+
+    fitness: np.ndarray  # seed 000 eq. 3
+    selection: np.ndarray  # eq. 3 plus the configured tie-breaker
+    distance_m: np.ndarray  # hindmost foot's progress along the facing direction [m]
+    upright_s: np.ndarray  # simulated time before falling or the end [s]
+    fell: np.ndarray  # bool: the pelvis dropped below the fall height
+    unstable: np.ndarray  # bool: numerical instability
+    steps: int  # physics steps simulated in all
+
+
+class LocomotionEvaluator:
+    def __init__(self, robot: RobotSpec, task: TaskConfig, max_population: int, threads: int = 0):
+        if task.control_set not in robot.control_sets:
+            raise ValueError(f"task.control_set: robot {robot.name} has no control set "
+                             f"{task.control_set!r} (has {', '.join(robot.control_sets)})")
+        self.robot, self.task = robot, task
+        self.model = model = build_model(robot)
+        timing = control_timing(robot)
+        self.tick_s, self.substeps = timing.tick_s, timing.substeps
+        self.n_ticks = int(round(task.episode_s / self.tick_s))
+        self.layout = symmetric_layout(robot, robot.control_sets[task.control_set])
+        names = [j.name for j in robot.joints]
+        self.driven = np.array([names.index(n) for n in self.layout.driven], dtype=np.intp)
+        self.low = np.array([j.range_rad[0] for j in robot.joints])
+        self.high = np.array([j.range_rad[1] for j in robot.joints])
+        self.resolution = np.array([j.servo.profile.position.rad_per_tick if (j.servo and task.quantize)
+                                    else 0.0 for j in robot.joints])
+        self.max_step = np.array([j.servo.profile.motor.no_load_speed_rad_s * self.tick_s if j.servo
+                                  else np.inf for j in robot.joints])
+        self.hold = hold_ctrl(robot, set(self.layout.driven))
+        self.qadr = np.array([model.jnt_qposadr[model.joint(n).id] for n in names], dtype=np.intp)
+        self.touch_adr = np.array([model.sensor_adr[model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")])
+        self.up_adr = model.sensor_adr[model.sensor("torso_up").id]
+        self.soles = np.array([model.site(f"{s}_sole").id for s in ("left", "right")])
+        self.pelvis = model.body("pelvis").id
+        self.leg = robot.body.leg_length
+        self.mass = robot.body.mass
+        self.touch_threshold = task.contact_threshold * self.mass * GRAVITY
+        self.min_up_z = np.cos(np.radians(task.fall_tilt_deg))
+
+        self.batch = Batch(model, max_population, threads)
+        self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
+        self.ctrl, self.xfrc = self.batch.bind("ctrl"), self.batch.bind("xfrc_applied")
+        self.sensordata = self.batch.bind("sensordata")
+        self.site_xpos, self.xipos = self.batch.bind("site_xpos"), self.batch.bind("xipos")
+
+    @property
+    def max_population(self) -> int:
+        return self.batch.nsim
+
+    def evaluate(self, genomes: list[Genome], steepness: float, harness: bool = False,
+                 disabled_modules: tuple[str, ...] = (),
+                 on_tick: Callable[["LocomotionEvaluator", np.ndarray], None] | None = None) -> Episodes:
+        """Run one episode per genome; ``on_tick(self, alive_ids)`` is called after every
+        tick (to record frames or traces of a replay)."""
+        n = len(genomes)
+        if n > self.max_population:
+            raise ValueError(f"{n} genomes but the batch holds {self.max_population} simulations")
+        task, tick = self.task, self.tick_s
+        ids = np.arange(n)
+        self.batch.reset(ids, keyframe=0)
+        self.ctrl[:n] = self.hold
+        self.xfrc[:n] = 0.0
+        net = PopulationNetwork([g for g in genomes for _ in range(2)], steepness, disabled_modules,
+                                bias_values(n))
+
+        start_x = self.site_xpos[:n, self.soles, 0].mean(axis=1)
+        start_pelvis = self.xipos[:n, self.pelvis].copy()
+        goal = self.hold[self.driven][None, :].repeat(n, axis=0)
+        fitness = np.full(n, task.epsilon * task.distance_coeff)
+        progress_best = np.zeros(n)  # hindmost foot [leg lengths], for stagnation
+        pelvis_best = np.zeros(n)
+        last_gain = np.zeros(n)
+        elapsed = np.zeros(n)
+        fell = np.zeros(n, dtype=bool)
+        unstable = np.zeros(n, dtype=bool)
+        distance = np.zeros(n)
+        alive = ids
+        steps = 0
+        k = task.harness_stiffness * self.mass * GRAVITY / self.leg
+        c = 2.0 * task.harness_damping * np.sqrt(k * self.mass)
+
+        for _ in range(self.n_ticks):
+            sensors = self.sensordata[alive]
+            q = quantize(self.qpos[alive][:, self.qadr], self.resolution)
+            feet = np.where(sensors[:, self.touch_adr] > self.touch_threshold, -1.0, 1.0)
+            up = sensors[:, self.up_adr:self.up_adr + 3]
+            inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high), feet, up)
+            outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
+            wanted = output_to_angle(outputs, self.low[self.driven], self.high[self.driven])
+            goal[alive] = rate_limit(wanted, goal[alive], self.max_step[self.driven])
+            self.ctrl[alive[:, None], self.driven] = goal[alive]
+            if harness:
+                self.xfrc[alive, self.pelvis, :3] = self._harness(alive, start_pelvis, k, c)
+            failed = np.zeros(len(alive), dtype=bool)
+            try:
+                self.batch.step(alive, self.substeps)
+            except SimulationError as exc:
+                failed = np.isin(alive, exc.ids)
+            steps += len(alive) * self.substeps
+            elapsed[alive] += tick
+            if on_tick is not None:
+                on_tick(self, alive)
+
+            hind = self.site_xpos[alive][:, self.soles, 0].min(axis=1) - start_x[alive]
+            progress = hind / self.leg
+            pelvis_z = self.xipos[alive, self.pelvis, 2]
+            up_z = self.sensordata[alive, self.up_adr + 2]
+            down = (pelvis_z < task.fall_height * start_pelvis[alive, 2]) | (up_z < self.min_up_z)
+            bad = failed | ~np.isfinite(self.qpos[alive]).all(axis=1) | (
+                np.abs(np.nan_to_num(self.qvel[alive], nan=np.inf)) > MAX_JOINT_SPEED).any(axis=1)
+            ok = ~down & ~bad
+            live = alive[ok]
+            # eq. 3 at this tick; a fall keeps the previous tick's value
+            fitness[live] = (task.distance_coeff * np.maximum(progress[ok], task.epsilon)
+                             + task.time_coeff * elapsed[live])
+            distance[live] = hind[ok]
+            pelvis_best[live] = np.maximum(pelvis_best[live],
+                                           (self.xipos[live, self.pelvis, 0] - start_pelvis[live, 0]) / self.leg)
+            gained = progress > progress_best[alive] + task.epsilon
+            progress_best[alive[gained]] = progress[gained]
+            last_gain[alive[gained]] = elapsed[alive[gained]]
+            fell[alive[down & ~bad]] = True
+            unstable[alive[bad]] = True
+            fitness[alive[bad]] = task.epsilon * task.distance_coeff
+            stagnant = elapsed[alive] - last_gain[alive] > task.stagnation_s
+            done = down | bad | stagnant
+            if done.any():
+                keep = np.flatnonzero(~done)
+                alive = alive[keep]
+                if not len(alive):
+                    break
+                net.keep(np.stack([2 * keep, 2 * keep + 1], axis=1).ravel())
+
+        upright = np.where(fell, elapsed - tick, elapsed)
+        selection = fitness + task.progress_coeff * np.where(unstable, 0.0, pelvis_best)
+        return Episodes(fitness=fitness, selection=selection, distance_m=distance, upright_s=upright,
+                        fell=fell, unstable=unstable, steps=steps)
+
+    def _harness(self, alive, start, k, c) -> np.ndarray:
+        """Support from the sides, from behind and from below, never against going forward or
+        up (seed 000 section 8.2): forces on the pelvis [N], held for one tick.
+
+        Sideways it is a spring-damper to the start line.  From behind it catches the robot
+        only behind its start, and from below only once the pelvis sinks under
+        ``harness_height`` of its start height: a one-sided support that acted everywhere
+        would turn any vibration into forward drift (a ratchet), which evolution finds.  Each
+        axis is capped at ``harness_max_force`` of the weight, so the legs must carry the rest:
+        a robot that can hang in its harness swings its legs and drifts forward unopposed.
+        """
+        pos = self.qpos[alive][:, :3]
+        vel = self.qvel[alive][:, :3]
+        behind = np.maximum(start[alive, 0] - pos[:, 0], 0.0)
+        below = np.maximum(self.task.harness_height * start[alive, 2] - pos[:, 2], 0.0)
+        force = np.empty((len(alive), 3))
+        force[:, 0] = (k * behind - c * np.minimum(vel[:, 0], 0.0)) * (behind > 0)
+        force[:, 1] = -k * (pos[:, 1] - start[alive, 1]) - c * vel[:, 1]
+        force[:, 2] = (k * below - c * np.minimum(vel[:, 2], 0.0)) * (below > 0)
+        cap = self.task.harness_max_force * self.mass * GRAVITY
+        return np.clip(force, -cap, cap)

@@ -1,0 +1,139 @@
+"""Bilateral symmetry (seed 000 section 7.3): one genome, two networks, one per side.
+
+Each network reads its side's view of the robot and drives its side's joints:
+
+* inputs: the driven joint angles of its own leg, then of the other leg, then of the centre
+  (waist) joints, each normalized to [-1, 1] over the joint's range; the foot contacts,
+  own foot first (-1 touching, +1 not); the torso's up-vector tilt forward and sideways.
+  Joint angles are anatomical, so the two legs already read alike; the sideways tilt and
+  the waist's yaw and roll are mirrored for the left network.  With the walk preset of a
+  biped with a waist, that is seed 000's eleven inputs.  The paper names its tilt inputs
+  X and Z: the horizontal components of the up-vector in its y-up world, which are
+  forward and sideways here (z up).
+* two bias nodes: +1, and +1 on the right, -1 on the left.
+* outputs: its own leg's driven joints, then the centre joints; a centre joint gets the
+  mean of the two networks' outputs (activations, as the paper says).
+
+Networks are interleaved: row ``2 i`` is genome ``i``'s right network, ``2 i + 1`` its left.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from evolve.neat import Layout
+from sim2real.robot import RobotSpec
+
+SIDES = ("right", "left")
+
+
+@dataclass(frozen=True)
+class SymmetricLayout:
+    driven: tuple[str, ...]  # driven joints, robot order
+    leg_slots: tuple[tuple[str, str], ...]  # (location, axis) of each driven leg joint kind
+    leg_index: dict[str, np.ndarray]  # side -> robot joint index of each slot
+    center_index: np.ndarray  # robot joint index of each driven centre joint
+    center_mirror: np.ndarray  # -1 where the left network sees the joint mirrored (yaw, roll)
+    input_names: tuple[str, ...]
+    output_names: tuple[str, ...]
+
+    @property
+    def neat_layout(self) -> Layout:
+        return Layout(len(self.input_names), 2, len(self.output_names))
+
+    @property
+    def n_leg(self) -> int:
+        return len(self.leg_slots)
+
+
+def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...]) -> SymmetricLayout:
+    joints = {j.name: j for j in robot.joints}
+    unknown = [n for n in driven if n not in joints]
+    if unknown:
+        raise ValueError(f"driven joints not on robot {robot.name}: {unknown}")
+    order = {j.name: i for i, j in enumerate(robot.joints)}
+    slots: list[tuple[str, str]] = []
+    for name in sorted(driven, key=order.get):
+        j = joints[name]
+        if j.side != "center" and (j.location, j.axis) not in slots:
+            slots.append((j.location, j.axis))
+    by_slot = {(j.side, j.location, j.axis): j.name for j in robot.joints}
+    leg_index = {}
+    for side in SIDES:
+        names = []
+        for location, axis in slots:
+            name = by_slot[(side, location, axis)]
+            if name not in driven:
+                raise ValueError(f"driven joints must be symmetric: {name} is missing")
+            names.append(name)
+        leg_index[side] = np.array([order[n] for n in names], dtype=np.intp)
+    centers = [n for n in sorted(driven, key=order.get) if joints[n].side == "center"]
+    mirror = np.array([-1.0 if joints[n].axis in ("yaw", "roll") else 1.0 for n in centers])
+    slot_names = [f"{loc}_{axis}" if loc != "knee" else "knee" for loc, axis in slots]
+    inputs = ([f"own_{s}" for s in slot_names] + [f"other_{s}" for s in slot_names] + centers
+              + ["own_foot", "other_foot", "up_forward", "up_sideways"])
+    outputs = [f"own_{s}" for s in slot_names] + centers
+    return SymmetricLayout(
+        driven=tuple(sorted(driven, key=order.get)),
+        leg_slots=tuple(slots),
+        leg_index=leg_index,
+        center_index=np.array([order[n] for n in centers], dtype=np.intp),
+        center_mirror=mirror,
+        input_names=tuple(inputs),
+        output_names=tuple(outputs),
+    )
+
+
+def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray,
+                   up: np.ndarray) -> np.ndarray:
+    """Inputs of both networks of every robot.
+
+    Args:
+      joints: (n, n_joints) normalized joint angles in robot order, in [-1, 1].
+      feet: (n, 2) foot contacts, columns (left, right): -1 touching, +1 not.
+      up: (n, 3) the torso's up-vector in world coordinates.
+
+    Returns:
+      (2 n, n_inputs), rows interleaved right, left.
+    """
+    n = joints.shape[0]
+    right_leg, left_leg = joints[:, layout.leg_index["right"]], joints[:, layout.leg_index["left"]]
+    center = joints[:, layout.center_index]
+    out = np.empty((n, 2, len(layout.input_names)))
+    k = layout.n_leg
+    for s, (own, other, mirror, own_foot, other_foot, side_sign) in enumerate((
+        (right_leg, left_leg, 1.0, feet[:, 1], feet[:, 0], 1.0),
+        (left_leg, right_leg, layout.center_mirror, feet[:, 0], feet[:, 1], -1.0),
+    )):
+        row = out[:, s]
+        row[:, :k] = own
+        row[:, k:2 * k] = other
+        row[:, 2 * k:2 * k + len(layout.center_index)] = center * mirror
+        row[:, -4] = own_foot
+        row[:, -3] = other_foot
+        row[:, -2] = up[:, 0]
+        # sideways tilt toward the network's own side is positive on both sides
+        row[:, -1] = -up[:, 1] * side_sign
+    return out.reshape(2 * n, -1)
+
+
+def bias_values(n_genomes: int) -> np.ndarray:
+    """(2 n, 2): the constant +1 and the side bias, +1 right and -1 left."""
+    bias = np.ones((n_genomes, 2, 2))
+    bias[:, 1, 1] = -1.0
+    return bias.reshape(2 * n_genomes, 2)
+
+
+def joint_outputs(layout: SymmetricLayout, outputs: np.ndarray, n_joints: int) -> np.ndarray:
+    """(2 n, n_outputs) network outputs -> (n, n_joints) outputs in robot order (NaN where
+    not driven); centre joints get the mean of both networks."""
+    pair = outputs.reshape(-1, 2, outputs.shape[1])
+    n = pair.shape[0]
+    result = np.full((n, n_joints), np.nan)
+    k = layout.n_leg
+    result[:, layout.leg_index["right"]] = pair[:, 0, :k]
+    result[:, layout.leg_index["left"]] = pair[:, 1, :k]
+    result[:, layout.center_index] = pair[:, :, k:].mean(axis=1)
+    return result

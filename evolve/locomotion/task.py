@@ -1,0 +1,61 @@
+"""The locomotion task's parameters (seed 000 sections 8-8.2), typed and validated.
+
+Fitness is the paper's eq. 3, ``f = c_d max(proj_j d, eps) + c_t t`` with d from the start
+to the hindmost foot and j the initial facing direction (+x), in leg lengths so that one
+setting serves every robot.  Early termination: the waist (pelvis) CoM below 70 % of its
+start height (the previous tick's fitness is kept) or - our addition, since a harness holding
+the pelvis up hides falls - the torso tilted past ``fall_tilt_deg``; numerical instability (fitness eps),
+no progress of eps within ``stagnation_s``.  The support harness holds the pelvis
+sideways, from behind and from below - never against forward or upward motion - for the
+first ``harness_generations``.
+
+``progress_coeff`` adds a tie-breaker for selection only: the pelvis' forward progress in
+leg lengths, so that early generations, which neither step nor fall, are not all equal
+(DESIGN.md section 5); the reported fitness stays eq. 3.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from sim2real.errors import ConfigError
+from sim2real.validation import dataclass_from_mapping
+
+
+@dataclass(frozen=True)
+class TaskConfig:
+    control_set: str = "walk"  # which joints the controller drives (robot's control_sets)
+    episode_s: float = 10.0  # simulated seconds per evaluation
+    distance_coeff: float = 1.0  # c_d, per leg length walked
+    time_coeff: float = 0.02  # c_t, per second
+    epsilon: float = 1e-3  # eps of eq. 3
+    fall_height: float = 0.7  # pelvis CoM below this share of its start height ends a trial
+    fall_tilt_deg: float = 60.0  # so does a torso tilted this far (a fall the harness hides)
+    stagnation_s: float = 3.0  # no progress of epsilon leg lengths in this long ends a trial
+    progress_coeff: float = 0.0  # selection tie-breaker: pelvis progress, per leg length
+    harness_generations: int = 100  # generations with the support harness (0: never)
+    harness_stiffness: float = 10.0  # harness spring: this many body weights per leg length [m g / L]
+    harness_damping: float = 0.5  # harness damping ratio
+    harness_height: float = 0.85  # the harness catches the pelvis below this share of its start height
+    harness_max_force: float = 0.5  # its force on each axis is capped at this share of the weight
+    quantize: bool = True  # joint angles at the servo's encoder resolution
+    contact_threshold: float = 0.05  # a foot touches when it carries this share of the weight
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any] | None, source: str = "<config>",
+                     prefix: str = "task.") -> "TaskConfig":
+        config = dataclass_from_mapping(cls, values, source, prefix, "task")
+        for f in dataclasses.fields(config):
+            v = getattr(config, f.name)
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and v < 0:
+                raise ConfigError(source, prefix + f.name, f"must not be negative, got {v}")
+        if config.episode_s <= 0:
+            raise ConfigError(source, prefix + "episode_s", "must be > 0")
+        if not 0 < config.fall_height < 1:
+            raise ConfigError(source, prefix + "fall_height", "must be within (0, 1)")
+        return config
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)

@@ -1,0 +1,76 @@
+"""Replaying a controller file in MuJoCo: measure it, watch it, film it.
+
+The replay is the evaluation itself (:class:`LocomotionEvaluator` with one simulation and
+no harness), so what you see is what evolution scored.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evolve.locomotion.evaluator import LocomotionEvaluator
+from evolve.locomotion.export import genome_from_controller
+from evolve.locomotion.task import TaskConfig
+from sim2real.controller import load_controller
+from sim2real.robot import RobotSpec, load_robot
+
+
+def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
+           keep_going: bool = False):
+    data = load_controller(path)
+    spec: RobotSpec = load_robot(robot or data["robot"]["name"])
+    data = load_controller(path, spec)  # now checked against the robot's joint map
+    task = TaskConfig.from_mapping(data["task"], str(path), "task.")
+    changes = {"episode_s": float(seconds)} if seconds is not None else {}
+    if keep_going:
+        changes.update(fall_height=1e-6, fall_tilt_deg=180.0, stagnation_s=1e9)
+    task = dataclasses.replace(task, **changes)
+    evaluator = LocomotionEvaluator(spec, task, max(1, episodes), threads=1)
+    if list(evaluator.layout.input_names) != data["inputs"] or list(evaluator.layout.output_names) != data["outputs"]:
+        raise ValueError(f"{path}: its inputs/outputs do not match robot {spec.name}'s {task.control_set} joints")
+    genome = genome_from_controller(data)
+    return data, spec, evaluator, genome
+
+
+def evaluate_controller(path: Path | str, robot: str | None = None, seconds: float | None = None,
+                        episodes: int = 1, disabled_modules: tuple[str, ...] = ()) -> dict[str, Any]:
+    data, spec, evaluator, genome = _setup(path, robot, seconds, episodes)
+    result = evaluator.evaluate([genome] * episodes, data["sigmoid_steepness"], harness=False,
+                                disabled_modules=disabled_modules)
+    return {
+        "distance_m": float(np.mean(result.distance_m)),
+        "upright_s": float(np.mean(result.upright_s)),
+        "fell": bool(result.fell.any()),
+        "fitness": float(np.mean(result.fitness)),
+        "leg_length_m": spec.body.leg_length,
+        "episodes": episodes,
+        "seconds": evaluator.n_ticks * evaluator.tick_s,
+    }
+
+
+def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | None = None,
+           seconds: float | None = None, every: int = 1) -> tuple[list[np.ndarray], float]:
+    """Rendered frames of a replay from the tracking camera, and the time between frames [s]."""
+    from sim2real.rendering import open_renderer  # sets up offscreen GL before mujoco renders
+
+    import mujoco
+
+    # the film goes on after a fall or a stall (the score would have stopped there)
+    data, spec, evaluator, genome = _setup(path, robot, seconds, keep_going=True)
+    images: list[np.ndarray] = []
+    count = [0]
+    with open_renderer(evaluator.model, width, height) as renderer:
+        def grab(ev: LocomotionEvaluator, alive: np.ndarray) -> None:
+            if count[0] % every == 0:
+                d = ev.batch.get_data(0)
+                mujoco.mj_forward(ev.model, d)
+                renderer.update_scene(d, camera="track")
+                images.append(renderer.render().copy())
+            count[0] += 1
+
+        evaluator.evaluate([genome], data["sigmoid_steepness"], harness=False, on_tick=grab)
+    return images, evaluator.tick_s * every

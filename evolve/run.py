@@ -1,0 +1,237 @@
+"""An evolution run and its folder.
+
+    run/
+      config.yaml          the resolved configuration (every default written out)
+      checkpoint.json.gz   the latest generation, resumable (atomic; written at every generation)
+      checkpoints/         numbered snapshots every ``checkpoint_every`` generations
+      stats.csv            one row per generation, flushed as it goes
+      fitness.png          best / mean fitness and best distance over generations
+      controller.json      the best controller so far
+      best.json            its genome and scores (what --resume needs to keep it)
+
+The best controller is the one with the highest eq. 3 fitness measured without the
+harness; harness-era champions stand in only until a generation runs without it.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import shutil
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from evolve.config import EvolveConfig, parse_evolve_config
+from evolve.locomotion.evaluator import LocomotionEvaluator
+from evolve.locomotion.export import controller_from_genome
+from evolve.neat import Genome, Population
+from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.controller import save_controller
+from sim2real.robot import load_robot
+from sim2real.validation import load_yaml
+
+STATS_COLUMNS = ("generation", "best_fitness", "mean_fitness", "best_distance_m", "best_upright_s",
+                 "species", "mean_connections", "mean_hidden", "evaluations", "evaluations_per_s",
+                 "steps_per_s", "wall_s", "harness", "threshold")
+
+
+@dataclass
+class Best:
+    fitness: float
+    distance_m: float
+    upright_s: float
+    generation: int
+    harness: bool
+    genome: Genome
+
+    def better_than(self, other: "Best | None") -> bool:
+        if other is None:
+            return True
+        if self.harness != other.harness:
+            return not self.harness  # a champion without the harness beats any with it
+        return self.fitness > other.fitness
+
+
+class Run:
+    """One evolution: ``Run(config, out).evolve()``; ``Run.resume(out)`` continues it."""
+
+    def __init__(self, config: EvolveConfig, out: Path, *, population: Population | None = None,
+                 log: Callable[[str], None] = print):
+        self.config, self.out, self.log = config, Path(out), log
+        self.robot = load_robot(config.robot)
+        self.evaluator = LocomotionEvaluator(self.robot, config.task, config.neat.population_size, config.threads)
+        self.population = population or Population(config.neat, self.evaluator.layout.neat_layout, seed=config.seed)
+        self.best: Best | None = None
+        self.wall_s = 0.0
+
+    # -- folder -------------------------------------------------------------------------------
+    @classmethod
+    def create(cls, config: EvolveConfig, out: Path, log: Callable[[str], None] = print) -> "Run":
+        out = Path(out)
+        if (out / "checkpoint.json.gz").exists():
+            raise FileExistsError(f"{out} already holds a run; use --resume to continue it or another --out")
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "config.yaml").write_text(config.to_yaml())
+        run = cls(config, out, log=log)
+        with open(out / "stats.csv", "w", newline="") as f:
+            csv.writer(f).writerow(STATS_COLUMNS)
+        return run
+
+    @classmethod
+    def resume(cls, out: Path, generations: int | None = None, threads: int | None = None,
+               log: Callable[[str], None] = print) -> "Run":
+        out = Path(out)
+        if not (out / "checkpoint.json.gz").exists():
+            raise FileNotFoundError(f"{out} has no checkpoint.json.gz to resume")
+        config = parse_evolve_config(load_yaml(out / "config.yaml"), str(out / "config.yaml"))
+        changes = {k: v for k, v in (("generations", generations), ("threads", threads)) if v is not None}
+        if changes:
+            config = config.replace(**changes)
+            (out / "config.yaml").write_text(config.to_yaml())
+        population = Population.load(out / "checkpoint.json.gz")
+        run = cls(config, out, population=population, log=log)
+        if (out / "best.json").exists():
+            data = read_json(out / "best.json")
+            run.best = Best(data["fitness"], data["distance_m"], data["upright_s"], data["generation"],
+                            data["harness"], Genome.from_dict(data["genome"], population.layout))
+        rows = _read_stats(out / "stats.csv")
+        kept = [r for r in rows if int(r["generation"]) < population.generation]
+        with open(out / "stats.csv", "w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(STATS_COLUMNS)
+            writer.writerows([[r[c] for c in STATS_COLUMNS] for r in kept])
+        run.wall_s = float(kept[-1]["wall_s"]) if kept else 0.0
+        return run
+
+    # -- the loop ------------------------------------------------------------------------------
+    def evolve(self) -> Best | None:
+        pop, config = self.population, self.config
+        recent: list[float] = []
+        while pop.generation < config.generations:
+            self._checkpoint()
+            harness = pop.generation < config.task.harness_generations
+            t0 = time.perf_counter()
+            episodes = {}
+
+            def evaluate(genomes):
+                episodes["e"] = self.evaluator.evaluate(genomes, config.neat.sigmoid_steepness, harness)
+                return episodes["e"].selection
+
+            stats = pop.evaluate(evaluate)
+            e = episodes["e"]
+            eval_s = time.perf_counter() - t0
+            i = int(np.argmax(e.fitness))
+            candidate = Best(float(e.fitness[i]), float(e.distance_m[i]), float(e.upright_s[i]), pop.generation,
+                             harness, pop.genomes[i].copy(pop.genomes[i].key))
+            if candidate.better_than(self.best):
+                self.best = candidate
+                self._save_best()
+            pop.reproduce()
+            gen_s = time.perf_counter() - t0
+            self.wall_s += gen_s
+            recent = (recent + [gen_s])[-10:]
+            row = dict(generation=stats.generation, best_fitness=float(e.fitness.max()),
+                       mean_fitness=float(e.fitness.mean()), best_distance_m=float(e.distance_m.max()),
+                       best_upright_s=float(e.upright_s.max()), species=stats.species,
+                       mean_connections=stats.mean_connections, mean_hidden=stats.mean_hidden,
+                       evaluations=stats.evaluations, evaluations_per_s=len(pop.genomes) / eval_s,
+                       steps_per_s=e.steps / eval_s, wall_s=self.wall_s, harness=int(harness),
+                       threshold=stats.threshold)
+            self._append_stats(row)
+            eta = (config.generations - pop.generation) * float(np.mean(recent))
+            self.log(_progress_line(row, config.generations, eta))
+            if pop.generation % 10 == 0 or pop.generation >= config.generations:
+                self.plot()
+        self._checkpoint()
+        self.plot()
+        return self.best
+
+    def _checkpoint(self) -> None:
+        pop = self.population
+        pop.save(self.out / "checkpoint.json.gz")
+        every = self.config.checkpoint_every
+        if every and pop.generation % every == 0:
+            (self.out / "checkpoints").mkdir(exist_ok=True)
+            shutil.copyfile(self.out / "checkpoint.json.gz",
+                            self.out / "checkpoints" / f"gen_{pop.generation:05d}.json.gz")
+
+    def _save_best(self) -> None:
+        b = self.best
+        write_json_atomic(self.out / "best.json", {
+            "fitness": b.fitness, "distance_m": b.distance_m, "upright_s": b.upright_s,
+            "generation": b.generation, "harness": b.harness, "genome": b.genome.to_dict()})
+        save_controller(self.out / "controller.json", self.controller())
+
+    def controller(self) -> dict:
+        b = self.best
+        provenance = {"seed": self.config.seed, "generation": b.generation, "fitness": b.fitness,
+                      "distance_m": b.distance_m, "upright_s": b.upright_s, "harness": b.harness,
+                      "run": str(self.out.resolve()), "config": self.config.to_dict()}
+        return controller_from_genome(b.genome, self.robot, self.evaluator.layout, self.config.task,
+                                      self.config.neat.sigmoid_steepness, provenance)
+
+    def _append_stats(self, row: dict) -> None:
+        with open(self.out / "stats.csv", "a", newline="") as f:
+            csv.writer(f).writerow([_fmt(row[c]) for c in STATS_COLUMNS])
+            f.flush()
+
+    def plot(self) -> None:
+        plot_stats(self.out / "stats.csv", self.out / "fitness.png")
+
+
+def _fmt(value) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+
+def _read_stats(path: Path) -> list[dict]:
+    if not path.exists():
+        return []
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _progress_line(row: dict, generations: int, eta_s: float) -> str:
+    eta = time.strftime("%H:%M:%S", time.gmtime(eta_s)) if math.isfinite(eta_s) else "?"
+    return (f"gen {row['generation'] + 1:>4}/{generations} | best {row['best_fitness']:.3f} "
+            f"({row['best_distance_m']:+.3f} m) | mean {row['mean_fitness']:.3f} | species {row['species']:>3} "
+            f"| conns {row['mean_connections']:.1f} | {row['evaluations_per_s']:.0f} eval/s "
+            f"| {row['steps_per_s'] / 1e3:.0f}k steps/s | {'harness | ' if row['harness'] else ''}ETA {eta}")
+
+
+def plot_stats(stats_csv: Path, png: Path) -> bool:
+    """Best / mean fitness and best distance over generations; False without matplotlib."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    rows = _read_stats(stats_csv)
+    if not rows:
+        return False
+    gen = [int(r["generation"]) for r in rows]
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    ax.plot(gen, [float(r["best_fitness"]) for r in rows], label="best fitness (eq. 3)")
+    ax.plot(gen, [float(r["mean_fitness"]) for r in rows], label="mean fitness")
+    ax.set_xlabel("generation")
+    ax.set_ylabel("fitness")
+    ax2 = ax.twinx()
+    ax2.plot(gen, [float(r["best_distance_m"]) for r in rows], color="tab:green", alpha=0.7, label="best distance")
+    ax2.set_ylabel("best distance [m]")
+    harness_end = [g for g, r in zip(gen, rows) if r["harness"] == "1"]
+    if harness_end:
+        ax.axvspan(0, max(harness_end) + 0.5, color="0.9", label="support harness")
+    lines = ax.get_legend_handles_labels()
+    lines2 = ax2.get_legend_handles_labels()
+    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], loc="upper left", fontsize=8)
+    fig.tight_layout()
+    tmp = png.with_name(png.stem + ".tmp.png")
+    fig.savefig(tmp, dpi=100)
+    plt.close(fig)
+    tmp.replace(png)
+    return True
