@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except (BipedError, FileNotFoundError, KeyError) as exc:
+    except (BipedError, FileNotFoundError, FileExistsError, KeyError) as exc:
         message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"biped: error: {message}", file=sys.stderr)
         return 2

@@ -39,7 +39,7 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
 def evaluate_controller(path: Path | str, robot: str | None = None, seconds: float | None = None,
                         episodes: int = 1, disabled_modules: tuple[str, ...] = ()) -> dict[str, Any]:
     data, spec, evaluator, genome = _setup(path, robot, seconds, episodes)
-    result = evaluator.evaluate([genome] * episodes, data["sigmoid_steepness"], harness=False,
+    result = evaluator.evaluate([genome] * episodes, data["sigmoid_steepness"], harness=0.0,
                                 disabled_modules=disabled_modules)
     return {
         "distance_m": float(np.mean(result.distance_m)),
@@ -72,5 +72,5 @@ def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | N
                 images.append(renderer.render().copy())
             count[0] += 1
 
-        evaluator.evaluate([genome], data["sigmoid_steepness"], harness=False, on_tick=grab)
+        evaluator.evaluate([genome], data["sigmoid_steepness"], harness=0.0, on_tick=grab)
     return images, evaluator.tick_s * every

@@ -45,14 +45,14 @@ class Best:
     distance_m: float
     upright_s: float
     generation: int
-    harness: bool
+    harness: float  # strength of the harness it was measured with
     genome: Genome
 
     def better_than(self, other: "Best | None") -> bool:
         if other is None:
             return True
-        if self.harness != other.harness:
-            return not self.harness  # a champion without the harness beats any with it
+        if (self.harness > 0) != (other.harness > 0):
+            return self.harness == 0  # a champion without the harness beats any with it
         return self.fitness > other.fitness
 
 
@@ -66,6 +66,7 @@ class Run:
         self.evaluator = LocomotionEvaluator(self.robot, config.task, config.neat.population_size, config.threads)
         self.population = population or Population(config.neat, self.evaluator.layout.neat_layout, seed=config.seed)
         self.best: Best | None = None
+        self.champion: Best | None = None
         self.wall_s = 0.0
 
     # -- folder -------------------------------------------------------------------------------
@@ -108,12 +109,13 @@ class Run:
         return run
 
     # -- the loop ------------------------------------------------------------------------------
-    def evolve(self) -> Best | None:
+    def evolve(self, stop: Callable[["Run", dict], bool] | None = None) -> Best | None:
+        """Run to the configured generation count, or until ``stop(run, stats_row)`` says so."""
         pop, config = self.population, self.config
         recent: list[float] = []
         while pop.generation < config.generations:
             self._checkpoint()
-            harness = pop.generation < config.task.harness_generations
+            harness = config.task.harness_strength(pop.generation)
             t0 = time.perf_counter()
             episodes = {}
 
@@ -127,6 +129,7 @@ class Run:
             i = int(np.argmax(e.fitness))
             candidate = Best(float(e.fitness[i]), float(e.distance_m[i]), float(e.upright_s[i]), pop.generation,
                              harness, pop.genomes[i].copy(pop.genomes[i].key))
+            self.champion = candidate  # this generation's
             if candidate.better_than(self.best):
                 self.best = candidate
                 self._save_best()
@@ -139,13 +142,15 @@ class Run:
                        best_upright_s=float(e.upright_s.max()), species=stats.species,
                        mean_connections=stats.mean_connections, mean_hidden=stats.mean_hidden,
                        evaluations=stats.evaluations, evaluations_per_s=len(pop.genomes) / eval_s,
-                       steps_per_s=e.steps / eval_s, wall_s=self.wall_s, harness=int(harness),
+                       steps_per_s=e.steps / eval_s, wall_s=self.wall_s, harness=harness,
                        threshold=stats.threshold)
             self._append_stats(row)
             eta = (config.generations - pop.generation) * float(np.mean(recent))
             self.log(_progress_line(row, config.generations, eta))
             if pop.generation % 10 == 0 or pop.generation >= config.generations:
                 self.plot()
+            if stop is not None and stop(self, row):
+                break
         self._checkpoint()
         self.plot()
         return self.best
@@ -196,10 +201,11 @@ def _read_stats(path: Path) -> list[dict]:
 
 def _progress_line(row: dict, generations: int, eta_s: float) -> str:
     eta = time.strftime("%H:%M:%S", time.gmtime(eta_s)) if math.isfinite(eta_s) else "?"
+    harness = f"harness {row['harness']:.2f} | " if row["harness"] else ""
     return (f"gen {row['generation'] + 1:>4}/{generations} | best {row['best_fitness']:.3f} "
             f"({row['best_distance_m']:+.3f} m) | mean {row['mean_fitness']:.3f} | species {row['species']:>3} "
             f"| conns {row['mean_connections']:.1f} | {row['evaluations_per_s']:.0f} eval/s "
-            f"| {row['steps_per_s'] / 1e3:.0f}k steps/s | {'harness | ' if row['harness'] else ''}ETA {eta}")
+            f"| {row['steps_per_s'] / 1e3:.0f}k steps/s | {harness}ETA {eta}")
 
 
 def plot_stats(stats_csv: Path, png: Path) -> bool:
@@ -223,7 +229,7 @@ def plot_stats(stats_csv: Path, png: Path) -> bool:
     ax2 = ax.twinx()
     ax2.plot(gen, [float(r["best_distance_m"]) for r in rows], color="tab:green", alpha=0.7, label="best distance")
     ax2.set_ylabel("best distance [m]")
-    harness_end = [g for g, r in zip(gen, rows) if r["harness"] == "1"]
+    harness_end = [g for g, r in zip(gen, rows) if float(r["harness"]) > 0]
     if harness_end:
         ax.axvspan(0, max(harness_end) + 0.5, color="0.9", label="support harness")
     lines = ax.get_legend_handles_labels()

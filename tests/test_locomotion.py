@@ -69,8 +69,8 @@ def _same(a, b):
 
 
 def test_results_are_bit_identical_for_any_thread_count(genomes):
-    one = LocomotionEvaluator(ROBOT, TASK, len(genomes), threads=1).evaluate(genomes, 1.0, harness=True)
-    two = LocomotionEvaluator(ROBOT, TASK, len(genomes), threads=2).evaluate(genomes, 1.0, harness=True)
+    one = LocomotionEvaluator(ROBOT, TASK, len(genomes), threads=1).evaluate(genomes, 1.0, harness=1.0)
+    two = LocomotionEvaluator(ROBOT, TASK, len(genomes), threads=2).evaluate(genomes, 1.0, harness=1.0)
     _same(one, two)
 
 
@@ -101,7 +101,7 @@ def test_falls_end_the_trial_and_the_harness_holds_the_robot_up(genomes):
     task = TaskConfig(episode_s=3.0)
     evaluator = LocomotionEvaluator(ROBOT, task, len(genomes), threads=2)
     free = evaluator.evaluate(genomes, 1.0)
-    held = evaluator.evaluate(genomes, 1.0, harness=True)
+    held = evaluator.evaluate(genomes, 1.0, harness=1.0)
     assert free.fell.sum() > len(genomes) // 2  # random controllers fall...
     assert held.upright_s.mean() > free.upright_s.mean()  # ...and the harness keeps them up longer
     assert np.all(free.upright_s[free.fell] < task.episode_s)

@@ -87,11 +87,12 @@ class LocomotionEvaluator:
     def max_population(self) -> int:
         return self.batch.nsim
 
-    def evaluate(self, genomes: list[Genome], steepness: float, harness: bool = False,
+    def evaluate(self, genomes: list[Genome], steepness: float, harness: float = 0.0,
                  disabled_modules: tuple[str, ...] = (),
                  on_tick: Callable[["LocomotionEvaluator", np.ndarray], None] | None = None) -> Episodes:
-        """Run one episode per genome; ``on_tick(self, alive_ids)`` is called after every
-        tick (to record frames or traces of a replay)."""
+        """Run one episode per genome, with the support harness at ``harness`` strength
+        (0: none, 1: full); ``on_tick(self, alive_ids)`` is called after every tick (to record
+        frames or traces of a replay)."""
         n = len(genomes)
         if n > self.max_population:
             raise ValueError(f"{n} genomes but the batch holds {self.max_population} simulations")
@@ -116,8 +117,9 @@ class LocomotionEvaluator:
         distance = np.zeros(n)
         alive = ids
         steps = 0
-        k = task.harness_stiffness * self.mass * GRAVITY / self.leg
+        k = harness * task.harness_stiffness * self.mass * GRAVITY / self.leg
         c = 2.0 * task.harness_damping * np.sqrt(k * self.mass)
+        cap = harness * task.harness_max_force * self.mass * GRAVITY
 
         for _ in range(self.n_ticks):
             sensors = self.sensordata[alive]
@@ -130,7 +132,7 @@ class LocomotionEvaluator:
             goal[alive] = rate_limit(wanted, goal[alive], self.max_step[self.driven])
             self.ctrl[alive[:, None], self.driven] = goal[alive]
             if harness:
-                self.xfrc[alive, self.pelvis, :3] = self._harness(alive, start_pelvis, k, c)
+                self.xfrc[alive, self.pelvis, :3] = self._harness(alive, start_pelvis, k, c, cap)
             failed = np.zeros(len(alive), dtype=bool)
             try:
                 self.batch.step(alive, self.substeps)
@@ -176,7 +178,7 @@ class LocomotionEvaluator:
         return Episodes(fitness=fitness, selection=selection, distance_m=distance, upright_s=upright,
                         fell=fell, unstable=unstable, steps=steps)
 
-    def _harness(self, alive, start, k, c) -> np.ndarray:
+    def _harness(self, alive, start, k, c, cap) -> np.ndarray:
         """Support from the sides, from behind and from below, never against going forward or
         up (seed 000 section 8.2): forces on the pelvis [N], held for one tick.
 
@@ -195,5 +197,4 @@ class LocomotionEvaluator:
         force[:, 0] = (k * behind - c * np.minimum(vel[:, 0], 0.0)) * (behind > 0)
         force[:, 1] = -k * (pos[:, 1] - start[alive, 1]) - c * vel[:, 1]
         force[:, 2] = (k * below - c * np.minimum(vel[:, 2], 0.0)) * (below > 0)
-        cap = self.task.harness_max_force * self.mass * GRAVITY
         return np.clip(force, -cap, cap)

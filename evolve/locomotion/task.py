@@ -7,7 +7,8 @@ start height (the previous tick's fitness is kept) or - our addition, since a ha
 the pelvis up hides falls - the torso tilted past ``fall_tilt_deg``; numerical instability (fitness eps),
 no progress of eps within ``stagnation_s``.  The support harness holds the pelvis
 sideways, from behind and from below - never against forward or upward motion - for the
-first ``harness_generations``.
+first ``harness_generations``, weakening linearly over the last ``harness_fade_generations``
+of them (an abrupt end would drop every gait that leaned on it at once).
 
 ``progress_coeff`` adds a tie-breaker for selection only: the pelvis' forward progress in
 leg lengths, so that early generations, which neither step nor fall, are not all equal
@@ -36,6 +37,7 @@ class TaskConfig:
     stagnation_s: float = 3.0  # no progress of epsilon leg lengths in this long ends a trial
     progress_coeff: float = 0.0  # selection tie-breaker: pelvis progress, per leg length
     harness_generations: int = 100  # generations with the support harness (0: never)
+    harness_fade_generations: int = 50  # over its last this many generations it weakens to nothing
     harness_stiffness: float = 10.0  # harness spring: this many body weights per leg length [m g / L]
     harness_damping: float = 0.5  # harness damping ratio
     harness_height: float = 0.85  # the harness catches the pelvis below this share of its start height
@@ -56,6 +58,15 @@ class TaskConfig:
         if not 0 < config.fall_height < 1:
             raise ConfigError(source, prefix + "fall_height", "must be within (0, 1)")
         return config
+
+    def harness_strength(self, generation: int) -> float:
+        """1 while the harness is on in full, falling linearly to 0 at ``harness_generations``."""
+        if generation >= self.harness_generations:
+            return 0.0
+        fade_start = self.harness_generations - self.harness_fade_generations
+        if generation < fade_start or self.harness_fade_generations == 0:
+            return 1.0
+        return (self.harness_generations - generation) / (self.harness_fade_generations + 1)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

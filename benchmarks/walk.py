@@ -1,0 +1,76 @@
+"""Minutes to a walker: one evolution on the default robot, within a wall-time budget.
+
+    python -m benchmarks.walk --minutes 30 --seed 1 --json
+
+Runs ``configs/evolve/walk.yaml`` (or --config) and, after every generation, replays that
+generation's champion without the harness.  "Walked" (the issue's criterion) means upright
+at the end of the episode and at least 2.2 leg lengths forward (seed 000's 2 m for a human
+leg of about 0.9 m).  Stops at the first walker or when the budget is spent.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+from benchmarks.common import parser, progress, report
+from evolve.cli_commands import resolve_config
+from evolve.config import load_evolve_config
+from evolve.locomotion.evaluator import LocomotionEvaluator
+from evolve.run import Run
+
+WALK_LEG_LENGTHS = 2.2
+
+
+def main(argv=None) -> None:
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--minutes", type=float, default=30.0, help="wall-time budget")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--config", default="walk")
+    p.add_argument("--threads", type=int, help="simulation threads (default: the config's)")
+    p.add_argument("--out", type=Path, help="keep the run folder here (default: a temporary folder)")
+    args = p.parse_args(argv)
+
+    config = load_evolve_config(resolve_config(args.config)).replace(seed=args.seed, generations=10**6)
+    if args.threads is not None:
+        config = config.replace(threads=args.threads)
+    out = args.out or Path(tempfile.mkdtemp(prefix="walk-bench-"))
+    run = Run.create(config, out, log=lambda line: progress(line, args.json))
+    judge = LocomotionEvaluator(run.robot, config.task, 1, threads=1)
+    leg = run.robot.body.leg_length
+    budget = args.minutes * 60.0
+    start = time.perf_counter()
+    state = {"walked": False, "minutes_to_walk": None, "best_distance_m": 0.0, "generation": None}
+
+    def stop(run: Run, row: dict) -> bool:
+        champion = run.champion
+        result = judge.evaluate([champion.genome], config.neat.sigmoid_steepness, harness=0.0)
+        distance, upright = float(result.distance_m[0]), float(result.upright_s[0])
+        full = upright >= judge.n_ticks * judge.tick_s - 1e-9
+        state["best_distance_m"] = max(state["best_distance_m"], distance if full else 0.0)
+        if full and not result.fell[0] and distance >= WALK_LEG_LENGTHS * leg:
+            state.update(walked=True, minutes_to_walk=(time.perf_counter() - start) / 60.0,
+                         generation=row["generation"], walk_distance_m=distance)
+            return True
+        return time.perf_counter() - start > budget
+
+    run.evolve(stop=stop)
+    report({
+        "walked": state["walked"],
+        "best_distance_m": state.get("walk_distance_m", state["best_distance_m"]),
+        "leg_length_m": leg,
+        "required_m": WALK_LEG_LENGTHS * leg,
+        "minutes_to_walk": state["minutes_to_walk"],
+        "generations": run.population.generation,
+        "walk_generation": state["generation"],
+        "seed": args.seed,
+        "population": config.neat.population_size,
+        "episode_s": config.task.episode_s,
+        "wall_minutes": (time.perf_counter() - start) / 60.0,
+        "run_dir": str(out),
+    }, args.json)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,115 @@
+"""`biped evolve` end to end: a short run, its folder, resume, eval, export and video."""
+
+import csv
+import json
+import subprocess
+import sys
+
+import pytest
+import yaml
+
+from evolve.cli import main
+from sim2real.controller import load_controller
+from sim2real.errors import ConfigError
+from sim2real.robot import load_robot
+
+SMALL = {
+    "robot": "xl430_biped", "seed": 5, "generations": 4, "threads": 2, "checkpoint_every": 2,
+    "task": {"episode_s": 1.0, "harness_generations": 2, "harness_fade_generations": 1},
+    "neat": {"population_size": 10, "target_species": 3, "compat_threshold": 0.5,
+             "add_node_prob": 0.2, "add_link_prob": 0.3},
+}
+DETERMINISTIC = ("generation", "best_fitness", "mean_fitness", "best_distance_m", "best_upright_s", "species",
+                 "mean_connections", "mean_hidden", "evaluations", "harness", "threshold")
+
+
+@pytest.fixture
+def config_file(tmp_path):
+    path = tmp_path / "small.yaml"
+    path.write_text(yaml.safe_dump(SMALL))
+    return path
+
+
+def _stats(run_dir):
+    with open(run_dir / "stats.csv", newline="") as f:
+        return [{k: row[k] for k in DETERMINISTIC} for row in csv.DictReader(f)]
+
+
+def test_evolve_writes_the_run_folder(config_file, tmp_path):
+    out = tmp_path / "run"
+    assert main(["evolve", str(config_file), "--out", str(out), "--quiet"]) == 0
+    for name in ("config.yaml", "checkpoint.json.gz", "stats.csv", "fitness.png", "controller.json", "best.json"):
+        assert (out / name).exists(), name
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == [
+        "gen_00000.json.gz", "gen_00002.json.gz", "gen_00004.json.gz"]
+    rows = _stats(out)
+    assert [int(r["generation"]) for r in rows] == [0, 1, 2, 3]
+    assert [float(r["harness"]) for r in rows] == [1.0, 0.5, 0.0, 0.0]
+    resolved = yaml.safe_load((out / "config.yaml").read_text())
+    assert resolved["neat"]["weight_sigma"] > 0  # every default written out
+    controller = load_controller(out / "controller.json", load_robot())
+    assert controller["provenance"]["seed"] == 5
+    assert len(controller["inputs"]) == 11 and controller["bias"] == [[1.0, 1.0], [1.0, -1.0]]
+
+
+def test_resumed_run_continues_exactly_as_an_uninterrupted_one(config_file, tmp_path):
+    straight, split = tmp_path / "straight", tmp_path / "split"
+    assert main(["evolve", str(config_file), "--out", str(straight), "--quiet"]) == 0
+    assert main(["evolve", str(config_file), "--out", str(split), "--generations", "2", "--quiet"]) == 0
+    assert main(["evolve", "--resume", "--out", str(split), "--generations", "4", "--quiet"]) == 0
+    assert _stats(split) == _stats(straight)
+    a = json.loads((straight / "controller.json").read_text())
+    b = json.loads((split / "controller.json").read_text())
+    assert a["connections"] == b["connections"] and a["hidden"] == b["hidden"]
+
+
+def test_the_same_seed_gives_the_same_run_whatever_the_threads(config_file, tmp_path):
+    assert main(["evolve", str(config_file), "--out", str(tmp_path / "a"), "--threads", "1", "--quiet"]) == 0
+    assert main(["evolve", str(config_file), "--out", str(tmp_path / "b"), "--threads", "2", "--quiet"]) == 0
+    assert _stats(tmp_path / "a") == _stats(tmp_path / "b")
+
+
+def test_eval_export_and_render_a_controller(config_file, tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["evolve", str(config_file), "--out", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["eval", str(out / "controller.json"), "--seconds", "1", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert set(report) >= {"distance_m", "upright_s", "fell", "leg_length_m"}
+    assert report["leg_length_m"] == pytest.approx(load_robot().body.leg_length)
+    assert main(["export", str(out), "-o", str(tmp_path / "c.json")]) == 0
+    assert load_controller(tmp_path / "c.json") == load_controller(out / "controller.json")
+    video = tmp_path / "walk.gif"
+    result = subprocess.run([sys.executable, "-m", "evolve.cli", "render", str(out / "controller.json"),
+                             "-o", str(video), "--seconds", "0.5", "--width", "160", "--height", "120"],
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert video.stat().st_size > 1000
+
+
+def test_a_controller_for_another_robot_or_a_broken_file_is_refused(config_file, tmp_path):
+    out = tmp_path / "run"
+    assert main(["evolve", str(config_file), "--out", str(out), "--quiet"]) == 0
+    with pytest.raises(ConfigError, match="robot.joint_map_hash: made for robot 'xl430_biped'"):
+        load_controller(out / "controller.json", load_robot("op3_legs"))
+    broken = tmp_path / "broken.json"
+    broken.write_text((out / "controller.json").read_text()[:200])
+    with pytest.raises(ConfigError, match="broken.json: not valid JSON"):
+        load_controller(broken)
+    data = json.loads((out / "controller.json").read_text())
+    data["connections"].append([0, 9999, 1.0, 0])
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(data))
+    with pytest.raises(ConfigError, match=r"connections\[\d+\]: dst 9999 is not a node"):
+        load_controller(bad)
+
+
+def test_an_existing_run_is_not_overwritten_and_bad_configs_are_named(config_file, tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["evolve", str(config_file), "--out", str(out), "--generations", "1", "--quiet"]) == 0
+    assert main(["evolve", str(config_file), "--out", str(out), "--quiet"]) == 2
+    assert "already holds a run" in capsys.readouterr().err
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump({**SMALL, "task": {"episode_seconds": 3}}))
+    assert main(["evolve", str(bad), "--out", str(tmp_path / "x"), "--quiet"]) == 2
+    assert "bad.yaml: task.episode_seconds: unknown task parameter" in capsys.readouterr().err
