@@ -212,18 +212,8 @@ def hold_ctrl(robot: RobotSpec, driven: set[str] | frozenset[str]) -> np.ndarray
     return np.array([j.home_rad if j.name in driven else j.center_rad for j in robot.joints])
 
 
-def build_model(robot: RobotSpec) -> mujoco.MjModel:
-    """Compile the robot, with PD gains scaled by joint inertia and the ``home`` keyframe."""
-    spec = build_spec(robot)
-    model = spec.compile()
-    if robot.pd is not None:
-        _scale_pd_gains(robot, spec, model)
-    _home_keyframe(robot, spec, model)
-    return spec.compile()
-
-
-def build_spec_with_keyframe(robot: RobotSpec) -> mujoco.MjSpec:
-    """Like :func:`build_model` but returns the finished spec (for MJCF export)."""
+def finished_spec(robot: RobotSpec) -> mujoco.MjSpec:
+    """:func:`build_spec` with PD gains scaled by joint inertia and the ``home`` keyframe."""
     spec = build_spec(robot)
     model = spec.compile()
     if robot.pd is not None:
@@ -232,9 +222,14 @@ def build_spec_with_keyframe(robot: RobotSpec) -> mujoco.MjSpec:
     return spec
 
 
+def build_model(robot: RobotSpec) -> mujoco.MjModel:
+    """The robot's compiled MuJoCo model."""
+    return finished_spec(robot).compile()
+
+
 def to_mjcf(robot: RobotSpec) -> str:
     """Self-contained MJCF text of the robot (no external assets)."""
-    spec = build_spec_with_keyframe(robot)
+    spec = finished_spec(robot)
     spec.compile()
     return spec.to_xml()
 

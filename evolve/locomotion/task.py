@@ -30,7 +30,7 @@ class TaskConfig:
     control_set: str = "walk"  # which joints the controller drives (robot's control_sets)
     episode_s: float = 10.0  # simulated seconds per evaluation
     distance_coeff: float = 1.0  # c_d, per leg length walked
-    time_coeff: float = 0.02  # c_t, per second
+    time_coeff: float = 0.3  # c_t, per second upright (10 s upright ~ 3 leg lengths walked)
     epsilon: float = 1e-3  # eps of eq. 3
     fall_height: float = 0.7  # pelvis CoM below this share of its start height ends a trial
     fall_tilt_deg: float = 60.0  # so does a torso tilted this far (a fall the harness hides)
