@@ -113,3 +113,28 @@ def test_an_existing_run_is_not_overwritten_and_bad_configs_are_named(config_fil
     bad.write_text(yaml.safe_dump({**SMALL, "task": {"episode_seconds": 3}}))
     assert main(["evolve", str(bad), "--out", str(tmp_path / "x"), "--quiet"]) == 2
     assert "bad.yaml: task.episode_seconds: unknown task parameter" in capsys.readouterr().err
+
+
+def test_ctrl_c_leaves_a_checkpoint_that_resumes_exactly(config_file, tmp_path):
+    import signal
+    import time
+
+    long = tmp_path / "long.yaml"
+    long.write_text(yaml.safe_dump({**SMALL, "generations": 8}))
+    straight, stopped = tmp_path / "straight", tmp_path / "stopped"
+    assert main(["evolve", str(long), "--out", str(straight), "--quiet"]) == 0
+    proc = subprocess.Popen([sys.executable, "-m", "evolve.cli", "evolve", str(long), "--out", str(stopped)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if (stopped / "stats.csv").exists() and len((stopped / "stats.csv").read_text().splitlines()) >= 3:
+            break
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    if proc.returncode == 0:
+        pytest.skip("the run finished before the interrupt arrived")
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "--resume" in err
+    assert main(["evolve", "--resume", "--out", str(stopped), "--quiet"]) == 0
+    assert _stats(stopped) == _stats(straight)
