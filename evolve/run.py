@@ -16,6 +16,7 @@ harness; harness-era champions stand in only until a generation runs without it.
 from __future__ import annotations
 
 import csv
+import hashlib
 import math
 import shutil
 import time
@@ -173,9 +174,12 @@ class Run:
 
     def controller(self) -> dict:
         b = self.best
+        config_yaml = self.config.to_yaml()
         provenance = {"seed": self.config.seed, "generation": b.generation, "fitness": b.fitness,
                       "distance_m": b.distance_m, "upright_s": b.upright_s, "harness": b.harness,
-                      "run": str(self.out.resolve()), "config": self.config.to_dict()}
+                      "config_hash": hashlib.sha256(config_yaml.encode()).hexdigest()[:16],
+                      "code_version": code_version(), "run": str(self.out.resolve()),
+                      "config": self.config.to_dict()}
         return controller_from_genome(b.genome, self.robot, self.evaluator.layout, self.config.task,
                                       self.config.neat.sigmoid_steepness, provenance)
 
@@ -186,6 +190,15 @@ class Run:
 
     def plot(self) -> None:
         plot_stats(self.out / "stats.csv", self.out / "fitness.png")
+
+
+def code_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("servo-biped-evolve")
+    except PackageNotFoundError:
+        return "unknown"
 
 
 def _fmt(value) -> str:

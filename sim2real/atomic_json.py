@@ -14,16 +14,20 @@ from pathlib import Path
 from typing import Any
 
 
-def write_json_atomic(path: Path | str, data: Any, indent: int | None = None) -> None:
+def write_json_atomic(path: Path | str, data: Any) -> None:
+    write_text_atomic(path, json.dumps(data, separators=(",", ":")))
+
+
+def write_text_atomic(path: Path | str, text: str) -> None:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = (json.dumps(data, indent=indent) if indent else json.dumps(data, separators=(",", ":"))).encode()
+    raw = text.encode()
     if path.suffix == ".gz":
-        text = gzip.compress(text, compresslevel=6, mtime=0)
+        raw = gzip.compress(raw, compresslevel=6, mtime=0)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as f:
-            f.write(text)
+            f.write(raw)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)

@@ -1,0 +1,50 @@
+"""The deploy-side network runtime gives the evolution's numbers for the same inputs."""
+
+import numpy as np
+import pytest
+
+from evolve.locomotion.export import controller_from_genome
+from evolve.locomotion.symmetry import bias_values, symmetric_layout
+from evolve.locomotion.task import TaskConfig
+from evolve.neat import NeatConfig, Population, PopulationNetwork
+from sim2real.network_runtime import ControllerNetworks
+from sim2real.robot import load_robot
+
+
+def _grown_controller(seed=4, modules=("main",)):
+    robot = load_robot()
+    layout = symmetric_layout(robot, robot.control_sets["walk"])
+    config = NeatConfig(population_size=20, target_species=3, add_node_prob=0.4, add_link_prob=0.6,
+                        sigmoid_steepness=2.5)
+    pop = Population(config, layout.neat_layout, seed=seed, modules=modules)
+    rng = np.random.default_rng(seed)
+    for _ in range(12):
+        pop.step(lambda gs: rng.random(len(gs)))
+    genome = max(pop.genomes, key=lambda g: len(g.conns))
+    return genome, controller_from_genome(genome, robot, layout, TaskConfig(), 2.5, {"seed": seed})
+
+
+def test_runtime_equals_evolution_activation_over_1000_ticks():
+    genome, controller = _grown_controller()
+    assert len(genome.hidden) >= 3
+    evolution = PopulationNetwork([genome, genome], 2.5, bias_values=bias_values(1))
+    runtime = ControllerNetworks(controller)
+    rng = np.random.default_rng(0)
+    worst = 0.0
+    for _ in range(1000):
+        x = rng.uniform(-1, 1, (2, runtime.n_inputs))
+        worst = max(worst, float(np.abs(runtime.activate(x) - evolution.activate(x)).max()))
+    assert worst <= 1e-12
+
+
+def test_switching_a_module_off_by_name():
+    genome, controller = _grown_controller(modules=("pose", "walk"))
+    controller["modules"] = [{"name": "pose", "enabled": True}, {"name": "walk", "enabled": True}]
+    for conn in controller["connections"][::2]:
+        conn[3] = 1  # put half of the connections into the upper module
+    full = ControllerNetworks(controller)
+    lower = ControllerNetworks(controller, disabled_modules=["walk"])
+    x = np.full((2, full.n_inputs), 0.3)
+    assert not np.allclose(full.activate(x), lower.activate(x))
+    with pytest.raises(ValueError, match="unknown module"):
+        ControllerNetworks(controller, disabled_modules=["run"])
