@@ -138,3 +138,22 @@ def test_ctrl_c_leaves_a_checkpoint_that_resumes_exactly(config_file, tmp_path):
     assert "Traceback" not in err and "--resume" in err
     assert main(["evolve", "--resume", "--out", str(stopped), "--quiet"]) == 0
     assert _stats(stopped) == _stats(straight)
+
+
+def test_controller_matches_its_json_schema_and_stays_small(config_file, tmp_path):
+    import json as _json
+    from pathlib import Path
+
+    import jsonschema
+
+    import sim2real
+
+    out = tmp_path / "run"
+    assert main(["evolve", str(config_file), "--out", str(out), "--quiet"]) == 0
+    schema = _json.loads((Path(sim2real.__file__).parent / "schemas" / "controller-v1.schema.json").read_text())
+    data = _json.loads((out / "controller.json").read_text())
+    jsonschema.validate(data, schema)
+    data["connections"] = [[0, 13 + (i % 4), 0.123456789012345 * i, 0] for i in range(300)]
+    from sim2real.controller import save_controller
+    save_controller(tmp_path / "big.json", data)
+    assert (tmp_path / "big.json").stat().st_size < 20_000
