@@ -41,3 +41,53 @@ def quantize(angle: np.ndarray, resolution: np.ndarray) -> np.ndarray:
 def normalized_angle(angle: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
     """A joint angle as a network input: -1 at the low end of the range, +1 at the high end."""
     return 2.0 * (angle - low) / (high - low) - 1.0
+
+
+class ServoMapping:
+    """Joint angles <-> servo ticks for a robot's servos, with every limit applied.
+
+    ``servo angle = direction * joint angle + zero_offset`` (from the servo's centre tick),
+    ``tick = centre + servo angle / rad_per_tick``.  Goals are clamped inside the joint's
+    range *and* the servo's position range before they become ticks, so no caller can write
+    a goal outside the limits.
+    """
+
+    def __init__(self, robot) -> None:
+        joints = [j for j in robot.joints if j.servo is not None]
+        if len(joints) != len(robot.joints):
+            raise ValueError(f"robot {robot.name} has joints without servos")
+        self.names = tuple(j.name for j in joints)
+        self.ids = np.array([j.servo.id for j in joints])
+        self.direction = np.array([float(j.servo.direction) for j in joints])
+        self.offset = np.array([j.servo.zero_offset_rad for j in joints])
+        self.rad_per_tick = np.array([j.servo.profile.position.rad_per_tick for j in joints])
+        self.center = np.array([j.servo.profile.position.center_tick for j in joints], dtype=float)
+        self.min_tick = np.array([j.servo.profile.position.min_tick for j in joints])
+        self.max_tick = np.array([j.servo.profile.position.max_tick for j in joints])
+        low = np.array([j.range_rad[0] for j in joints])
+        high = np.array([j.range_rad[1] for j in joints])
+        # the servo's own range, seen as joint angles
+        servo_a = self.angles(self.min_tick.astype(float))
+        servo_b = self.angles(self.max_tick.astype(float))
+        self.low = np.maximum(low, np.minimum(servo_a, servo_b))
+        self.high = np.minimum(high, np.maximum(servo_a, servo_b))
+        # the same limits in ticks, rounded inward: a rounded goal cannot step outside them
+        a = self.center + (self.direction * self.low + self.offset) / self.rad_per_tick
+        b = self.center + (self.direction * self.high + self.offset) / self.rad_per_tick
+        self.tick_low = np.ceil(np.minimum(a, b) - 1e-9).astype(np.int64)
+        self.tick_high = np.floor(np.maximum(a, b) + 1e-9).astype(np.int64)
+
+    def clamp(self, angles: np.ndarray) -> np.ndarray:
+        """Inside the joint's and the servo's limits [rad]."""
+        return np.clip(angles, self.low, self.high)
+
+    def ticks(self, angles: np.ndarray) -> np.ndarray:
+        """Goal ticks (int64) for joint angles, clamped to every limit first."""
+        servo = self.direction * self.clamp(angles) + self.offset
+        ticks = np.rint(self.center + servo / self.rad_per_tick).astype(np.int64)
+        return np.clip(ticks, self.tick_low, self.tick_high)
+
+    def angles(self, ticks: np.ndarray) -> np.ndarray:
+        """Joint angles [rad] for present ticks."""
+        servo = (np.asarray(ticks, dtype=float) - self.center) * self.rad_per_tick
+        return (servo - self.offset) * self.direction

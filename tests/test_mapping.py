@@ -27,3 +27,40 @@ def test_quantize_rounds_to_the_encoder_resolution_and_zero_means_exact():
 
 def test_normalized_angle_is_minus_one_to_one_over_the_range():
     assert normalized_angle(np.array([0.0, 1.0, 2.0]), 0.0, 2.0) == pytest.approx([-1, 0, 1])
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from sim2real.mapping import ServoMapping  # noqa: E402
+from sim2real.robot import load_robot  # noqa: E402
+
+XL430 = ServoMapping(load_robot("xl430_biped"))
+
+
+def test_ticks_and_angles_round_trip_within_one_tick():
+    angles = (XL430.low + XL430.high) / 2 + 0.1
+    back = XL430.angles(XL430.ticks(angles))
+    assert np.all(np.abs(back - angles) <= XL430.rad_per_tick / 2 + 1e-12)
+
+
+def test_direction_and_zero_offset_are_applied():
+    robot = load_robot("xl430_biped")
+    zero = XL430.ticks(np.zeros(len(robot.joints)))
+    assert np.all(zero == 2048)  # joint 0 is the horn's centre on this robot
+    names = list(XL430.names)
+    right, left = names.index("right_knee"), names.index("left_knee")
+    bent = np.zeros(len(names))
+    bent[[right, left]] = 0.5
+    ticks = XL430.ticks(bent)
+    assert ticks[right] > 2048 > ticks[left]  # the left knee's servo is mounted mirrored
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(allow_nan=False, allow_infinity=False, min_value=-1e6, max_value=1e6),
+                min_size=11, max_size=11))
+def test_no_goal_ever_leaves_the_joint_or_servo_limits(values):
+    ticks = XL430.ticks(np.array(values))
+    assert np.all(ticks >= XL430.min_tick) and np.all(ticks <= XL430.max_tick)
+    angles = XL430.angles(ticks)
+    assert np.all(angles >= XL430.low - 1e-9) and np.all(angles <= XL430.high + 1e-9)
