@@ -46,7 +46,7 @@ def main(argv=None) -> None:
     progress(f"bare stepping: {bare:,.0f} steps/s", args.json)
 
     config = NeatConfig(population_size=n, target_species=max(1, n // 10), compat_threshold=0.6)
-    pop = Population(config, evaluator.layout.neat_layout, seed=args.seed)
+    pop = Population(config, evaluator.neat_layout, seed=args.seed)
     steps, eval_s, ga_s = 0, 0.0, 0.0
     for _ in range(args.generations):
         t0 = time.perf_counter()

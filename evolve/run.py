@@ -65,7 +65,7 @@ class Run:
         self.config, self.out, self.log = config, Path(out), log
         self.robot = load_robot(config.robot)
         self.evaluator = LocomotionEvaluator(self.robot, config.task, config.neat.population_size, config.threads)
-        self.population = population or Population(config.neat, self.evaluator.layout.neat_layout, seed=config.seed)
+        self.population = population or Population(config.neat, self.evaluator.neat_layout, seed=config.seed)
         self.best: Best | None = None
         self.champion: Best | None = None
         self.wall_s = 0.0

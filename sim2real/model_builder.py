@@ -9,8 +9,8 @@ Collision filtering: legs collide with the floor and with the other leg, the tru
 pelvis only with the floor; links of one side never collide with each other (adjacent
 links overlap at the joints, and a servo bracket cannot pass through itself anyway).
 
-Sensors: ``<side>_foot_touch`` (normal force under each sole [N]), ``torso_up`` (the
-trunk's z axis in world coordinates, i.e. the normalized up-vector) and
+Sensors: ``<side>_foot_touch`` (normal force under each sole [N]), ``torso_up`` (world up
+in the torso frame, x forward, y left, z up: what the sensor board's IMU reports) and
 ``<joint>_pos`` (joint angles [rad], unquantized: the robot-side readers quantize them).
 The keyframe ``home`` holds the standing pose in ``qpos`` and ``ctrl``.
 
@@ -162,8 +162,10 @@ def build_spec(robot: RobotSpec) -> mujoco.MjSpec:
         spec.add_sensor(name=f"{side}_foot_touch", type=mujoco.mjtSensor.mjSENS_TOUCH,
                         objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"{side}_sole")
 
+    # world up in the torso frame: what the sensor board's IMU reports
     spec.add_sensor(name="torso_up", type=mujoco.mjtSensor.mjSENS_FRAMEZAXIS,
-                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
+                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname="world",
+                    reftype=mujoco.mjtObj.mjOBJ_SITE, refname="imu")
     for joint in robot.joints:
         spec.add_sensor(name=f"{joint.name}_pos", type=mujoco.mjtSensor.mjSENS_JOINTPOS,
                         objtype=mujoco.mjtObj.mjOBJ_JOINT, objname=joint.name)

@@ -5,8 +5,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from evolve.locomotion.evaluator import LocomotionEvaluator
-from evolve.locomotion.symmetry import bias_values, joint_outputs, network_inputs, symmetric_layout
+from evolve.locomotion.evaluator import LocomotionEvaluator, neat_layout
+from sim2real.symmetry import bias_values, joint_outputs, network_inputs, symmetric_layout
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, NeatConfig, Population
 from sim2real.robot import load_robot
@@ -17,7 +17,7 @@ TASK = TaskConfig(episode_s=1.5)
 
 @pytest.fixture(scope="module")
 def genomes():
-    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"]).neat_layout
+    layout = neat_layout(symmetric_layout(ROBOT, ROBOT.control_sets["walk"]))
     pop = Population(NeatConfig(population_size=12, target_species=3, add_node_prob=0.3, add_link_prob=0.5),
                      layout, seed=3)
     rng = np.random.default_rng(0)
@@ -30,7 +30,7 @@ def test_walk_preset_gives_seed_000s_eleven_inputs():
     layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
     assert len(layout.input_names) == 11  # 7 joint angles, 2 feet, 2 tilts
     assert layout.output_names == ("own_hip_roll", "own_hip_pitch", "own_knee", "waist_yaw")
-    assert layout.neat_layout.n_bias == 2
+    assert layout.n_bias == 2
 
 
 def test_a_mirror_symmetric_state_reads_the_same_on_both_sides():
@@ -40,11 +40,11 @@ def test_a_mirror_symmetric_state_reads_the_same_on_both_sides():
     for side in ("right", "left"):
         joints[0, layout.leg_index[side]] = [0.1, -0.4, 0.7]  # the same anatomical pose
     feet = np.array([[-1.0, -1.0]])
-    up = np.array([[0.05, 0.0, 0.998]])  # leaning forward only
+    up = np.array([[-0.05, 0.0, 0.998]])  # leaning forward only (world up tilts back in the torso frame)
     right, left = network_inputs(layout, joints, feet, up)
     assert right == pytest.approx(left)
     # leaning toward the right reads as "toward me" on the right and "away" on the left
-    right, left = network_inputs(layout, joints, feet, np.array([[0.0, -0.1, 0.995]]))
+    right, left = network_inputs(layout, joints, feet, np.array([[0.0, 0.1, 0.995]]))
     assert right[-1] == pytest.approx(0.1) and left[-1] == pytest.approx(-0.1)
     # own foot first
     right, left = network_inputs(layout, joints, np.array([[1.0, -1.0]]), up)
@@ -86,7 +86,7 @@ def test_batched_evaluation_equals_evaluating_each_genome_alone(genomes):
 
 
 def test_a_network_without_connections_stands_still_and_stops_for_stagnation():
-    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"]).neat_layout
+    layout = neat_layout(symmetric_layout(ROBOT, ROBOT.control_sets["walk"]))
     still = Genome(0, layout)  # every output sigmoid(0) = 0.5: the middle of each range
     task = TaskConfig(episode_s=6.0, stagnation_s=2.0)
     result = LocomotionEvaluator(ROBOT, task, 1, threads=1).evaluate([still], 1.0)

@@ -104,3 +104,14 @@ def test_holding_torque_of_a_stance_hip_roll_is_body_weight_times_half_hip_spaci
     assert torques["right_hip_roll"].torque_nm == pytest.approx(expected, rel=1e-6)
     assert torques["waist_yaw"].margin is None  # a yaw axis carries no gravity load
     assert all(t.margin is None or t.margin > 1.5 for t in torques.values())
+
+
+def test_torso_up_reads_world_up_in_the_torso_frame_as_an_imu_does():
+    model = build_model(load_robot())
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    tilt = 0.3
+    data.qpos[3:7] = [np.cos(tilt / 2), 0, np.sin(tilt / 2), 0]  # pitched forward about +y
+    mujoco.mj_forward(model, data)
+    up = data.sensor("torso_up").data
+    assert up == pytest.approx([-np.sin(tilt), 0, np.cos(tilt)], abs=1e-9)

@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
+from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
-from evolve.locomotion.symmetry import bias_values, symmetric_layout
+from sim2real.symmetry import bias_values, symmetric_layout
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population, PopulationNetwork
 from sim2real.network_runtime import ControllerNetworks
@@ -16,7 +17,7 @@ def _grown_controller(seed=4, modules=("main",)):
     layout = symmetric_layout(robot, robot.control_sets["walk"])
     config = NeatConfig(population_size=20, target_species=3, add_node_prob=0.4, add_link_prob=0.6,
                         sigmoid_steepness=2.5)
-    pop = Population(config, layout.neat_layout, seed=seed, modules=modules)
+    pop = Population(config, neat_layout(layout), seed=seed, modules=modules)
     rng = np.random.default_rng(seed)
     for _ in range(12):
         pop.step(lambda gs: rng.random(len(gs)))

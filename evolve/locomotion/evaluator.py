@@ -22,9 +22,9 @@ import mujoco
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
-from evolve.locomotion.symmetry import bias_values, joint_outputs, network_inputs, symmetric_layout
+from sim2real.symmetry import SymmetricLayout, bias_values, joint_outputs, network_inputs, symmetric_layout
 from evolve.locomotion.task import TaskConfig
-from evolve.neat import Genome, PopulationNetwork
+from evolve.neat import Genome, Layout, PopulationNetwork
 from sim2real.mapping import normalized_angle, output_to_angle, quantize, rate_limit
 from sim2real.model_builder import build_model, hold_ctrl
 from sim2real.robot import RobotSpec
@@ -32,6 +32,11 @@ from sim2real.timing import control_timing
 
 GRAVITY = 9.81
 MAX_JOINT_SPEED = 1e3  # [rad/s] beyond this a simulation is numerically unstable
+
+
+def neat_layout(layout: SymmetricLayout) -> Layout:
+    """The NEAT genome interface of a symmetric controller."""
+    return Layout(layout.n_inputs, layout.n_bias, layout.n_outputs)
 
 
 @dataclass(frozen=True)
@@ -82,6 +87,10 @@ class LocomotionEvaluator:
         self.ctrl, self.xfrc = self.batch.bind("ctrl"), self.batch.bind("xfrc_applied")
         self.sensordata = self.batch.bind("sensordata")
         self.site_xpos, self.xipos = self.batch.bind("site_xpos"), self.batch.bind("xipos")
+
+    @property
+    def neat_layout(self) -> Layout:
+        return neat_layout(self.layout)
 
     @property
     def max_population(self) -> int:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from evolve.locomotion.symmetry import SymmetricLayout
+from sim2real.symmetry import SymmetricLayout
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, Layout
 from evolve.neat.network import expressed

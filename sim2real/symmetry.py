@@ -4,12 +4,13 @@ Each network reads its side's view of the robot and drives its side's joints:
 
 * inputs: the driven joint angles of its own leg, then of the other leg, then of the centre
   (waist) joints, each normalized to [-1, 1] over the joint's range; the foot contacts,
-  own foot first (-1 touching, +1 not); the torso's up-vector tilt forward and sideways.
-  Joint angles are anatomical, so the two legs already read alike; the sideways tilt and
-  the waist's yaw and roll are mirrored for the left network.  With the walk preset of a
-  biped with a waist, that is seed 000's eleven inputs.  The paper names its tilt inputs
-  X and Z: the horizontal components of the up-vector in its y-up world, which are
-  forward and sideways here (z up).
+  own foot first (-1 touching, +1 not); the torso's tilt forward and toward the network's
+  own side, from the up-vector as an IMU measures it (world up in the torso frame: x
+  forward, y left, z up).  Joint angles are anatomical, so the two legs already read alike;
+  the sideways tilt and the waist's yaw and roll are mirrored for the left network.  With
+  the walk preset of a biped with a waist, that is seed 000's eleven inputs.  The paper
+  names its tilt inputs X and Z: the horizontal components of the up-vector in its y-up
+  world, which are forward and sideways here.
 * two bias nodes: +1, and +1 on the right, -1 on the left.
 * outputs: its own leg's driven joints, then the centre joints; a centre joint gets the
   mean of the two networks' outputs (activations, as the paper says).
@@ -23,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from evolve.neat import Layout
 from sim2real.robot import RobotSpec
 
 SIDES = ("right", "left")
@@ -39,9 +39,15 @@ class SymmetricLayout:
     input_names: tuple[str, ...]
     output_names: tuple[str, ...]
 
+    n_bias = 2  # +1, and +1 right / -1 left
+
     @property
-    def neat_layout(self) -> Layout:
-        return Layout(len(self.input_names), 2, len(self.output_names))
+    def n_inputs(self) -> int:
+        return len(self.input_names)
+
+    @property
+    def n_outputs(self) -> int:
+        return len(self.output_names)
 
     @property
     def n_leg(self) -> int:
@@ -93,7 +99,7 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
     Args:
       joints: (n, n_joints) normalized joint angles in robot order, in [-1, 1].
       feet: (n, 2) foot contacts, columns (left, right): -1 touching, +1 not.
-      up: (n, 3) the torso's up-vector in world coordinates.
+      up: (n, 3) world up in the torso frame (an IMU's normalized gravity, negated).
 
     Returns:
       (2 n, n_inputs), rows interleaved right, left.
@@ -113,9 +119,10 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
         row[:, 2 * k:2 * k + len(layout.center_index)] = center * mirror
         row[:, -4] = own_foot
         row[:, -3] = other_foot
-        row[:, -2] = up[:, 0]
-        # sideways tilt toward the network's own side is positive on both sides
-        row[:, -1] = -up[:, 1] * side_sign
+        row[:, -2] = -up[:, 0]  # leaning forward is positive
+        # leaning toward the network's own side is positive on both sides (leaning right
+        # tilts world up toward the torso's +y)
+        row[:, -1] = up[:, 1] * side_sign
     return out.reshape(2 * n, -1)
 
 

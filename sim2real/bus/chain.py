@@ -1,0 +1,109 @@
+"""A robot's devices on a bus: named registers, signed values, retries, the sensor board.
+
+The middle layer between the real-time loop and any :class:`Bus`: it maps register names to
+addresses from each device's profile, decodes signed fields, retries missing replies
+(``retries`` more times, then one :class:`CommunicationError` naming the servos), and reads
+the foot switches and up-vector from the sensor board.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, TypeVar
+
+import numpy as np
+
+from sim2real.bus.base import Bus, CommunicationError
+from sim2real.profiles import DeviceProfile, Register
+from sim2real.robot import RobotSpec
+
+T = TypeVar("T")
+
+
+def decode(reg: Register, raw: int) -> int:
+    if reg.encoding == "sign_magnitude_bit10":
+        return -(raw & 0x3FF) if raw & 0x400 else raw & 0x3FF
+    if reg.signed and raw >= 1 << (8 * reg.size - 1):
+        return raw - (1 << (8 * reg.size))
+    return raw
+
+
+def encode(reg: Register, value: int) -> int:
+    value = int(value)
+    lo, hi = (-(1 << (8 * reg.size - 1)), (1 << (8 * reg.size - 1)) - 1) if reg.signed else (0, (1 << (8 * reg.size)) - 1)
+    if not lo <= value <= hi:
+        raise ValueError(f"{reg.name}: {value} does not fit {reg.size} {'signed' if reg.signed else 'unsigned'} bytes")
+    return value & ((1 << (8 * reg.size)) - 1)
+
+
+class ServoChain:
+    def __init__(self, bus: Bus, robot: RobotSpec, retries: int = 2):
+        self.bus, self.robot, self.retries = bus, robot, retries
+        self.servo_ids = [j.servo.id for j in robot.joints if j.servo is not None]
+        self.devices: dict[int, DeviceProfile] = {j.servo.id: j.servo.profile for j in robot.joints if j.servo}
+        self.board_id = robot.sensor_board.id if robot.sensor_board else None
+        if robot.sensor_board:
+            self.devices[self.board_id] = robot.sensor_board.profile
+
+    def _retry(self, call: Callable[[], T]) -> T:
+        for attempt in range(self.retries + 1):
+            try:
+                return call()
+            except CommunicationError:
+                if attempt == self.retries:
+                    raise
+        raise AssertionError("unreachable")
+
+    def register(self, dxl_id: int, name: str) -> Register:
+        return self.devices[dxl_id].register(name)
+
+    def read(self, dxl_id: int, name: str) -> int:
+        reg = self.register(dxl_id, name)
+        return decode(reg, self._retry(lambda: self.bus.read(dxl_id, reg.address, reg.size)))
+
+    def write(self, dxl_id: int, name: str, value: int) -> None:
+        reg = self.register(dxl_id, name)
+        raw = encode(reg, value)
+        self._retry(lambda: self.bus.write(dxl_id, reg.address, reg.size, raw))
+
+    def _common(self, ids: list[int], name: str) -> Register:
+        regs = {(r.address, r.size) for r in (self.register(i, name) for i in ids)}
+        if len(regs) != 1:
+            raise ValueError(f"{name} differs in address or size between servos {ids}: no sync access")
+        return self.register(ids[0], name)
+
+    def sync_read(self, name: str, ids: list[int] | None = None) -> np.ndarray:
+        """Decoded values in ``ids`` order (default: every servo in joint order)."""
+        ids = self.servo_ids if ids is None else ids
+        reg = self._common(ids, name)
+        raw = self._retry(lambda: self.bus.sync_read(ids, reg.address, reg.size))
+        return np.array([decode(reg, raw[i]) for i in ids], dtype=np.int64)
+
+    def sync_write(self, name: str, values: np.ndarray, ids: list[int] | None = None) -> None:
+        ids = self.servo_ids if ids is None else ids
+        reg = self._common(ids, name)
+        self.bus.sync_write(reg.address, reg.size, {i: encode(reg, v) for i, v in zip(ids, values)})
+
+    def torque(self, on: bool, ids: list[int] | None = None) -> None:
+        for dxl_id in self.servo_ids if ids is None else ids:
+            self.write(dxl_id, "torque_enable", int(on))
+
+    def read_board(self) -> tuple[np.ndarray, np.ndarray]:
+        """Foot switches (left, right: True touching) and the torso up-vector (unit, torso frame)."""
+        if self.board_id is None:
+            raise ValueError(f"robot {self.robot.name} has no sensor board")
+        profile = self.devices[self.board_id]
+        first = profile.register("foot_switch_left")
+        last = profile.register("up_vector_z")
+        size = last.address + last.size - first.address
+        raw = self._retry(lambda: self.bus.read(self.board_id, first.address, size))
+        block = raw.to_bytes(size, "little")
+
+        def field(name: str) -> int:
+            reg = profile.register(name)
+            offset = reg.address - first.address
+            return decode(reg, int.from_bytes(block[offset:offset + reg.size], "little"))
+
+        touching = profile.sensors.get("foot_switch", {}).get("touching", 1)
+        feet = np.array([field("foot_switch_left") == touching, field("foot_switch_right") == touching])
+        up = np.array([field("up_vector_x"), field("up_vector_y"), field("up_vector_z")], dtype=float) / 16384.0
+        return feet, up

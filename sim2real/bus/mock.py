@@ -1,0 +1,177 @@
+"""An in-memory Dynamixel chain for tests: control tables from ``firmware_profiles/``,
+servos that move toward their goals at the profile's no-load speed, and injectable faults.
+
+    bus = MockBus(robot)                   # every servo and the sensor board of the robot
+    bus.faults.silent.add(4)               # servo 4 stops answering
+    bus.faults.alert[7] = 0b100000         # servo 7 overloads: alert bit, torque off
+    bus.faults.timeouts[3] = 2             # servo 3 misses its next two replies
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+from sim2real.bus.base import ALERT_BIT, Bus, CommunicationError, ServoError
+from sim2real.profiles import DeviceProfile
+from sim2real.robot import RobotSpec
+
+ACCESS_ERROR = 7
+DATA_RANGE_ERROR = 4
+
+
+@dataclass
+class Faults:
+    silent: set[int] = field(default_factory=set)  # never answer
+    timeouts: dict[int, int] = field(default_factory=dict)  # miss this many more replies
+    alert: dict[int, int] = field(default_factory=dict)  # hardware error bits to raise now
+
+
+class MockDevice:
+    def __init__(self, dxl_id: int, profile: DeviceProfile):
+        self.id, self.profile = dxl_id, profile
+        end = max(r.address + r.size for r in profile.control_table.values())
+        self.table = bytearray(end)
+        for reg in profile.control_table.values():
+            self.set(reg.address, reg.size, reg.default & ((1 << (8 * reg.size)) - 1))
+        if "id" in profile.control_table:
+            self.set(profile.register("id").address, 1, dxl_id)
+        self.position = float(self.get_named("present_position")) if profile.is_servo else 0.0
+
+    def get(self, address: int, size: int) -> int:
+        return int.from_bytes(self.table[address:address + size], "little")
+
+    def set(self, address: int, size: int, value: int) -> None:
+        self.table[address:address + size] = int(value).to_bytes(size, "little")
+
+    def get_named(self, name: str) -> int:
+        reg = self.profile.register(name)
+        return self.get(reg.address, reg.size)
+
+    def set_named(self, name: str, value: int) -> None:
+        reg = self.profile.register(name)
+        self.set(reg.address, reg.size, value & ((1 << (8 * reg.size)) - 1))
+
+    def advance(self, dt: float) -> None:
+        """Move toward the goal at the no-load speed while torque is on [ticks]."""
+        if not self.profile.is_servo or not self.get_named("torque_enable"):
+            return
+        goal_reg = self.profile.register("goal_position")
+        goal = self.get(goal_reg.address, goal_reg.size)
+        if goal_reg.signed and goal >= 1 << (8 * goal_reg.size - 1):
+            goal -= 1 << (8 * goal_reg.size)
+        speed = self.profile.motor.no_load_speed_rad_s / self.profile.position.rad_per_tick  # [tick/s]
+        step = max(-speed * dt, min(speed * dt, goal - self.position))
+        self.position += step
+        self.set_named("present_position", int(round(self.position)))
+        if "present_velocity" in self.profile.control_table:
+            rpm = step / max(dt, 1e-9) * self.profile.position.rad_per_tick * 60 / (2 * math.pi)
+            self.set_named("present_velocity", int(round(rpm / self.profile.units.get("velocity_unit_rpm", 1.0))))
+
+
+class MockBus(Bus):
+    def __init__(self, robot: RobotSpec, clock: Callable[[], float] = time.monotonic):
+        self.devices: dict[int, MockDevice] = {}
+        for joint in robot.joints:
+            if joint.servo is not None:
+                self.devices[joint.servo.id] = MockDevice(joint.servo.id, joint.servo.profile)
+        if robot.sensor_board is not None:
+            self.devices[robot.sensor_board.id] = MockDevice(robot.sensor_board.id, robot.sensor_board.profile)
+        self.protocol = next(iter(self.devices.values())).profile.protocol
+        self.faults = Faults()
+        self.clock = clock
+        self._last = clock()
+        self.is_open = False
+        self.writes: list[tuple[int, int, int]] = []  # (id, address, value) of every write, for tests
+
+    def open(self) -> None:
+        self.is_open = True
+
+    def close(self) -> None:
+        self.is_open = False
+
+    # -- device behaviour -------------------------------------------------------------------------
+    def _advance(self) -> None:
+        now = self.clock()
+        dt, self._last = now - self._last, now
+        for device in self.devices.values():
+            device.advance(dt)
+
+    def _device(self, dxl_id: int) -> MockDevice:
+        if not self.is_open:
+            raise CommunicationError([dxl_id], "the port is not open")
+        self._advance()
+        device = self.devices.get(dxl_id)
+        if device is None or dxl_id in self.faults.silent:
+            raise CommunicationError([dxl_id], "no status packet (timeout)")
+        if self.faults.timeouts.get(dxl_id, 0) > 0:
+            self.faults.timeouts[dxl_id] -= 1
+            raise CommunicationError([dxl_id], "no status packet (timeout)")
+        bits = self.faults.alert.pop(dxl_id, 0)
+        if bits:
+            device.set_named("hardware_error_status", bits)
+            if device.profile.is_servo:
+                device.set_named("torque_enable", 0)  # the firmware drops torque on a hardware error
+        return device
+
+    def _status(self, device: MockDevice, error: int = 0) -> None:
+        if "hardware_error_status" in device.profile.control_table and device.get_named("hardware_error_status"):
+            error |= ALERT_BIT
+        if error:
+            raise ServoError(device.id, error)
+
+    # -- Bus --------------------------------------------------------------------------------------
+    def ping(self, dxl_id: int) -> int:
+        device = self._device(dxl_id)
+        return device.get_named("model_number")
+
+    def read(self, dxl_id: int, address: int, size: int) -> int:
+        device = self._device(dxl_id)
+        value = device.get(address, size)
+        self._status(device)
+        return value
+
+    def write(self, dxl_id: int, address: int, size: int, value: int) -> None:
+        device = self._device(dxl_id)
+        reg = next((r for r in device.profile.control_table.values() if r.address == address), None)
+        if reg is None or reg.size != size or reg.access != "RW":
+            return self._status(device, ACCESS_ERROR)
+        torque_on = device.profile.is_servo and device.get_named("torque_enable")
+        if reg.area == "EEPROM" and torque_on:
+            return self._status(device, ACCESS_ERROR)  # EEPROM is locked while torque is on
+        if reg.name == "torque_enable" and value and device.get_named("hardware_error_status"):
+            return self._status(device)  # refused until REBOOT, and the alert bit says why
+        device.set(address, size, value)
+        if reg.name == "torque_enable" and value:
+            device.position = float(device.get_named("present_position"))
+        self.writes.append((dxl_id, address, value))
+        self._status(device)
+
+    def sync_read(self, ids: list[int], address: int, size: int) -> dict[int, int]:
+        values, missing = {}, []
+        for dxl_id in ids:
+            try:
+                values[dxl_id] = self._device(dxl_id).get(address, size)
+            except CommunicationError:
+                missing.append(dxl_id)
+        if missing:
+            raise CommunicationError(missing, "no status packet in sync read")
+        return values
+
+    def sync_write(self, address: int, size: int, values: dict[int, int]) -> None:
+        for dxl_id, value in values.items():  # no status packets: errors pass silently, as on the wire
+            device = self.devices.get(dxl_id)
+            if device is None or dxl_id in self.faults.silent:
+                continue
+            self._advance()
+            if device.profile.is_servo and "goal_position" in device.profile.control_table:
+                device.set(address, size, value)
+                self.writes.append((dxl_id, address, value))
+
+    def reboot(self, dxl_id: int) -> None:
+        device = self._device(dxl_id)
+        device.set_named("hardware_error_status", 0)
+        if device.profile.is_servo:
+            device.set_named("torque_enable", 0)
