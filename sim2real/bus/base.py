@@ -31,9 +31,10 @@ class CommunicationError(BipedError):
 class ServoError(BipedError):
     """A servo reported an error in its status packet (or its alert bit is set)."""
 
-    def __init__(self, dxl_id: int, error: int, detail: str = ""):
+    def __init__(self, dxl_id: int, error: int, detail: str = "", value: int | None = None):
         self.id = dxl_id
         self.error = error
+        self.value = value  # the data that came with the status, if it was a read
         self.alert = bool(error & ALERT_BIT)
         number = error & 0x7F
         parts = []
@@ -82,7 +83,9 @@ class Bus(ABC):
 
     @abstractmethod
     def sync_read(self, ids: list[int], address: int, size: int) -> dict[int, int]:
-        """Every listed device's value; raises if any is missing (after the bus's retries)."""
+        """Every listed device's value.  Raises :class:`CommunicationError` naming every device
+        that did not answer, and :class:`ServoError` for a status with an error byte (the
+        alert bit included, which the SDK's group classes drop)."""
 
     @abstractmethod
     def sync_write(self, address: int, size: int, values: dict[int, int]) -> None: ...

@@ -38,6 +38,9 @@ class MockDevice:
             self.set(reg.address, reg.size, reg.default & ((1 << (8 * reg.size)) - 1))
         if "id" in profile.control_table:
             self.set(profile.register("id").address, 1, dxl_id)
+        if profile.is_servo:  # a robot at rest, horns near their centre
+            self.set_named("present_position", profile.position.center_tick)
+            self.set_named("goal_position", profile.position.center_tick)
         self.position = float(self.get_named("present_position")) if profile.is_servo else 0.0
 
     def get(self, address: int, size: int) -> int:
@@ -116,11 +119,11 @@ class MockBus(Bus):
                 device.set_named("torque_enable", 0)  # the firmware drops torque on a hardware error
         return device
 
-    def _status(self, device: MockDevice, error: int = 0) -> None:
+    def _status(self, device: MockDevice, error: int = 0, value: int | None = None) -> None:
         if "hardware_error_status" in device.profile.control_table and device.get_named("hardware_error_status"):
             error |= ALERT_BIT
         if error:
-            raise ServoError(device.id, error)
+            raise ServoError(device.id, error, value=value)
 
     # -- Bus --------------------------------------------------------------------------------------
     def ping(self, dxl_id: int) -> int:
@@ -130,7 +133,7 @@ class MockBus(Bus):
     def read(self, dxl_id: int, address: int, size: int) -> int:
         device = self._device(dxl_id)
         value = device.get(address, size)
-        self._status(device)
+        self._status(device, value=value)
         return value
 
     def write(self, dxl_id: int, address: int, size: int, value: int) -> None:
@@ -158,6 +161,8 @@ class MockBus(Bus):
                 missing.append(dxl_id)
         if missing:
             raise CommunicationError(missing, "no status packet in sync read")
+        for dxl_id in ids:  # each status packet carries its servo's error byte
+            self._status(self.devices[dxl_id], value=values[dxl_id])
         return values
 
     def sync_write(self, address: int, size: int, values: dict[int, int]) -> None:

@@ -1,0 +1,175 @@
+"""Deployment on the mock bus: start-up checks, the loop, and torque off on every exit path."""
+
+import os
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from evolve.locomotion.evaluator import neat_layout
+from evolve.locomotion.export import controller_from_genome
+from evolve.locomotion.task import TaskConfig
+from evolve.neat import NeatConfig, Population
+from sim2real.bus import MockBus
+from sim2real.deploy import StartupError, drive
+from sim2real.mapping import ServoMapping
+from sim2real.robot import load_robot
+from sim2real.symmetry import symmetric_layout
+from sim2real.trace import TraceWriter
+
+ROBOT = load_robot()
+
+
+@pytest.fixture(scope="module")
+def controller():
+    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
+    pop = Population(NeatConfig(population_size=10, target_species=2, add_node_prob=0.4), neat_layout(layout), seed=1)
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        pop.step(lambda gs: rng.random(len(gs)))
+    return controller_from_genome(pop.genomes[0], ROBOT, layout, TaskConfig(), 1.0, {"seed": 1})
+
+
+def torque(bus):
+    return {i: d.get_named("torque_enable") for i, d in bus.devices.items() if d.profile.is_servo}
+
+
+def goals_within_limits(bus):
+    mapping = ServoMapping(ROBOT)
+    goal_address = ROBOT.joints[0].servo.profile.register("goal_position").address
+    for dxl_id, address, value in bus.writes:
+        if address == goal_address:
+            k = list(mapping.ids).index(dxl_id)
+            assert mapping.tick_low[k] <= value <= mapping.tick_high[k], (dxl_id, value)
+
+
+def run(bus, controller, **kw):
+    kw.setdefault("ramp_s", 0.05)
+    return drive(bus, ROBOT, controller, log=lambda s: None, **kw)
+
+
+def test_a_normal_run_ends_with_torque_off_and_goals_inside_limits(controller, tmp_path):
+    bus = MockBus(ROBOT)
+    report = run(bus, controller, duration_s=0.4, trace_path=tmp_path / "run.csv")
+    assert report.stop_reason == "duration reached"
+    assert report.ticks == round(0.4 / controller["tick_s"])
+    assert all(v == 0 for v in torque(bus).values())
+    goals_within_limits(bus)
+    rows = (tmp_path / "run.csv").read_text().splitlines()
+    assert len(rows) == report.ticks + 1 and rows[0].startswith("time_s,tick,waist_yaw_goal_rad")
+    assert (tmp_path / "run.json").exists()
+    assert not bus.is_open
+
+
+def test_start_up_lists_every_missing_or_wrong_device_at_once(controller):
+    bus = MockBus(ROBOT)
+    bus.faults.silent.add(4)
+    bus.devices[9].set_named("model_number", 1020)  # an XM430 where an XL430 belongs
+    with pytest.raises(StartupError) as err:
+        run(bus, controller, duration_s=0.2)
+    message = str(err.value)
+    assert "ID 4 (XL430-W250-T) does not answer" in message
+    assert "ID 9 is model number 1020" in message
+    assert all(v == 0 for v in torque(bus).values())
+
+
+def test_start_up_refuses_a_latched_hardware_error(controller):
+    bus = MockBus(ROBOT)
+    bus.devices[6].set_named("hardware_error_status", 1 << 5)
+    with pytest.raises(StartupError, match="ID 6: overload"):
+        run(bus, controller, duration_s=0.2)
+
+
+def test_start_up_configures_the_servos(controller):
+    bus = MockBus(ROBOT)
+    run(bus, controller, duration_s=0.1)
+    mapping = ServoMapping(ROBOT)
+    for k, dxl_id in enumerate(mapping.ids):
+        device = bus.devices[int(dxl_id)]
+        assert device.get_named("return_delay_time") == 0
+        assert device.get_named("operating_mode") == 3
+        assert device.get_named("min_position_limit") == mapping.tick_low[k]
+        assert device.get_named("max_position_limit") == mapping.tick_high[k]
+        assert device.get_named("bus_watchdog") == 5
+
+
+def _after(n, action):
+    calls = {"n": 0}
+
+    def sleep(seconds):
+        calls["n"] += 1
+        if calls["n"] == n:
+            action()
+        time.sleep(min(seconds, 0.05))
+
+    return sleep
+
+
+def test_ctrl_c_ramps_to_rest_and_turns_torque_off(controller):
+    bus = MockBus(ROBOT)
+
+    def interrupt():
+        raise KeyboardInterrupt
+
+    report = run(bus, controller, duration_s=5, sleep=_after(12, interrupt))
+    assert report.stop_reason == "interrupted (Ctrl-C)"
+    assert all(v == 0 for v in torque(bus).values())
+
+
+def test_sigterm_stops_safely(controller):
+    bus = MockBus(ROBOT)
+    report = run(bus, controller, duration_s=5, sleep=_after(12, lambda: os.kill(os.getpid(), signal.SIGTERM)))
+    assert report.stop_reason == "terminated (SIGTERM)"
+    assert all(v == 0 for v in torque(bus).values())
+
+
+def test_lost_communication_names_the_servo_and_stops_safely(controller):
+    bus = MockBus(ROBOT)
+    report = run(bus, controller, duration_s=5, sleep=_after(12, lambda: bus.faults.silent.add(3)))
+    assert report.stop_reason.startswith("lost communication: servo 3")
+    assert all(v == 0 for i, v in torque(bus).items() if i != 3)
+
+
+def test_a_missed_reply_is_retried(controller):
+    bus = MockBus(ROBOT)
+    report = run(bus, controller, duration_s=0.3, sleep=_after(12, lambda: bus.faults.timeouts.update({5: 2})))
+    assert report.stop_reason == "duration reached"
+
+
+def test_a_hardware_error_stops_with_the_servo_and_the_decoded_error(controller):
+    bus = MockBus(ROBOT)
+    report = run(bus, controller, duration_s=5, sleep=_after(12, lambda: bus.faults.alert.update({7: 1 << 5})))
+    assert "servo 7" in report.stop_reason and "overload" in report.stop_reason
+    assert all(v == 0 for v in torque(bus).values())
+
+
+def test_a_non_finite_output_holds_the_last_goals_and_stops(controller, monkeypatch):
+    from sim2real.policy import Policy
+
+    bus = MockBus(ROBOT)
+    real_step = Policy.step
+    calls = {"n": 0}
+
+    def step(self, *args):
+        calls["n"] += 1
+        goal = real_step(self, *args)
+        return goal * np.nan if calls["n"] == 5 else goal
+
+    monkeypatch.setattr(Policy, "step", step)
+    report = run(bus, controller, duration_s=5)
+    assert report.stop_reason.startswith("non-finite goal at tick 4")
+    assert report.ticks == 4
+    assert all(v == 0 for v in torque(bus).values())
+    goals_within_limits(bus)
+
+
+def test_trace_rows_reach_the_disk_within_a_second(tmp_path):
+    writer = TraceWriter(tmp_path / "t.csv", ["a"], {"robot": "x"})
+    row = dict(goal=np.zeros(1), present=np.zeros(1), feet=np.array([True, False]), up=np.array([0, 0, 1.0]),
+               compute_s=1e-4, bus_s=1e-3, overrun=False)
+    writer.write(0.0, 0, **row)
+    time.sleep(1.05)
+    writer.write(1.05, 1, **row)  # not closed: a crash now would keep both rows
+    assert len((tmp_path / "t.csv").read_text().splitlines()) == 3
+    writer.close()
