@@ -73,6 +73,50 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     render.set_defaults(func=cmd_render)
 
 
+    run = sub.add_parser("run", help="drive a robot with a controller (real bus or mock)",
+                         description="Drive the robot with a controller: start-up checks, a slow ramp, "
+                         "the real-time loop, and a safe stop (ramp to rest, torque off) however it ends.")
+    run.add_argument("controller", type=Path)
+    run.add_argument("--robot", help="robot (default: the one the controller was made for)")
+    where = run.add_mutually_exclusive_group()
+    where.add_argument("--port", help="serial port of the real bus, e.g. /dev/ttyUSB0")
+    where.add_argument("--bus", choices=["mock"], help="use an in-memory mock bus")
+    run.add_argument("--baud", type=int, help="baud rate (default: the robot config's)")
+    run.add_argument("--duration", type=float, help="seconds to run (default: until Ctrl-C)")
+    run.add_argument("--trace", type=Path, help="write a trace CSV (+ JSON sidecar) here")
+    run.add_argument("--disable-module", action="append", default=[], metavar="NAME",
+                     help="switch a control module off (repeatable)")
+    run.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    run.set_defaults(func=cmd_run)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from sim2real.bus import MockBus
+    from sim2real.controller import load_controller
+    from sim2real.deploy import drive
+
+    data = load_controller(args.controller)
+    robot = load_robot(args.robot or data["robot"]["name"])
+    data = load_controller(args.controller, robot)
+    if args.port:
+        from sim2real.bus.dynamixel import DynamixelBus
+
+        bus = DynamixelBus(args.port, args.baud or robot.bus.baud, robot)
+    else:
+        if not args.bus:
+            print("no --port: using the mock bus (the simulated bus comes with `biped dry-run`)", file=sys.stderr)
+        bus = MockBus(robot)
+    report = drive(bus, robot, data, duration_s=args.duration, trace_path=args.trace,
+                   disabled_modules=tuple(args.disable_module), log=lambda s: print(s, file=sys.stderr))
+    summary = report.summary()
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        for key, value in summary.items():
+            print(f"{key:>16}: {value}")
+    return 0 if report.stop_reason in ("duration reached", "interrupted (Ctrl-C)", "terminated (SIGTERM)") else 1
+
+
 # -- robot show -------------------------------------------------------------------------------
 def describe(robot: RobotSpec) -> dict:
     """Everything ``biped robot show --json`` prints (SI units)."""
