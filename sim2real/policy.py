@@ -16,7 +16,7 @@ import numpy as np
 from sim2real.mapping import normalized_angle, output_to_angle, rate_limit
 from sim2real.network_runtime import ControllerNetworks
 from sim2real.robot import RobotSpec
-from sim2real.symmetry import joint_outputs, network_inputs, symmetric_layout
+from sim2real.symmetry import network_inputs, symmetric_layout
 
 
 class Policy:
@@ -35,7 +35,25 @@ class Policy:
         self.max_step = np.array([j.servo.profile.motor.no_load_speed_rad_s * self.tick_s if j.servo else np.inf
                                   for j in robot.joints])
         self.hold = np.array([j.home_rad if j.name in self.layout.driven else j.center_rad for j in robot.joints])
+        self._gather, self._sign = self._input_gather()
+        n = len(self.low)
+        k = self.layout.n_leg
+        self._right_out = self.layout.leg_index["right"]
+        self._left_out = self.layout.leg_index["left"]
+        self._center_out = self.layout.center_index
+        self._driven_mask = np.zeros(n, dtype=bool)
+        self._driven_mask[self.driven] = True
+        self._k = k
 
+    def _input_gather(self) -> tuple[np.ndarray, np.ndarray]:
+        """Both networks' inputs as one gather from [angles, feet, up] and a sign: the same
+        numbers as :func:`network_inputs` (its test oracle), in two numpy calls."""
+        n = len(self.low)
+        probe = np.arange(n + 5, dtype=float) + 1.0  # distinct values reveal the wiring
+        rows = network_inputs(self.layout, probe[None, :n], probe[None, n:n + 2], probe[None, n + 2:])
+        index = np.abs(rows).astype(np.intp) - 1
+        sign = np.sign(rows)
+        return index, sign
     def reset(self) -> np.ndarray:
         """Zero the networks' state; returns the start pose (home for driven joints) [rad]."""
         self.networks.reset()
@@ -45,12 +63,15 @@ class Policy:
              previous_goal: np.ndarray) -> np.ndarray:
         """One tick: joint angles [rad] (robot order), feet (left, right: touching), up-vector
         (torso frame) and the last goals -> the next goals [rad] for every joint."""
-        feet = np.where(np.asarray(feet_touching, dtype=bool), -1.0, 1.0)[None, :]
-        x = network_inputs(self.layout, normalized_angle(angles, self.low, self.high)[None, :], feet,
-                           np.asarray(up, dtype=float)[None, :])
-        out = joint_outputs(self.layout, self.networks.activate(x), len(self.low))[0]
+        readings = np.concatenate([normalized_angle(angles, self.low, self.high),
+                                   np.where(feet_touching, -1.0, 1.0), up])
+        out = self.networks.activate(readings[self._gather] * self._sign)
+        joint_out = np.empty(len(self.low))
+        joint_out[self._right_out] = out[0, :self._k]
+        joint_out[self._left_out] = out[1, :self._k]
+        joint_out[self._center_out] = 0.5 * (out[0, self._k:] + out[1, self._k:])
         goal = previous_goal.copy()
         d = self.driven
-        wanted = output_to_angle(out[d], self.low[d], self.high[d])
+        wanted = output_to_angle(joint_out[d], self.low[d], self.high[d])
         goal[d] = rate_limit(wanted, previous_goal[d], self.max_step[d])
         return goal

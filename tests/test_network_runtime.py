@@ -49,3 +49,29 @@ def test_switching_a_module_off_by_name():
     assert not np.allclose(full.activate(x), lower.activate(x))
     with pytest.raises(ValueError, match="unknown module"):
         ControllerNetworks(controller, disabled_modules=["run"])
+
+
+def test_policy_fast_path_equals_the_evolution_wiring():
+    from sim2real.mapping import normalized_angle, output_to_angle, rate_limit
+    from sim2real.policy import Policy
+    from sim2real.symmetry import joint_outputs, network_inputs
+
+    genome, controller = _grown_controller(seed=6)
+    robot = load_robot()
+    policy = Policy(controller, robot)
+    reference = ControllerNetworks(controller)
+    rng = np.random.default_rng(2)
+    goal = ref_goal = policy.reset()
+    for _ in range(200):
+        angles = rng.uniform(policy.low, policy.high)
+        feet = rng.random(2) < 0.5
+        up = rng.normal(size=3)
+        up /= np.linalg.norm(up)
+        goal = policy.step(angles, feet, up, goal)
+        x = network_inputs(policy.layout, normalized_angle(angles, policy.low, policy.high)[None],
+                           np.where(feet, -1.0, 1.0)[None], up[None])
+        out = joint_outputs(policy.layout, reference.activate(x), len(policy.low))[0]
+        d = policy.driven
+        ref_goal = ref_goal.copy()
+        ref_goal[d] = rate_limit(output_to_angle(out[d], policy.low[d], policy.high[d]), ref_goal[d], policy.max_step[d])
+        assert np.abs(goal - ref_goal).max() <= 1e-12
