@@ -173,3 +173,31 @@ def test_trace_rows_reach_the_disk_within_a_second(tmp_path):
     writer.write(1.05, 1, **row)  # not closed: a crash now would keep both rows
     assert len((tmp_path / "t.csv").read_text().splitlines()) == 3
     writer.close()
+
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), robot_name=st.sampled_from(["xl430_biped", "op3_legs"]),
+       readings=st.lists(st.floats(-1e9, 1e9, allow_nan=False), min_size=16, max_size=16),
+       weight_scale=st.floats(0.01, 1e3))
+def test_no_goal_outside_the_limits_whatever_the_network_or_readings(seed, robot_name, readings, weight_scale):
+    from benchmarks.loop import random_controller
+    from sim2real.policy import Policy
+
+    robot = load_robot(robot_name)
+    controller = random_controller(robot, connections=60, hidden=8, seed=seed)
+    for conn in controller["connections"]:
+        conn[2] *= weight_scale
+    policy = Policy(controller, robot)
+    mapping = ServoMapping(robot)
+    values = np.array(readings)
+    n = len(robot.joints)
+    angles, feet, up = values[:n], values[12:14] > 0, values[13:16]
+    goal = policy.reset()
+    for _ in range(3):
+        goal = policy.step(angles, feet, up, goal)
+        ticks = mapping.ticks(goal)
+        assert np.all(ticks >= mapping.tick_low) and np.all(ticks <= mapping.tick_high)

@@ -19,7 +19,6 @@ from sim2real.profiles import DeviceProfile
 from sim2real.robot import RobotSpec
 
 ACCESS_ERROR = 7
-DATA_RANGE_ERROR = 4
 
 
 @dataclass
@@ -56,6 +55,39 @@ class MockDevice:
     def set_named(self, name: str, value: int) -> None:
         reg = self.profile.register(name)
         self.set(reg.address, reg.size, value & ((1 << (8 * reg.size)) - 1))
+
+    # -- what a servo's firmware answers: (value, error byte) ---------------------------------
+    def alert(self) -> int:
+        table = self.profile.control_table
+        return ALERT_BIT if "hardware_error_status" in table and self.get_named("hardware_error_status") else 0
+
+    def read(self, address: int, size: int) -> tuple[int, int]:
+        return self.get(address, size), self.alert()
+
+    def write(self, address: int, size: int, value: int) -> int:
+        """Apply a WRITE as the firmware would; returns the status error byte."""
+        reg = next((r for r in self.profile.control_table.values() if r.address == address), None)
+        if reg is None or reg.size != size or reg.access != "RW":
+            return ACCESS_ERROR | self.alert()
+        torque_on = self.profile.is_servo and self.get_named("torque_enable")
+        if reg.area == "EEPROM" and torque_on:
+            return ACCESS_ERROR | self.alert()  # EEPROM is locked while torque is on
+        if reg.name == "torque_enable" and value and self.alert():
+            return self.alert()  # refused until REBOOT, and the alert bit says why
+        self.set(address, size, value)
+        if reg.name == "torque_enable" and value:
+            self.position = float(self.get_named("present_position"))
+        return self.alert()
+
+    def reboot(self) -> None:
+        self.set_named("hardware_error_status", 0)
+        if self.profile.is_servo:
+            self.set_named("torque_enable", 0)
+
+    def raise_hardware_error(self, bits: int) -> None:
+        self.set_named("hardware_error_status", bits)
+        if self.profile.is_servo:
+            self.set_named("torque_enable", 0)  # the firmware drops torque on a hardware error
 
     def advance(self, dt: float) -> None:
         """Move toward the goal at the no-load speed while torque is on [ticks]."""
@@ -114,14 +146,11 @@ class MockBus(Bus):
             raise CommunicationError([dxl_id], "no status packet (timeout)")
         bits = self.faults.alert.pop(dxl_id, 0)
         if bits:
-            device.set_named("hardware_error_status", bits)
-            if device.profile.is_servo:
-                device.set_named("torque_enable", 0)  # the firmware drops torque on a hardware error
+            device.raise_hardware_error(bits)
         return device
 
-    def _status(self, device: MockDevice, error: int = 0, value: int | None = None) -> None:
-        if "hardware_error_status" in device.profile.control_table and device.get_named("hardware_error_status"):
-            error |= ALERT_BIT
+    @staticmethod
+    def _raise(device: MockDevice, error: int, value: int | None = None) -> None:
         if error:
             raise ServoError(device.id, error, value=value)
 
@@ -132,25 +161,16 @@ class MockBus(Bus):
 
     def read(self, dxl_id: int, address: int, size: int) -> int:
         device = self._device(dxl_id)
-        value = device.get(address, size)
-        self._status(device, value=value)
+        value, error = device.read(address, size)
+        self._raise(device, error, value)
         return value
 
     def write(self, dxl_id: int, address: int, size: int, value: int) -> None:
         device = self._device(dxl_id)
-        reg = next((r for r in device.profile.control_table.values() if r.address == address), None)
-        if reg is None or reg.size != size or reg.access != "RW":
-            return self._status(device, ACCESS_ERROR)
-        torque_on = device.profile.is_servo and device.get_named("torque_enable")
-        if reg.area == "EEPROM" and torque_on:
-            return self._status(device, ACCESS_ERROR)  # EEPROM is locked while torque is on
-        if reg.name == "torque_enable" and value and device.get_named("hardware_error_status"):
-            return self._status(device)  # refused until REBOOT, and the alert bit says why
-        device.set(address, size, value)
-        if reg.name == "torque_enable" and value:
-            device.position = float(device.get_named("present_position"))
-        self.writes.append((dxl_id, address, value))
-        self._status(device)
+        error = device.write(address, size, value)
+        if not error & 0x7F:
+            self.writes.append((dxl_id, address, value))
+        self._raise(device, error)
 
     def sync_read(self, ids: list[int], address: int, size: int) -> dict[int, int]:
         values, missing = {}, []
@@ -162,7 +182,7 @@ class MockBus(Bus):
         if missing:
             raise CommunicationError(missing, "no status packet in sync read")
         for dxl_id in ids:  # each status packet carries its servo's error byte
-            self._status(self.devices[dxl_id], value=values[dxl_id])
+            self._raise(self.devices[dxl_id], self.devices[dxl_id].alert(), values[dxl_id])
         return values
 
     def sync_write(self, address: int, size: int, values: dict[int, int]) -> None:
@@ -176,7 +196,4 @@ class MockBus(Bus):
                 self.writes.append((dxl_id, address, value))
 
     def reboot(self, dxl_id: int) -> None:
-        device = self._device(dxl_id)
-        device.set_named("hardware_error_status", 0)
-        if device.profile.is_servo:
-            device.set_named("torque_enable", 0)
+        self._device(dxl_id).reboot()

@@ -1,0 +1,133 @@
+"""Serving an emulated chain of Dynamixel devices on a pseudo-terminal.
+
+    chain = EmulatedChain(MockBus(robot).devices)
+    with PtyServer(chain) as server:
+        DynamixelBus(server.port, 1_000_000, robot) ...
+
+Each device is a :class:`~sim2real.bus.mock.MockDevice` (control table from its profile,
+firmware rules for EEPROM and torque, motion toward the goal).  Broadcast instructions get
+no status; a silent device never answers; a sync or bulk read is answered by each device in
+turn.  (Physics-backed servos and wire timing are the simulated bus's business.)
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import threading
+import time
+import tty
+from typing import Callable
+
+from sim2real.bus.mock import MockDevice
+from sim2real.simbus import protocol2 as p2
+
+INSTRUCTION_ERROR, DATA_LENGTH_ERROR = 0x02, 0x05
+
+
+class EmulatedChain:
+    def __init__(self, devices: dict[int, MockDevice], clock: Callable[[], float] = time.monotonic):
+        self.devices = devices
+        self.silent: set[int] = set()
+        self.clock = clock
+        self._last = clock()
+        self.lock = threading.Lock()
+
+    def _advance(self) -> None:
+        now = self.clock()
+        dt, self._last = now - self._last, now
+        for device in self.devices.values():
+            device.advance(dt)
+
+    def handle(self, dxl_id: int, inst: int, params: bytes) -> bytes:
+        """Replies (status packets, concatenated) to one instruction packet."""
+        with self.lock:
+            self._advance()
+            if inst == p2.SYNC_READ:
+                address, size = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
+                return b"".join(self._read(i, address, size) for i in params[4:])
+            if inst == p2.BULK_READ:
+                out = b""
+                for k in range(0, len(params) - 4, 5):
+                    i, address, size = params[k], int.from_bytes(params[k + 1:k + 3], "little"), \
+                        int.from_bytes(params[k + 3:k + 5], "little")
+                    out += self._read(i, address, size)
+                return out
+            if inst == p2.SYNC_WRITE:
+                address, size = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
+                for k in range(4, len(params) - size, 1 + size):
+                    device = self.devices.get(params[k])
+                    if device is not None and params[k] not in self.silent:
+                        device.write(address, size, int.from_bytes(params[k + 1:k + 1 + size], "little"))
+                return b""
+            if dxl_id == p2.BROADCAST:
+                return b""
+            device = self.devices.get(dxl_id)
+            if device is None or dxl_id in self.silent:
+                return b""
+            if inst == p2.PING:
+                version = device.get_named("firmware_version")
+                return p2.status(dxl_id, device.alert(), device.get_named("model_number").to_bytes(2, "little")
+                                 + bytes([version]))
+            if inst == p2.READ:
+                if len(params) != 4:
+                    return p2.status(dxl_id, DATA_LENGTH_ERROR)
+                return self._read(dxl_id, int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little"))
+            if inst == p2.WRITE:
+                address, data = int.from_bytes(params[0:2], "little"), params[2:]
+                return p2.status(dxl_id, device.write(address, len(data), int.from_bytes(data, "little")))
+            if inst == p2.REBOOT:
+                device.reboot()
+                return p2.status(dxl_id, 0)
+            return p2.status(dxl_id, INSTRUCTION_ERROR)
+
+    def _read(self, dxl_id: int, address: int, size: int) -> bytes:
+        device = self.devices.get(dxl_id)
+        if device is None or dxl_id in self.silent:
+            return b""
+        value, error = device.read(address, size)
+        return p2.status(dxl_id, error, value.to_bytes(size, "little"))
+
+
+class PtyServer:
+    """Serves an :class:`EmulatedChain` on a new pseudo-terminal; ``port`` is its path."""
+
+    def __init__(self, chain: EmulatedChain):
+        self.chain = chain
+        self.master, slave = os.openpty()
+        tty.setraw(slave)
+        self.port = os.ttyname(slave)
+        self._slave = slave
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+
+    def __enter__(self) -> "PtyServer":
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2)
+        for fd in (self.master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+
+    def _serve(self) -> None:
+        parser = p2.Parser()
+        while not self._stop.is_set():
+            ready, _, _ = select.select([self.master], [], [], 0.05)
+            if not ready:
+                continue
+            try:
+                data = os.read(self.master, 4096)
+            except OSError:
+                return
+            for dxl_id, inst, params in parser.feed(data):
+                reply = self.chain.handle(dxl_id, inst, params)
+                if reply:
+                    os.write(self.master, reply)

@@ -1,0 +1,114 @@
+"""DynamixelBus: the official SDK over a real pseudo-terminal, against byte-exact fake servos."""
+
+import resource
+import time
+
+import numpy as np
+import pytest
+
+from sim2real.bus import CommunicationError, MockBus, ServoChain, ServoError
+from sim2real.bus.dynamixel import DynamixelBus
+from sim2real.robot import load_robot
+from sim2real.simbus.protocol2 import crc16
+from sim2real.simbus.server import EmulatedChain, PtyServer
+
+ROBOT = load_robot()
+
+
+@pytest.fixture
+def served():
+    devices = MockBus(ROBOT).devices
+    chain = EmulatedChain(devices)
+    with PtyServer(chain) as server:
+        bus = DynamixelBus(server.port, 1_000_000, ROBOT)
+        bus.open()
+        yield bus, chain, devices
+        bus.close()
+
+
+def test_crc_matches_the_emanual_check_value():
+    assert crc16(b"123456789") == 0xFEE8
+
+
+def test_ping_read_write_and_signed_values(served):
+    bus, _, devices = served
+    chain = ServoChain(bus, ROBOT)
+    assert bus.ping(1) == 1060
+    assert bus.ping(200) == 32512  # the sensor board
+    chain.write(3, "goal_position", 1500)
+    assert devices[3].get_named("goal_position") == 1500
+    devices[3].set_named("present_velocity", -25)
+    assert chain.read(3, "present_velocity") == -25  # signed decoding
+    devices[200].set_named("foot_switch_left", 1)
+    devices[200].set_named("up_vector_x", -1000)
+    feet, up = chain.read_board()
+    assert feet.tolist() == [True, False] and up == pytest.approx([-1000 / 16384, 0, 1])
+
+
+def test_sync_read_and_write_every_servo(served):
+    bus, _, devices = served
+    chain = ServoChain(bus, ROBOT)
+    goals = np.arange(1900, 1900 + len(chain.servo_ids))
+    chain.sync_write("goal_position", goals)
+    assert [devices[i].get_named("goal_position") for i in chain.servo_ids] == goals.tolist()
+    assert chain.sync_read("present_position").tolist() == [2048] * len(chain.servo_ids)
+
+
+def test_a_silent_servo_is_named_not_the_whole_read(served):
+    bus, chain_server, _ = served
+    chain_server.silent.add(5)
+    with pytest.raises(CommunicationError, match="^servo 5: no status packet"):
+        bus.sync_read(ServoChain(bus, ROBOT).servo_ids, 132, 4)
+    chain_server.silent.clear()
+    assert len(bus.sync_read(ServoChain(bus, ROBOT).servo_ids, 132, 4)) == 11  # and the bus recovers
+
+
+def test_the_alert_bit_of_one_servo_is_surfaced_in_a_sync_read(served):
+    bus, _, devices = served
+    devices[8].raise_hardware_error(1 << 5)
+    with pytest.raises(ServoError) as err:
+        bus.sync_read(ServoChain(bus, ROBOT).servo_ids, 132, 4)
+    assert err.value.id == 8 and err.value.alert
+
+
+def test_eeprom_write_with_torque_on_is_an_access_error(served):
+    bus, _, _ = served
+    chain = ServoChain(bus, ROBOT)
+    chain.write(2, "torque_enable", 1)
+    with pytest.raises(ServoError, match="servo 2: access error"):
+        chain.write(2, "operating_mode", 3)
+
+
+def test_timeouts_follow_the_wire_not_the_sdk_floor_and_do_not_spin(served):
+    bus, chain_server, _ = served
+    chain_server.silent.add(4)
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    start = time.perf_counter()
+    for _ in range(20):
+        with pytest.raises(CommunicationError):
+            bus.read(4, 132, 4)
+    wall = (time.perf_counter() - start) / 20
+    cpu = (resource.getrusage(resource.RUSAGE_SELF).ru_utime - usage.ru_utime) / 20
+    assert wall < 0.010  # the SDK would wait at least 34 ms
+    assert cpu < 0.2 * wall + 0.0005  # blocked in the driver, not spinning
+
+
+def test_the_whole_run_over_the_real_sdk_and_a_pty(tmp_path):
+    from evolve.locomotion.evaluator import neat_layout
+    from evolve.locomotion.export import controller_from_genome
+    from evolve.locomotion.task import TaskConfig
+    from evolve.neat import NeatConfig, Population
+    from sim2real.deploy import drive
+    from sim2real.symmetry import symmetric_layout
+
+    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
+    pop = Population(NeatConfig(population_size=6, target_species=2), neat_layout(layout), seed=3)
+    controller = controller_from_genome(pop.genomes[0], ROBOT, layout, TaskConfig(), 1.0, {"seed": 3})
+    devices = MockBus(ROBOT).devices
+    with PtyServer(EmulatedChain(devices)) as server:
+        report = drive(DynamixelBus(server.port, 1_000_000, ROBOT), ROBOT, controller, duration_s=0.5,
+                       trace_path=tmp_path / "t.csv", log=lambda s: None, ramp_s=0.1)
+    assert report.stop_reason == "duration reached" and report.bus_errors == 0
+    assert report.ticks == round(0.5 / controller["tick_s"])
+    assert all(d.get_named("torque_enable") == 0 for d in devices.values() if d.profile.is_servo)
+    assert all(d.get_named("return_delay_time") == 0 for d in devices.values() if d.profile.is_servo)
