@@ -50,6 +50,7 @@ def test_sync_read_and_write_every_servo(served):
     chain = ServoChain(bus, ROBOT)
     goals = np.arange(1900, 1900 + len(chain.servo_ids))
     chain.sync_write("goal_position", goals)
+    bus.ping(1)  # a sync write has no reply: a round trip after it orders the check
     assert [devices[i].get_named("goal_position") for i in chain.servo_ids] == goals.tolist()
     assert chain.sync_read("present_position").tolist() == [2048] * len(chain.servo_ids)
 
@@ -112,3 +113,29 @@ def test_the_whole_run_over_the_real_sdk_and_a_pty(tmp_path):
     assert report.ticks == round(0.5 / controller["tick_s"])
     assert all(d.get_named("torque_enable") == 0 for d in devices.values() if d.profile.is_servo)
     assert all(d.get_named("return_delay_time") == 0 for d in devices.values() if d.profile.is_servo)
+
+
+def test_protocol_1_ax12a_chain_through_the_sdk(tmp_path):
+    """AX-12A: protocol 1.0, no sync read (servo by servo), 2-byte positions."""
+    import yaml
+
+    from conftest import ROOT
+
+    doc = yaml.safe_load((ROOT / "configs" / "robots" / "xl430_biped.yaml").read_text())
+    doc["servo_model"] = "AX-12A"
+    for joint in doc["joints"]:  # AX-12A turns 300 deg: the ranges fit
+        joint["range_deg"] = [max(-60, joint["range_deg"][0]), min(100, joint["range_deg"][1])]
+    path = tmp_path / "ax_biped.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    robot = load_robot(path)
+    devices = {i: d for i, d in MockBus(robot).devices.items() if d.profile.is_servo}
+    with PtyServer(EmulatedChain(devices)) as server:
+        bus = DynamixelBus(server.port, 1_000_000, robot)
+        assert bus.protocol == 1.0
+        bus.open()
+        chain = ServoChain(bus, robot)
+        chain.sync_write("goal_position", np.full(11, 600))
+        assert chain.sync_read("present_position").tolist() == [512] * 11  # (a round trip)
+        assert devices[4].get_named("goal_position") == 600
+        assert bus.ping(3) in (0, 12)  # the SDK's protocol-1.0 ping reads the model number separately
+        bus.close()

@@ -70,8 +70,8 @@ class MockDevice:
         if reg is None or reg.size != size or reg.access != "RW":
             return ACCESS_ERROR | self.alert()
         torque_on = self.profile.is_servo and self.get_named("torque_enable")
-        if reg.area == "EEPROM" and torque_on:
-            return ACCESS_ERROR | self.alert()  # EEPROM is locked while torque is on
+        if reg.area == "EEPROM" and torque_on and self.profile.protocol == 2.0:
+            return ACCESS_ERROR | self.alert()  # X series: EEPROM is locked while torque is on
         if reg.name == "torque_enable" and value and self.alert():
             return self.alert()  # refused until REBOOT, and the alert bit says why
         self.set(address, size, value)

@@ -20,6 +20,7 @@ import tty
 from typing import Callable
 
 from sim2real.bus.mock import MockDevice
+from sim2real.simbus import protocol1 as p1
 from sim2real.simbus import protocol2 as p2
 
 INSTRUCTION_ERROR, DATA_LENGTH_ERROR = 0x02, 0x05
@@ -28,6 +29,7 @@ INSTRUCTION_ERROR, DATA_LENGTH_ERROR = 0x02, 0x05
 class EmulatedChain:
     def __init__(self, devices: dict[int, MockDevice], clock: Callable[[], float] = time.monotonic):
         self.devices = devices
+        self.protocol = next(iter(devices.values())).profile.protocol
         self.silent: set[int] = set()
         self.clock = clock
         self._last = clock()
@@ -39,10 +41,15 @@ class EmulatedChain:
         for device in self.devices.values():
             device.advance(dt)
 
+    def parser(self):
+        return p2.Parser() if self.protocol == 2.0 else p1.Parser()
+
     def handle(self, dxl_id: int, inst: int, params: bytes) -> bytes:
         """Replies (status packets, concatenated) to one instruction packet."""
         with self.lock:
             self._advance()
+            if self.protocol == 1.0:
+                return self._handle_p1(dxl_id, inst, params)
             if inst == p2.SYNC_READ:
                 address, size = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
                 return b"".join(self._read(i, address, size) for i in params[4:])
@@ -81,6 +88,27 @@ class EmulatedChain:
                 return p2.status(dxl_id, 0)
             return p2.status(dxl_id, INSTRUCTION_ERROR)
 
+    def _handle_p1(self, dxl_id: int, inst: int, params: bytes) -> bytes:
+        if inst == p1.SYNC_WRITE:
+            address, size = params[0], params[1]
+            for k in range(2, len(params) - size, 1 + size):
+                device = self.devices.get(params[k])
+                if device is not None and params[k] not in self.silent:
+                    device.write(address, size, int.from_bytes(params[k + 1:k + 1 + size], "little"))
+            return b""
+        device = self.devices.get(dxl_id)
+        if dxl_id == p1.BROADCAST or device is None or dxl_id in self.silent:
+            return b""
+        if inst == p1.PING:
+            return p1.status(dxl_id, 0)
+        if inst == p1.READ and len(params) == 2:
+            value, _ = device.read(params[0], params[1])
+            return p1.status(dxl_id, 0, value.to_bytes(params[1], "little"))
+        if inst == p1.WRITE and len(params) >= 2:
+            error = device.write(params[0], len(params) - 1, int.from_bytes(params[1:], "little"))
+            return p1.status(dxl_id, p1.RANGE_ERROR if error & 0x7F else 0)
+        return p1.status(dxl_id, p1.INSTRUCTION_ERROR)
+
     def _read(self, dxl_id: int, address: int, size: int) -> bytes:
         device = self.devices.get(dxl_id)
         if device is None or dxl_id in self.silent:
@@ -118,7 +146,7 @@ class PtyServer:
                 pass
 
     def _serve(self) -> None:
-        parser = p2.Parser()
+        parser = self.chain.parser()
         while not self._stop.is_set():
             ready, _, _ = select.select([self.master], [], [], 0.05)
             if not ready:
