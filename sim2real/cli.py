@@ -88,6 +88,61 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                      help="switch a control module off (repeatable)")
     run.add_argument("--json", action="store_true", help="print the report as one JSON object")
     run.set_defaults(func=cmd_run)
+    add_simulated_bus_commands(sub)
+
+
+def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
+    dry = sub.add_parser("dry-run", help="run a controller through the real loop on the simulated bus",
+                         description="Start the simulated Dynamixel bus (MuJoCo physics behind a pseudo-terminal) "
+                         "and run the same runtime as `biped run` on it, through the official SDK.  Distance and "
+                         "falls come from the simulator's ground truth.")
+    dry.add_argument("controller", type=Path)
+    dry.add_argument("--robot", help="robot (default: the one the controller was made for)")
+    dry.add_argument("--duration", type=float, default=10.0, help="seconds of the loop (default 10)")
+    dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS")
+    dry.add_argument("--trace", type=Path, help="trace CSV (+ JSON sidecar)")
+    dry.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    dry.set_defaults(func=cmd_dry_run)
+
+    simbus = sub.add_parser("simbus", help="serve a simulated Dynamixel bus on a pseudo-terminal",
+                            description="Serve the robot's servos and sensor board, simulated by MuJoCo in real "
+                            "time, on a pseudo-terminal.  Prints the port path as the first line, then serves "
+                            "until Ctrl-C or SIGTERM; any Dynamixel tool can connect to it.")
+    simbus.add_argument("--robot", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    simbus.set_defaults(func=cmd_simbus)
+
+
+def cmd_dry_run(args: argparse.Namespace) -> int:
+    from sim2real.dry_run import dry_run
+
+    result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults,
+                     log=lambda s: print(s, file=sys.stderr))
+    if args.json:
+        print(json.dumps(result))
+    else:
+        for key, value in result.items():
+            print(f"{key:>16}: {value}")
+    return 0
+
+
+def cmd_simbus(args: argparse.Namespace) -> int:
+    import signal
+    import threading
+
+    from sim2real.simbus.physics import PhysicsChain
+    from sim2real.simbus.server import EmulatedChain, PtyServer
+
+    physics = PhysicsChain(load_robot(args.robot))
+    done = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *a: done.set())
+    with PtyServer(EmulatedChain(physics.devices, advance=physics.advance)) as server:
+        print(server.port, flush=True)
+        try:
+            while not done.wait(0.2):
+                physics.advance()  # keep the simulation in real time even when nobody asks
+        except KeyboardInterrupt:
+            pass
+    return 0
 
 
 def cmd_run(args: argparse.Namespace) -> int:

@@ -27,8 +27,13 @@ INSTRUCTION_ERROR, DATA_LENGTH_ERROR = 0x02, 0x05
 
 
 class EmulatedChain:
-    def __init__(self, devices: dict[int, MockDevice], clock: Callable[[], float] = time.monotonic):
+    """Devices behind a wire.  ``advance`` moves them on before each instruction (default: each
+    servo toward its goal at its no-load speed; a :class:`PhysicsChain` passes its own)."""
+
+    def __init__(self, devices: dict[int, MockDevice], clock: Callable[[], float] = time.monotonic,
+                 advance: Callable[[], None] | None = None):
         self.devices = devices
+        self._custom_advance = advance
         self.protocol = next(iter(devices.values())).profile.protocol
         self.silent: set[int] = set()
         self.clock = clock
@@ -36,6 +41,8 @@ class EmulatedChain:
         self.lock = threading.Lock()
 
     def _advance(self) -> None:
+        if self._custom_advance is not None:
+            return self._custom_advance()
         now = self.clock()
         dt, self._last = now - self._last, now
         for device in self.devices.values():

@@ -1,0 +1,135 @@
+"""Servos whose motion is simulated by MuJoCo: the physics behind the simulated bus.
+
+The robot's model advances in real time, lazily: whenever an instruction arrives, the
+simulation catches up with the wall clock, each servo driven toward its Goal Position
+(torque on) or limp (torque off).  Then the control tables get what the servos would
+report - Present Position quantized to the encoder, Present Velocity, Present Load - and
+the sensor board its foot switches (from the soles' contact forces) and the torso's
+up-vector (Q14).  A servo that holds its stall torque for ``overload_s`` latches an
+overload: alert bit, Hardware Error Status, torque off until REBOOT.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from typing import Callable
+
+import mujoco
+import numpy as np
+
+from sim2real.bus.mock import MockBus
+from sim2real.mapping import ServoMapping
+from sim2real.model_builder import build_model
+from sim2real.robot import RobotSpec
+
+OVERLOAD_BIT = 1 << 5
+MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
+CONTACT_SHARE = 0.05  # a foot switch closes at this share of the body weight
+
+
+class PhysicsChain:
+    def __init__(self, robot: RobotSpec, clock: Callable[[], float] = time.monotonic, overload_s: float = 2.0):
+        self.robot, self.clock, self.overload_s = robot, clock, overload_s
+        self.model = build_model(robot)
+        self.data = mujoco.MjData(self.model)
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)
+        mujoco.mj_forward(self.model, self.data)
+        self.devices = MockBus(robot).devices
+        self.mapping = ServoMapping(robot)
+        self.ids = [int(i) for i in self.mapping.ids]
+        names = list(robot.joint_names)
+        self.qadr = np.array([self.model.jnt_qposadr[self.model.joint(n).id] for n in names])
+        self.dadr = np.array([self.model.jnt_dofadr[self.model.joint(n).id] for n in names])
+        self.kp = self.model.actuator_gainprm[:, 0].copy()
+        self.stall = np.array([j.servo.profile.motor.stall_torque_nm for j in robot.joints])
+        self.touch = [self.model.sensor_adr[self.model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
+        self.up = self.model.sensor_adr[self.model.sensor("torso_up").id]
+        self.board = robot.sensor_board.id if robot.sensor_board else None
+        self.weight = robot.body.mass * 9.81
+        self.saturated = np.zeros(len(names))
+        self.overload_at: dict[int, float] = {}  # fault injection: servo id -> simulated time
+        self.lock = threading.Lock()
+        self._started = clock()
+        self._publish()
+        for k, dxl_id in enumerate(self.ids):
+            self.devices[dxl_id].set_named("goal_position", int(self.devices[dxl_id].get_named("present_position")))
+
+    # -- angles and ticks, unclamped: what the encoder sees -----------------------------------
+    def _ticks(self, angles: np.ndarray) -> np.ndarray:
+        m = self.mapping
+        return np.rint(m.center + (m.direction * angles + m.offset) / m.rad_per_tick).astype(np.int64)
+
+    def _goals(self) -> tuple[np.ndarray, np.ndarray]:
+        goal, on = np.zeros(len(self.ids)), np.zeros(len(self.ids), dtype=bool)
+        for k, dxl_id in enumerate(self.ids):
+            device = self.devices[dxl_id]
+            reg = device.profile.register("goal_position")
+            raw = device.get(reg.address, reg.size)
+            if reg.signed and raw >= 1 << (8 * reg.size - 1):
+                raw -= 1 << (8 * reg.size)
+            goal[k] = raw
+            on[k] = bool(device.get_named("torque_enable"))
+        return self.mapping.angles(goal), on
+
+    def advance(self) -> None:
+        """Catch the simulation up with the wall clock (called before every instruction)."""
+        with self.lock:
+            target = self.clock() - self._started
+            steps = int((target - self.data.time) / self.model.opt.timestep)
+            steps = min(steps, int(MAX_CATCH_UP_S / self.model.opt.timestep))
+            if steps <= 0:
+                return
+            goal, on = self._goals()
+            self.data.ctrl[:] = np.where(on, goal, self.data.qpos[self.qadr])
+            self.model.actuator_gainprm[:, 0] = np.where(on, self.kp, 0.0)  # torque off: limp
+            self.model.actuator_biasprm[:, 1] = -self.model.actuator_gainprm[:, 0]
+            for _ in range(steps):
+                mujoco.mj_step(self.model, self.data)
+                self._check_overload(on)
+            self._publish()
+
+    def _check_overload(self, on: np.ndarray) -> None:
+        force = np.abs(self.data.actuator_force)
+        self.saturated = np.where(on & (force >= 0.99 * self.stall), self.saturated + self.model.opt.timestep, 0.0)
+        for k, dxl_id in enumerate(self.ids):
+            due = self.overload_at.get(dxl_id)
+            if self.saturated[k] >= self.overload_s or (due is not None and self.data.time >= due):
+                self.overload_at.pop(dxl_id, None)
+                self.saturated[k] = 0.0
+                self.devices[dxl_id].raise_hardware_error(OVERLOAD_BIT)
+
+    def _publish(self) -> None:
+        q = self.data.qpos[self.qadr]
+        ticks = self._ticks(q)
+        qdot = self.data.qvel[self.dadr]
+        for k, dxl_id in enumerate(self.ids):
+            device = self.devices[dxl_id]
+            device.set_named("present_position", int(ticks[k]))
+            device.position = float(ticks[k])
+            unit = device.profile.units.get("velocity_unit_rpm")
+            if unit and "present_velocity" in device.profile.control_table:
+                rpm = self.mapping.direction[k] * qdot[k] * 60 / (2 * math.pi)
+                device.set_named("present_velocity", int(round(rpm / unit)))
+            if "present_load" in device.profile.control_table:
+                load = self.data.actuator_force[k] / self.stall[k] * 1000.0
+                device.set_named("present_load", int(round(self.mapping.direction[k] * load)))
+        if self.board is not None:
+            board = self.devices[self.board]
+            touching = [self.data.sensordata[a] > CONTACT_SHARE * self.weight for a in self.touch]
+            board.set_named("foot_switch_left", int(touching[0]))
+            board.set_named("foot_switch_right", int(touching[1]))
+            up = self.data.sensordata[self.up:self.up + 3]
+            for axis, value in zip("xyz", up):
+                board.set_named(f"up_vector_{axis}", int(round(float(value) * 16384)))
+
+    # -- ground truth, for dry-run reports ---------------------------------------------------------
+    def sole_x(self) -> np.ndarray:
+        return np.array([self.data.site(f"{s}_sole").xpos[0] for s in ("left", "right")])
+
+    def pelvis_height(self) -> float:
+        return float(self.data.body("pelvis").xipos[2])
+
+    def upright(self) -> float:
+        return float(self.data.sensordata[self.up + 2])
