@@ -89,6 +89,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--json", action="store_true", help="print the report as one JSON object")
     run.set_defaults(func=cmd_run)
     add_simulated_bus_commands(sub)
+    add_compare_command(sub)
 
 
 def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
@@ -110,6 +111,38 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
                             "until Ctrl-C or SIGTERM; any Dynamixel tool can connect to it.")
     simbus.add_argument("--robot", default=DEFAULT_ROBOT, help=ROBOT_HELP)
     simbus.set_defaults(func=cmd_simbus)
+
+
+def add_compare_command(sub: argparse._SubParsersAction) -> None:
+    cmp_ = sub.add_parser("compare", help="compare a trace with the simulation: per-joint error and lag",
+                          description="Replay a trace's commanded goals in the nominal simulation (or, with "
+                          "--controller, run the controller closed-loop) and report per joint the RMSE and MAE "
+                          "[deg] and the lag [ms] of the real joint behind the simulated one, and foot-contact "
+                          "agreement.")
+    cmp_.add_argument("trace", type=Path)
+    cmp_.add_argument("--controller", type=Path, help="simulate this controller closed-loop instead")
+    cmp_.add_argument("--robot", help="robot (default: the trace's)")
+    cmp_.add_argument("--json", action="store_true")
+    cmp_.add_argument("--plot", type=Path, help="PNG overlaying real and simulated angles per joint")
+    cmp_.set_defaults(func=cmd_compare)
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from sim2real.compare import compare, plot
+
+    result = compare(args.trace, args.robot, args.controller)
+    if args.plot:
+        plot(result, args.plot)
+    result.pop("_series")
+    if args.json:
+        print(json.dumps(result))
+    else:
+        print(f"{result['robot']}, {result['ticks']} ticks, {result['mode']}")
+        for name, s in result["joints"].items():
+            lag = "     -" if s["lag_ms"] is None else f"{s['lag_ms']:6.0f}"
+            print(f"  {name:<18} RMSE {s['rmse_deg']:6.2f} deg  MAE {s['mae_deg']:6.2f} deg  lag {lag} ms")
+        print(f"  foot contact agreement {result['contact_agreement'] * 100:.1f} %")
+    return 0
 
 
 def cmd_dry_run(args: argparse.Namespace) -> int:

@@ -1,0 +1,144 @@
+"""Real against simulated: replay a trace's commanded goals in the nominal simulation and
+measure how far the joints drift apart.
+
+For each joint: RMSE and MAE between the trace's present angles and the simulation's [deg],
+and the lag of the real joint behind the simulated one, by cross-correlation [ms]; for the
+feet, the share of ticks on which the trace's foot switches and the simulation agree.  With
+a controller, the simulation can instead run it closed-loop (the policy reading simulated
+sensors).  A trace from ``biped run`` on hardware and one from a dry run are read alike.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from sim2real.controller import load_controller
+from sim2real.errors import ConfigError
+from sim2real.mapping import ServoMapping, quantize
+from sim2real.model_builder import build_model
+from sim2real.policy import Policy
+from sim2real.robot import RobotSpec, load_robot
+
+MAX_LAG_S = 0.5
+CONTACT_SHARE = 0.05
+
+
+def read_trace(path: Path | str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    path = Path(path)
+    sidecar = path.with_suffix(".json")
+    meta = json.loads(sidecar.read_text()) if sidecar.exists() else {}
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        raise ConfigError(str(path), "", "the trace has no rows")
+    columns = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+    return meta, columns
+
+
+def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray | None, policy: Policy | None,
+              feet_real: np.ndarray, up_real: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Joint angles (n, joints) and foot contacts (n, 2) of the simulation at the trace's ticks."""
+    model = build_model(robot)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    mujoco.mj_forward(model, data)
+    names = list(robot.joint_names)
+    qadr = np.array([model.jnt_qposadr[model.joint(n).id] for n in names])
+    touch = [model.sensor_adr[model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
+    up_adr = model.sensor_adr[model.sensor("torso_up").id]
+    resolution = ServoMapping(robot).rad_per_tick
+    weight = robot.body.mass * 9.81
+    angles = np.zeros((len(times), len(names)))
+    feet = np.zeros((len(times), 2), dtype=bool)
+    goal = policy.reset() if policy is not None else None
+    for k, t in enumerate(times):
+        angles[k] = quantize(data.qpos[qadr], resolution)
+        feet[k] = [data.sensordata[a] > CONTACT_SHARE * weight for a in touch]
+        if policy is not None:
+            goal = policy.step(angles[k], feet[k], data.sensordata[up_adr:up_adr + 3], goal)
+            data.ctrl[:] = goal
+        else:
+            data.ctrl[:] = goals[k]
+        end = times[k + 1] - times[0] if k + 1 < len(times) else t - times[0] + (t - times[k - 1] if k else 0.0)
+        while data.time < end - 1e-9:
+            mujoco.mj_step(model, data)
+    return angles, feet
+
+
+MIN_MOTION_RAD = np.radians(0.5)  # below this spread a joint's lag is not defined
+
+
+def lag_s(real: np.ndarray, sim: np.ndarray, dt: float) -> float | None:
+    """How long ``real`` trails ``sim`` (cross-correlation peak) [s]; None for a joint that
+    hardly moves (its correlation would be the encoder's noise)."""
+    a, b = real - real.mean(), sim - sim.mean()
+    if a.std() < MIN_MOTION_RAD or b.std() < MIN_MOTION_RAD:
+        return None
+    max_lag = max(1, min(len(a) - 1, int(MAX_LAG_S / dt)))
+    lags = np.arange(-max_lag, max_lag + 1)
+    scores = [np.dot(a[max(0, l):len(a) + min(0, l)], b[max(0, -l):len(b) + min(0, -l)]) for l in lags]
+    return float(lags[int(np.argmax(scores))] * dt)
+
+
+def compare(trace_path: Path | str, robot_name: str | None = None,
+            controller_path: Path | str | None = None) -> dict[str, Any]:
+    meta, cols = read_trace(trace_path)
+    robot = load_robot(robot_name or meta.get("robot") or "xl430_biped")
+    names = list(robot.joint_names)
+    missing = [n for n in names if f"{n}_present_rad" not in cols]
+    if missing:
+        raise ConfigError(str(trace_path), "columns", f"no present-angle columns for {missing} (robot {robot.name}?)")
+    times = cols["time_s"]
+    real = np.stack([cols[f"{n}_present_rad"] for n in names], axis=1)
+    goals = np.stack([cols[f"{n}_goal_rad"] for n in names], axis=1)
+    feet_real = np.stack([cols["foot_left"], cols["foot_right"]], axis=1) > 0.5
+    up_real = np.stack([cols["up_x"], cols["up_y"], cols["up_z"]], axis=1)
+    policy = None
+    if controller_path is not None:
+        policy = Policy(load_controller(controller_path, robot), robot)
+    sim, feet_sim = _simulate(robot, times, goals, policy, feet_real, up_real)
+    dt = float(np.median(np.diff(times))) if len(times) > 1 else 0.0
+    joints = {}
+    for j, name in enumerate(names):
+        err = np.degrees(real[:, j] - sim[:, j])
+        lag = lag_s(real[:, j], sim[:, j], dt) if dt else None
+        joints[name] = {"rmse_deg": float(np.sqrt(np.mean(err ** 2))), "mae_deg": float(np.mean(np.abs(err))),
+                        "lag_ms": None if lag is None else lag * 1e3}
+    return {"robot": robot.name, "ticks": len(times), "mode": "closed-loop" if policy else "replayed goals",
+            "joints": joints, "contact_agreement": float(np.mean(feet_real == feet_sim)),
+            "_series": {"times": times, "real": real, "sim": sim, "names": names}}
+
+
+def plot(result: dict[str, Any], path: Path | str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    series = result["_series"]
+    names = series["names"]
+    cols = 3
+    rows = int(np.ceil(len(names) / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(4 * cols, 2.2 * rows), sharex=True, squeeze=False)
+    for j, name in enumerate(names):
+        ax = axes[j // cols][j % cols]
+        ax.plot(series["times"], np.degrees(series["real"][:, j]), label="trace (real)")
+        ax.plot(series["times"], np.degrees(series["sim"][:, j]), label="simulation", alpha=0.8)
+        stats = result["joints"][name]
+        lag = "-" if stats["lag_ms"] is None else f"{stats['lag_ms']:.0f} ms"
+        ax.set_title(f"{name}: RMSE {stats['rmse_deg']:.1f} deg, lag {lag}", fontsize=8)
+        ax.tick_params(labelsize=7)
+    for k in range(len(names), rows * cols):
+        axes[k // cols][k % cols].axis("off")
+    axes[0][0].legend(fontsize=7)
+    fig.supxlabel("time [s]")
+    fig.supylabel("joint angle [deg]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)

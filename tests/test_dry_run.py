@@ -1,0 +1,90 @@
+"""Dry runs on the simulated bus, biped simbus, and comparing traces with the simulation."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from evolve.locomotion.evaluator import neat_layout
+from evolve.locomotion.export import controller_from_genome
+from evolve.locomotion.task import TaskConfig
+from evolve.neat import Genome
+from sim2real.compare import compare, lag_s
+from sim2real.controller import save_controller
+from sim2real.dry_run import dry_run
+from sim2real.robot import load_robot
+from sim2real.symmetry import symmetric_layout
+
+ROBOT = load_robot()
+
+
+@pytest.fixture(scope="module")
+def standing_controller(tmp_path_factory):
+    """No connections: every output 0.5, the ranges' centres - the robot stands."""
+    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
+    genome = Genome(0, neat_layout(layout))
+    path = tmp_path_factory.mktemp("c") / "stand.json"
+    save_controller(path, controller_from_genome(genome, ROBOT, layout, TaskConfig(), 1.0, {"seed": 0}))
+    return path
+
+
+def test_a_short_dry_run_stands_and_ends_with_torque_off(standing_controller, tmp_path):
+    result = dry_run(standing_controller, duration_s=1.0, trace_path=tmp_path / "t.csv", log=lambda s: None,
+                     ramp_s=0.3)
+    assert result["stop_reason"] == "duration reached"
+    assert not result["fell"] and abs(result["distance_m"]) < 0.02
+    assert result["bus_errors"] == 0 and result["ticks"] == round(1.0 / 0.034)
+    assert result["simulated_s"] >= 1.0
+
+
+def test_a_silent_servo_mid_run_ends_in_a_safe_stop_not_a_hang(standing_controller):
+    result = dry_run(standing_controller, duration_s=3.0, faults="silent:4@0.5", log=lambda s: None, ramp_s=0.3)
+    assert result["stop_reason"].startswith("lost communication: servo 4")
+    assert result["ticks"] < round(3.0 / 0.034)
+
+
+def test_an_overload_stops_with_the_servo_and_the_error(standing_controller):
+    result = dry_run(standing_controller, duration_s=3.0, faults="overload:9@0.3", log=lambda s: None, ramp_s=0.3)
+    assert "servo 9" in result["stop_reason"] and "overload" in result["stop_reason"]
+
+
+def test_compare_a_dry_run_trace_with_the_simulation(standing_controller, tmp_path):
+    trace = tmp_path / "t.csv"
+    dry_run(standing_controller, duration_s=1.0, trace_path=trace, log=lambda s: None, ramp_s=0.3)
+    result = compare(trace)
+    assert set(result["joints"]) == set(ROBOT.joint_names)
+    for stats in result["joints"].values():
+        assert stats["rmse_deg"] < 2.0 and (stats["lag_ms"] is None or abs(stats["lag_ms"]) <= 100)
+    assert result["contact_agreement"] > 0.9
+    out = subprocess.run([sys.executable, "-m", "evolve.cli", "compare", str(trace), "--json", "--plot",
+                          str(tmp_path / "c.png")], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert set(json.loads(out.stdout)) >= {"joints", "contact_agreement"}
+    assert (tmp_path / "c.png").stat().st_size > 10_000
+
+
+def test_cross_correlation_finds_a_known_lag():
+    t = np.arange(0, 5, 0.01)
+    sim = np.sin(2 * np.pi * 0.7 * t)
+    real = np.sin(2 * np.pi * 0.7 * (t - 0.08))  # real trails by 80 ms
+    assert lag_s(real, sim, 0.01) == pytest.approx(0.08, abs=0.011)
+
+
+def test_simbus_prints_its_port_first_and_answers_the_sdk():
+    from sim2real.bus.dynamixel import DynamixelBus
+
+    proc = subprocess.Popen([sys.executable, "-m", "evolve.cli", "simbus"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        port = proc.stdout.readline().strip()
+        assert port.startswith("/dev/pts/")
+        bus = DynamixelBus(port, 1_000_000, ROBOT)
+        bus.open()
+        assert bus.ping(1) == 1060 and bus.ping(200) == 32512
+        bus.close()
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+    assert proc.returncode == 0
