@@ -41,6 +41,10 @@ def test_protocol2_parser_survives_garbage_truncation_and_oversize(chunks, split
         packets += parser.feed(stream[k:k + split])
     assert all(0 <= i <= 255 and isinstance(params, bytes) for i, _, params in packets)
     assert len(parser.buffer) <= len(stream)
+    good = p2.packet(9, p2.PING)
+    # never stuck behind garbage: a pending partial packet is at most MAX_LENGTH bytes
+    received = [packet for _ in range(p2.MAX_LENGTH // len(good) + 2) for packet in parser.feed(good)]
+    assert (9, p2.PING, b"") in received
 
 
 @settings(max_examples=300, deadline=None)

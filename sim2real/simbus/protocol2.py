@@ -8,6 +8,7 @@ FF FF FD FD.  Source: ROBOTIS e-manual, "Protocol 2.0".
 from __future__ import annotations
 
 HEADER = b"\xff\xff\xfd\x00"
+MAX_LENGTH = 1024  # longer than any packet a chain of 253 devices exchanges with us
 BROADCAST = 0xFE
 STATUS = 0x55
 PING, READ, WRITE, REG_WRITE, ACTION, FACTORY_RESET, REBOOT = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x08
@@ -76,6 +77,9 @@ class Parser:
             if len(self.buffer) < 7:
                 return out
             length = self.buffer[5] | (self.buffer[6] << 8)
+            if not 3 <= length <= MAX_LENGTH:  # not a packet: resynchronize on the next header
+                del self.buffer[:1]
+                continue
             if len(self.buffer) < 7 + length:
                 return out
             raw = bytes(self.buffer[:7 + length])
