@@ -110,6 +110,8 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
                             "time, on a pseudo-terminal.  Prints the port path as the first line, then serves "
                             "until Ctrl-C or SIGTERM; any Dynamixel tool can connect to it.")
     simbus.add_argument("--robot", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    simbus.add_argument("--baud", type=int, help="pace replies like the wire at this baud (default: the robot's)")
+    simbus.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start)")
     simbus.set_defaults(func=cmd_simbus)
 
 
@@ -165,16 +167,30 @@ def cmd_simbus(args: argparse.Namespace) -> int:
     from sim2real.simbus.physics import PhysicsChain
     from sim2real.simbus.server import EmulatedChain, PtyServer
 
-    physics = PhysicsChain(load_robot(args.robot))
+    from sim2real.dry_run import parse_faults
+
+    robot = load_robot(args.robot)
+    physics = PhysicsChain(robot)
+    chain = EmulatedChain(physics.devices, advance=physics.advance)
+    timers = []
+    for kind, dxl_id, at in parse_faults(args.faults):
+        if kind == "silent":
+            timers.append(threading.Timer(at, chain.silent.add, (dxl_id,)))
+        else:
+            physics.overload_at[dxl_id] = at
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *a: done.set())
-    with PtyServer(EmulatedChain(physics.devices, advance=physics.advance)) as server:
+    with PtyServer(chain, baud=args.baud or (robot.bus.baud if robot.bus else None)) as server:
         print(server.port, flush=True)
+        for timer in timers:
+            timer.start()
         try:
             while not done.wait(0.2):
                 physics.advance()  # keep the simulation in real time even when nobody asks
         except KeyboardInterrupt:
             pass
+        for timer in timers:
+            timer.cancel()
     return 0
 
 

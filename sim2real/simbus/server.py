@@ -125,10 +125,16 @@ class EmulatedChain:
 
 
 class PtyServer:
-    """Serves an :class:`EmulatedChain` on a new pseudo-terminal; ``port`` is its path."""
+    """Serves an :class:`EmulatedChain` on a new pseudo-terminal; ``port`` is its path.
 
-    def __init__(self, chain: EmulatedChain):
+    With ``baud``, replies keep the wire's pace: each status packet leaves after the
+    device's Return Delay Time and the time its bytes take at that baud (10 bits a byte);
+    without it they leave at once.
+    """
+
+    def __init__(self, chain: EmulatedChain, baud: int | None = None):
         self.chain = chain
+        self.baud = baud
         self.master, slave = os.openpty()
         tty.setraw(slave)
         self.port = os.ttyname(slave)
@@ -165,4 +171,16 @@ class PtyServer:
             for dxl_id, inst, params in parser.feed(data):
                 reply = self.chain.handle(dxl_id, inst, params)
                 if reply:
+                    if self.baud:
+                        self._pace(reply)
                     os.write(self.master, reply)
+
+    def _pace(self, reply: bytes) -> None:
+        """Sleep as long as the replies would take on the wire: bytes at the baud plus each
+        replying device's Return Delay Time (2 us units) [s]."""
+        delay = len(reply) * 10.0 / self.baud
+        for dxl_id, _, _ in self.chain.parser().feed(reply):
+            device = self.chain.devices.get(dxl_id)
+            if device is not None and "return_delay_time" in device.profile.control_table:
+                delay += 2e-6 * device.get_named("return_delay_time")
+        time.sleep(delay)
