@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-
 from benchmarks.common import parser, progress, report
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.task import TaskConfig

@@ -19,7 +19,6 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from sim2real.errors import ConfigError
 from sim2real.paths import profiles_dir
 from sim2real.validation import Node, load_yaml
 

@@ -36,7 +36,6 @@ def test_walk_preset_gives_seed_000s_eleven_inputs():
 def test_a_mirror_symmetric_state_reads_the_same_on_both_sides():
     layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
     joints = np.zeros((1, len(ROBOT.joints)))
-    rng = np.random.default_rng(0)
     for side in ("right", "left"):
         joints[0, layout.leg_index[side]] = [0.1, -0.4, 0.7]  # the same anatomical pose
     feet = np.array([[-1.0, -1.0]])

@@ -79,7 +79,7 @@ def test_feed_forward_runs_never_create_cycles():
     for genome in pop.genomes:
         edges = [(g.src, g.dst) for g in genome.conns.values()]
         assert all(s != d for s, d in edges)
-        order, seen, stack = {}, set(), list(genome.node_ids())
+        seen = set()
         # Kahn's algorithm: a DAG drains completely
         indeg = {n: 0 for n in genome.node_ids()}
         for _, d in edges:

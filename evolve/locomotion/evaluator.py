@@ -18,7 +18,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-import mujoco
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 

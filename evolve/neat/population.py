@@ -12,7 +12,6 @@ population with its species, the innovation counters, the best genome so far.
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable, Sequence

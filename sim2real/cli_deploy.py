@@ -1,0 +1,164 @@
+"""The ``biped`` subcommands that drive a robot: ``run`` (real or mock bus), ``dry-run``
+and ``simbus`` (the simulated bus), ``compare`` (a trace against the simulation)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from sim2real.robot import DEFAULT_ROBOT, load_robot
+
+ROBOT_HELP = "robot name from configs/robots/ or a path to a robot YAML (default: xl430_biped)"
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    run = sub.add_parser("run", help="drive a robot with a controller (real bus or mock)",
+                         description="Drive the robot with a controller: start-up checks, a slow ramp, "
+                         "the real-time loop, and a safe stop (ramp to rest, torque off) however it ends.")
+    run.add_argument("controller", type=Path)
+    run.add_argument("--robot", help="robot (default: the one the controller was made for)")
+    where = run.add_mutually_exclusive_group()
+    where.add_argument("--port", help="serial port of the real bus, e.g. /dev/ttyUSB0")
+    where.add_argument("--bus", choices=["mock"], help="use an in-memory mock bus")
+    run.add_argument("--baud", type=int, help="baud rate (default: the robot config's)")
+    run.add_argument("--duration", type=float, help="seconds to run (default: until Ctrl-C)")
+    run.add_argument("--trace", type=Path, help="write a trace CSV (+ JSON sidecar) here")
+    run.add_argument("--disable-module", action="append", default=[], metavar="NAME",
+                     help="switch a control module off (repeatable)")
+    run.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    run.set_defaults(func=cmd_run)
+    add_simulated_bus_commands(sub)
+    add_compare_command(sub)
+
+
+def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
+    dry = sub.add_parser("dry-run", help="run a controller through the real loop on the simulated bus",
+                         description="Start the simulated Dynamixel bus (MuJoCo physics behind a pseudo-terminal) "
+                         "and run the same runtime as `biped run` on it, through the official SDK.  Distance and "
+                         "falls come from the simulator's ground truth.")
+    dry.add_argument("controller", type=Path)
+    dry.add_argument("--robot", help="robot (default: the one the controller was made for)")
+    dry.add_argument("--duration", type=float, default=10.0, help="seconds of the loop (default 10)")
+    dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS")
+    dry.add_argument("--trace", type=Path, help="trace CSV (+ JSON sidecar)")
+    dry.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    dry.set_defaults(func=cmd_dry_run)
+
+    simbus = sub.add_parser("simbus", help="serve a simulated Dynamixel bus on a pseudo-terminal",
+                            description="Serve the robot's servos and sensor board, simulated by MuJoCo in real "
+                            "time, on a pseudo-terminal.  Prints the port path as the first line, then serves "
+                            "until Ctrl-C or SIGTERM; any Dynamixel tool can connect to it.")
+    simbus.add_argument("--robot", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    simbus.add_argument("--baud", type=int, help="pace replies like the wire at this baud (default: the robot's)")
+    simbus.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start)")
+    simbus.set_defaults(func=cmd_simbus)
+
+
+def add_compare_command(sub: argparse._SubParsersAction) -> None:
+    cmp_ = sub.add_parser("compare", help="compare a trace with the simulation: per-joint error and lag",
+                          description="Replay a trace's commanded goals in the nominal simulation (or, with "
+                          "--controller, run the controller closed-loop) and report per joint the RMSE and MAE "
+                          "[deg] and the lag [ms] of the real joint behind the simulated one, and foot-contact "
+                          "agreement.")
+    cmp_.add_argument("trace", type=Path)
+    cmp_.add_argument("--controller", type=Path, help="simulate this controller closed-loop instead")
+    cmp_.add_argument("--robot", help="robot (default: the trace's)")
+    cmp_.add_argument("--json", action="store_true")
+    cmp_.add_argument("--plot", type=Path, help="PNG overlaying real and simulated angles per joint")
+    cmp_.set_defaults(func=cmd_compare)
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from sim2real.compare import compare, plot
+
+    result = compare(args.trace, args.robot, args.controller)
+    if args.plot:
+        plot(result, args.plot)
+    result.pop("_series")
+    if args.json:
+        print(json.dumps(result))
+    else:
+        print(f"{result['robot']}, {result['ticks']} ticks, {result['mode']}")
+        for name, s in result["joints"].items():
+            lag = "     -" if s["lag_ms"] is None else f"{s['lag_ms']:6.0f}"
+            print(f"  {name:<18} RMSE {s['rmse_deg']:6.2f} deg  MAE {s['mae_deg']:6.2f} deg  lag {lag} ms")
+        print(f"  foot contact agreement {result['contact_agreement'] * 100:.1f} %")
+    return 0
+
+
+def cmd_dry_run(args: argparse.Namespace) -> int:
+    from sim2real.dry_run import dry_run
+
+    result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults,
+                     log=lambda s: print(s, file=sys.stderr))
+    if args.json:
+        print(json.dumps(result))
+    else:
+        for key, value in result.items():
+            print(f"{key:>16}: {value}")
+    return 0
+
+
+def cmd_simbus(args: argparse.Namespace) -> int:
+    import signal
+    import threading
+
+    from sim2real.simbus.physics import PhysicsChain
+    from sim2real.simbus.server import EmulatedChain, PtyServer
+
+    from sim2real.dry_run import parse_faults
+
+    robot = load_robot(args.robot)
+    physics = PhysicsChain(robot)
+    chain = EmulatedChain(physics.devices, advance=physics.advance)
+    timers = []
+    for kind, dxl_id, at in parse_faults(args.faults):
+        if kind == "silent":
+            timers.append(threading.Timer(at, chain.silent.add, (dxl_id,)))
+        else:
+            physics.overload_at[dxl_id] = at
+    done = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *a: done.set())
+    with PtyServer(chain, baud=args.baud or (robot.bus.baud if robot.bus else None)) as server:
+        print(server.port, flush=True)
+        for timer in timers:
+            timer.start()
+        try:
+            while not done.wait(0.2):
+                physics.advance()  # keep the simulation in real time even when nobody asks
+        except KeyboardInterrupt:
+            pass
+        for timer in timers:
+            timer.cancel()
+    return 0
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from sim2real.bus import MockBus
+    from sim2real.controller import load_controller
+    from sim2real.deploy import drive
+
+    data = load_controller(args.controller)
+    robot = load_robot(args.robot or data["robot"]["name"])
+    data = load_controller(args.controller, robot)
+    if args.port:
+        from sim2real.bus.dynamixel import DynamixelBus
+
+        bus = DynamixelBus(args.port, args.baud or robot.bus.baud, robot)
+    else:
+        if not args.bus:
+            print("no --port: using the mock bus (the simulated bus comes with `biped dry-run`)", file=sys.stderr)
+        bus = MockBus(robot)
+    report = drive(bus, robot, data, duration_s=args.duration, trace_path=args.trace,
+                   disabled_modules=tuple(args.disable_module), log=lambda s: print(s, file=sys.stderr))
+    summary = report.summary()
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        for key, value in summary.items():
+            print(f"{key:>16}: {value}")
+    return 0 if report.stop_reason in ("duration reached", "interrupted (Ctrl-C)", "terminated (SIGTERM)") else 1
+
+
