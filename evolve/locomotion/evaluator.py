@@ -129,16 +129,17 @@ class LocomotionEvaluator:
         c = 2.0 * task.harness_damping * np.sqrt(k * self.mass)
         cap = harness * task.harness_max_force * self.mass * GRAVITY
 
+        d_low, d_high, d_step = self.low[self.driven], self.high[self.driven], self.max_step[self.driven]
         for _ in range(self.n_ticks):
             sensors = self.sensordata[alive]
-            q = quantize(self.qpos[alive][:, self.qadr], self.resolution)
+            q = quantize(self.qpos[alive[:, None], self.qadr], self.resolution)
             feet = np.where(sensors[:, self.touch_adr] > self.touch_threshold, -1.0, 1.0)
             up = sensors[:, self.up_adr:self.up_adr + 3]
             inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high), feet, up)
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
-            wanted = output_to_angle(outputs, self.low[self.driven], self.high[self.driven])
-            goal[alive] = rate_limit(wanted, goal[alive], self.max_step[self.driven])
-            self.ctrl[alive[:, None], self.driven] = goal[alive]
+            goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)
+            goal[alive] = goal_alive
+            self.ctrl[alive[:, None], self.driven] = goal_alive
             if harness:
                 self.xfrc[alive, self.pelvis, :3] = self._harness(alive, start_pelvis, k, c, cap)
             failed = np.zeros(len(alive), dtype=bool)
@@ -151,13 +152,14 @@ class LocomotionEvaluator:
             if on_tick is not None:
                 on_tick(self, alive)
 
-            hind = self.site_xpos[alive][:, self.soles, 0].min(axis=1) - start_x[alive]
+            hind = self.site_xpos[alive[:, None], self.soles, 0].min(axis=1) - start_x[alive]
             progress = hind / self.leg
             pelvis_z = self.xipos[alive, self.pelvis, 2]
             up_z = self.sensordata[alive, self.up_adr + 2]
             down = (pelvis_z < task.fall_height * start_pelvis[alive, 2]) | (up_z < self.min_up_z)
-            bad = failed | ~np.isfinite(self.qpos[alive]).all(axis=1) | (
-                np.abs(np.nan_to_num(self.qvel[alive], nan=np.inf)) > MAX_JOINT_SPEED).any(axis=1)
+            # a NaN fails the comparison, so "not all below the limit" also catches NaN
+            bad = failed | ~(np.abs(self.qvel[alive]) <= MAX_JOINT_SPEED).all(axis=1) | \
+                ~np.isfinite(self.qpos[alive, 2])
             ok = ~down & ~bad
             live = alive[ok]
             # eq. 3 at this tick; a fall keeps the previous tick's value
