@@ -5,7 +5,9 @@
 Runs ``configs/evolve/walk.yaml`` (or --config) and, after every generation, replays that
 generation's champion without the harness.  "Walked" (the issue's criterion) means upright
 at the end of the episode and at least 2.2 leg lengths forward (seed 000's 2 m for a human
-leg of about 0.9 m).  Stops at the first walker or when the budget is spent.
+leg of about 0.9 m).  Stops at the first walker or when the budget is spent, and saves
+the walker as ``walker.json`` in the run folder (its ``controller.json`` may still hold a
+champion of the harness generations).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from evolve.cli_commands import resolve_config
 from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.run import Run
+from sim2real.controller import save_controller
 
 WALK_LEG_LENGTHS = 2.2
 
@@ -52,6 +55,7 @@ def main(argv=None) -> None:
         if full and not result.fell[0] and distance >= WALK_LEG_LENGTHS * leg:
             state.update(walked=True, minutes_to_walk=(time.perf_counter() - start) / 60.0,
                          generation=row["generation"], walk_distance_m=distance)
+            save_controller(out / "walker.json", run.controller(champion))  # judged without the harness
             return True
         return time.perf_counter() - start > budget
 

@@ -172,8 +172,9 @@ class Run:
             "generation": b.generation, "harness": b.harness, "genome": b.genome.to_dict()})
         save_controller(self.out / "controller.json", self.controller())
 
-    def controller(self) -> dict:
-        b = self.best
+    def controller(self, best: Best | None = None) -> dict:
+        """Controller file data of ``best`` (default: the run's best so far)."""
+        b = best or self.best
         config_yaml = self.config.to_yaml()
         provenance = {"seed": self.config.seed, "generation": b.generation, "fitness": b.fitness,
                       "distance_m": b.distance_m, "upright_s": b.upright_s, "harness": b.harness,
