@@ -116,7 +116,10 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
 
 
 def plot(result: dict[str, Any], path: Path | str) -> None:
-    import matplotlib
+    try:
+        import matplotlib
+    except ImportError as exc:
+        raise SystemExit("plots need matplotlib: pip install 'servo-biped-evolve[plot]'") from exc
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
