@@ -21,9 +21,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--robot", help="robot (default: the one the controller was made for)")
     where = run.add_mutually_exclusive_group()
     where.add_argument("--port", help="serial port of the real bus, e.g. /dev/ttyUSB0")
-    where.add_argument("--bus", choices=["mock"], help="use an in-memory mock bus")
+    where.add_argument("--bus", choices=["mock", "sim"],
+                       help="mock: an in-memory mock bus; sim (the default without --port): the simulated bus")
     run.add_argument("--baud", type=int, help="baud rate (default: the robot config's)")
-    run.add_argument("--duration", type=float, help="seconds to run (default: until Ctrl-C)")
+    run.add_argument("--duration", type=float, help="seconds to run (default: until Ctrl-C; 10 on the simulated bus)")
     run.add_argument("--trace", type=Path, help="write a trace CSV (+ JSON sidecar) here")
     run.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                      help="switch a control module off (repeatable)")
@@ -143,16 +144,24 @@ def cmd_run(args: argparse.Namespace) -> int:
     data = load_controller(args.controller)
     robot = load_robot(args.robot or data["robot"]["name"])
     data = load_controller(args.controller, robot)
+    log = lambda line: print(line, file=sys.stderr)  # noqa: E731
     if args.port:
         from sim2real.bus.dynamixel import DynamixelBus
 
-        bus = DynamixelBus(args.port, args.baud or robot.bus.baud, robot)
-    else:
-        if not args.bus:
-            print("no --port: using the mock bus (the simulated bus comes with `biped dry-run`)", file=sys.stderr)
-        bus = MockBus(robot)
-    report = drive(bus, robot, data, duration_s=args.duration, trace_path=args.trace,
-                   disabled_modules=tuple(args.disable_module), log=lambda s: print(s, file=sys.stderr))
+        report = drive(DynamixelBus(args.port, args.baud or robot.bus.baud, robot), robot, data,
+                       duration_s=args.duration, trace_path=args.trace,
+                       disabled_modules=tuple(args.disable_module), log=log)
+    elif args.bus == "mock":
+        report = drive(MockBus(robot), robot, data, duration_s=args.duration, trace_path=args.trace,
+                       disabled_modules=tuple(args.disable_module), log=log)
+    else:  # neither: the simulated bus, as in a dry run
+        from sim2real.dry_run import dry_run
+
+        log("no --port: running on the simulated bus (MuJoCo behind a pseudo-terminal)")
+        result = dry_run(args.controller, robot.name if args.robot else None, args.duration or 10.0,
+                         args.trace, log=log, disabled_modules=tuple(args.disable_module))
+        print(json.dumps(result) if args.json else "\n".join(f"{k:>16}: {v}" for k, v in result.items()))
+        return 0 if result["stop_reason"] == "duration reached" else 1
     summary = report.summary()
     if args.json:
         print(json.dumps(summary))

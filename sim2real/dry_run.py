@@ -42,7 +42,8 @@ def parse_faults(spec: str | None) -> list[tuple[str, int, float]]:
 
 def dry_run(controller_path: Path | str, robot_name: str | None = None, duration_s: float = 10.0,
             trace_path: Path | str | None = None, faults: str | None = None,
-            log: Callable[[str], None] = print, ramp_s: float = 2.0) -> dict[str, Any]:
+            log: Callable[[str], None] = print, ramp_s: float = 2.0,
+            disabled_modules: tuple[str, ...] = ()) -> dict[str, Any]:
     data = load_controller(controller_path)
     robot = load_robot(robot_name or data["robot"]["name"])
     data = load_controller(controller_path, robot)
@@ -60,7 +61,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
             timer.start()
         try:
             report = drive(DynamixelBus(server.port, robot.bus.baud, robot), robot, data, duration_s=duration_s,
-                           trace_path=trace_path, log=log, ramp_s=ramp_s)
+                           trace_path=trace_path, log=log, ramp_s=ramp_s, disabled_modules=disabled_modules)
         finally:
             for timer in timers:
                 timer.cancel()

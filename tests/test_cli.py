@@ -66,3 +66,23 @@ def test_bad_robot_config_is_a_clear_error_not_a_traceback(tmp_path):
 def test_every_command_has_help(command):
     result = run_biped(*command, "--help")
     assert result.returncode == 0 and "usage: biped" in result.stdout
+
+
+def test_run_without_a_port_uses_the_simulated_bus(tmp_path):
+    from evolve.locomotion.evaluator import neat_layout
+    from evolve.locomotion.export import controller_from_genome
+    from evolve.locomotion.task import TaskConfig
+    from evolve.neat import Genome
+    from sim2real.controller import save_controller
+    from sim2real.robot import load_robot
+    from sim2real.symmetry import symmetric_layout
+
+    robot = load_robot()
+    layout = symmetric_layout(robot, robot.control_sets["walk"])
+    save_controller(tmp_path / "c.json", controller_from_genome(Genome(0, neat_layout(layout)), robot, layout,
+                                                                TaskConfig(), 1.0, {"seed": 0}))
+    result = run_biped("run", str(tmp_path / "c.json"), "--duration", "0.5", "--json")
+    assert result.returncode == 0, result.stderr
+    assert "simulated bus" in result.stderr
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert report["stop_reason"] == "duration reached" and not report["fell"]
