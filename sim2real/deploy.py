@@ -36,6 +36,7 @@ POSITION_MODE = 3
 WATCHDOG_MS = 100  # servos stop if the host is silent this long (X series: 20 ms units)
 RAMP_S = 2.0  # start-up and shutdown ramps [s]
 RAMP_TICK_S = 0.02
+SPIN_S = 0.0005  # the loop spins this long before each deadline instead of sleeping (5 % of a 10 ms tick)
 
 
 class StartupError(BipedError):
@@ -171,7 +172,17 @@ class RealTimeLoop:
                 self.trace.write(began - start, report.ticks, goal, angles, feet, up, compute_s, bus_s, overrun)
             report.ticks += 1
             if not overrun:
-                self.sleep(deadline - self.clock() if deadline > self.clock() else 0.0)
+                self._wait_until(deadline)
+
+    def _wait_until(self, deadline: float) -> None:
+        """Sleep, then spin the last ``SPIN_S``: a thread woken from a long sleep starts late
+        and runs its first microseconds cold (caches, clock frequency) - measured at ~4x the
+        warm compute time on this project's machine."""
+        remaining = deadline - self.clock()
+        if remaining > SPIN_S:
+            self.sleep(remaining - SPIN_S)
+        while self.clock() < deadline:
+            pass
 
 
 def _on_sigterm(signum, frame):
