@@ -201,3 +201,14 @@ def test_no_goal_outside_the_limits_whatever_the_network_or_readings(seed, robot
         goal = policy.step(angles, feet, up, goal)
         ticks = mapping.ticks(goal)
         assert np.all(ticks >= mapping.tick_low) and np.all(ticks <= mapping.tick_high)
+
+
+def test_the_deploy_path_imports_without_mujoco():
+    import subprocess
+    import sys
+
+    code = ("import sys; import sim2real.deploy, sim2real.bus.dynamixel, sim2real.policy, sim2real.controller; "
+            "print('mujoco' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "False"
