@@ -139,3 +139,27 @@ def test_protocol_1_ax12a_chain_through_the_sdk(tmp_path):
         assert devices[4].get_named("goal_position") == 600
         assert bus.ping(3) in (0, 12)  # the SDK's protocol-1.0 ping reads the model number separately
         bus.close()
+
+
+def test_reg_write_waits_for_action_and_broadcast_ping_finds_everyone(served):
+    import dynamixel_sdk as sdk
+
+    bus, _, devices = served
+    assert bus.packets.regWriteTxRx(bus.port, 3, 116, 4, list((1234).to_bytes(4, "little")))[0] == sdk.COMM_SUCCESS
+    assert devices[3].get_named("goal_position") == 2048  # held
+    bus.packets.action(bus.port, sdk.BROADCAST_ID)
+    bus.ping(1)
+    assert devices[3].get_named("goal_position") == 1234
+    found, result = bus.packets.broadcastPing(bus.port)
+    assert result == sdk.COMM_SUCCESS
+    assert sorted(found) == sorted(devices) and found[200][0] == 32512
+
+
+def test_factory_reset_restores_defaults(served):
+    import dynamixel_sdk as sdk
+
+    bus, _, devices = served
+    ServoChain(bus, ROBOT).write(6, "return_delay_time", 0)
+    result, _ = bus.packets.factoryReset(bus.port, 6, 0x02)  # everything but the ID
+    assert result == sdk.COMM_SUCCESS
+    assert devices[6].get_named("return_delay_time") == 250 and devices[6].get_named("id") == 6

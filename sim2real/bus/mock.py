@@ -79,6 +79,14 @@ class MockDevice:
             self.position = float(self.get_named("present_position"))
         return self.alert()
 
+    def factory_reset(self, keep_id: bool) -> None:
+        """Every entry back to its default (the ID too unless ``keep_id``; then ID 1)."""
+        dxl_id = self.id
+        for reg in self.profile.control_table.values():
+            self.set(reg.address, reg.size, reg.default & ((1 << (8 * reg.size)) - 1))
+        if keep_id and "id" in self.profile.control_table:
+            self.set_named("id", dxl_id)
+
     def reboot(self) -> None:
         self.set_named("hardware_error_status", 0)
         if self.profile.is_servo:

@@ -36,6 +36,7 @@ class EmulatedChain:
         self._custom_advance = advance
         self.protocol = next(iter(devices.values())).profile.protocol
         self.silent: set[int] = set()
+        self.registered: dict[int, tuple[int, bytes]] = {}  # REG_WRITE held for ACTION
         self.clock = clock
         self._last = clock()
         self.lock = threading.Lock()
@@ -74,15 +75,25 @@ class EmulatedChain:
                     if device is not None and params[k] not in self.silent:
                         device.write(address, size, int.from_bytes(params[k + 1:k + 1 + size], "little"))
                 return b""
+            if inst == p2.ACTION:  # broadcast or not: apply what REG_WRITE held
+                targets = list(self.registered) if dxl_id == p2.BROADCAST else [dxl_id]
+                for target in targets:
+                    held = self.registered.pop(target, None)
+                    if held is not None and target in self.devices:
+                        address, data = held
+                        self.devices[target].write(address, len(data), int.from_bytes(data, "little"))
+                if dxl_id == p2.BROADCAST or dxl_id not in self.devices or dxl_id in self.silent:
+                    return b""
+                return p2.status(dxl_id, self.devices[dxl_id].alert())
             if dxl_id == p2.BROADCAST:
+                if inst == p2.PING:  # every device answers, in ID order
+                    return b"".join(self._ping(i) for i in sorted(self.devices) if i not in self.silent)
                 return b""
             device = self.devices.get(dxl_id)
             if device is None or dxl_id in self.silent:
                 return b""
             if inst == p2.PING:
-                version = device.get_named("firmware_version")
-                return p2.status(dxl_id, device.alert(), device.get_named("model_number").to_bytes(2, "little")
-                                 + bytes([version]))
+                return self._ping(dxl_id)
             if inst == p2.READ:
                 if len(params) != 4:
                     return p2.status(dxl_id, DATA_LENGTH_ERROR)
@@ -90,8 +101,14 @@ class EmulatedChain:
             if inst == p2.WRITE:
                 address, data = int.from_bytes(params[0:2], "little"), params[2:]
                 return p2.status(dxl_id, device.write(address, len(data), int.from_bytes(data, "little")))
+            if inst == p2.REG_WRITE:  # held until ACTION
+                self.registered[dxl_id] = (int.from_bytes(params[0:2], "little"), params[2:])
+                return p2.status(dxl_id, device.alert())
             if inst == p2.REBOOT:
                 device.reboot()
+                return p2.status(dxl_id, 0)
+            if inst == p2.FACTORY_RESET:
+                device.factory_reset(keep_id=params[:1] in (b"\x01", b"\x02"))
                 return p2.status(dxl_id, 0)
             return p2.status(dxl_id, INSTRUCTION_ERROR)
 
@@ -115,6 +132,11 @@ class EmulatedChain:
             error = device.write(params[0], len(params) - 1, int.from_bytes(params[1:], "little"))
             return p1.status(dxl_id, p1.RANGE_ERROR if error & 0x7F else 0)
         return p1.status(dxl_id, p1.INSTRUCTION_ERROR)
+
+    def _ping(self, dxl_id: int) -> bytes:
+        device = self.devices[dxl_id]
+        return p2.status(dxl_id, device.alert(), device.get_named("model_number").to_bytes(2, "little")
+                         + bytes([device.get_named("firmware_version")]))
 
     def _read(self, dxl_id: int, address: int, size: int) -> bytes:
         device = self.devices.get(dxl_id)
