@@ -42,7 +42,7 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
     dry.add_argument("controller", type=Path)
     dry.add_argument("--robot", help="robot (default: the one the controller was made for)")
     dry.add_argument("--duration", type=float, default=10.0, help="seconds of the loop (default 10)")
-    dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS")
+    dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE")
     dry.add_argument("--trace", type=Path, help="trace CSV (+ JSON sidecar)")
     dry.add_argument("--json", action="store_true", help="print the report as one JSON object")
     dry.set_defaults(func=cmd_dry_run)
@@ -53,7 +53,7 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
                             "until Ctrl-C or SIGTERM; any Dynamixel tool can connect to it.")
     simbus.add_argument("--robot", default=DEFAULT_ROBOT, help=ROBOT_HELP)
     simbus.add_argument("--baud", type=int, help="pace replies like the wire at this baud (default: the robot's)")
-    simbus.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start)")
+    simbus.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start),drop:RATE,corrupt:RATE")
     simbus.set_defaults(func=cmd_simbus)
 
 
@@ -114,15 +114,17 @@ def cmd_simbus(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot)
     physics = PhysicsChain(robot)
     chain = EmulatedChain(physics.devices, advance=physics.advance)
-    timers = []
+    timers, rates = [], {}
     for kind, dxl_id, at in parse_faults(args.faults):
         if kind == "silent":
             timers.append(threading.Timer(at, chain.silent.add, (dxl_id,)))
-        else:
+        elif kind == "overload":
             physics.overload_at[dxl_id] = at
+        else:
+            rates[f"{kind}_rate"] = at
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *a: done.set())
-    with PtyServer(chain, baud=args.baud or (robot.bus.baud if robot.bus else None)) as server:
+    with PtyServer(chain, baud=args.baud or (robot.bus.baud if robot.bus else None), **rates) as server:
         print(server.port, flush=True)
         for timer in timers:
             timer.start()

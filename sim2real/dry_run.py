@@ -26,15 +26,27 @@ FALL_TILT_DEG = 60.0
 
 
 def parse_faults(spec: str | None) -> list[tuple[str, int, float]]:
-    """``silent:ID@SECONDS,overload:ID@SECONDS`` -> [(kind, id, seconds)]."""
+    """``silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE`` -> [(kind, id, value)]
+    (id 0 for the wire-wide rates)."""
     faults = []
     for item in filter(None, (spec or "").split(",")):
+        if item.startswith(("drop:", "corrupt:")):
+            kind, rate = item.split(":", 1)
+            try:
+                value = float(rate)
+            except ValueError:
+                value = -1.0
+            if not 0.0 <= value <= 1.0:
+                raise ConfigError("--faults", item, "a rate must be a number within [0, 1]")
+            faults.append((kind, 0, value))
+            continue
         try:
             kind, rest = item.split(":")
             dxl_id, at = rest.split("@")
             faults.append((kind.strip(), int(dxl_id), float(at)))
         except ValueError:
-            raise ConfigError("--faults", item, "expected KIND:ID@SECONDS, e.g. silent:5@3.0 or overload:7@2") from None
+            raise ConfigError("--faults", item, "expected KIND:ID@SECONDS (silent:5@3.0, overload:7@2) "
+                              "or KIND:RATE (drop:0.02, corrupt:0.01)") from None
         if faults[-1][0] not in ("silent", "overload"):
             raise ConfigError("--faults", item, "kind must be silent or overload")
     return faults
@@ -50,13 +62,15 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     physics = PhysicsChain(robot)
     start_soles, start_height = physics.sole_x(), physics.pelvis_height()
     chain = EmulatedChain(physics.devices, advance=physics.advance)
-    timers = []
+    timers, rates = [], {}
     for kind, dxl_id, at in parse_faults(faults):
         if kind == "silent":
             timers.append(threading.Timer(ramp_s + at, chain.silent.add, (dxl_id,)))
-        else:
+        elif kind == "overload":
             physics.overload_at[dxl_id] = ramp_s + at
-    with PtyServer(chain) as server:
+        else:
+            rates[f"{kind}_rate"] = at
+    with PtyServer(chain, **rates) as server:
         for timer in timers:
             timer.start()
         try:

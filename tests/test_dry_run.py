@@ -88,3 +88,10 @@ def test_simbus_prints_its_port_first_and_answers_the_sdk():
         proc.terminate()
         proc.wait(timeout=30)
     assert proc.returncode == 0
+
+
+def test_dropped_and_corrupted_replies_are_retried(standing_controller):
+    result = dry_run(standing_controller, duration_s=1.5, faults="drop:0.02,corrupt:0.02", log=lambda s: None,
+                     ramp_s=0.3)
+    assert result["stop_reason"] == "duration reached"  # the chain's retries absorbed them
+    assert not result["fell"]

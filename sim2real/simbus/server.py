@@ -13,6 +13,7 @@ turn.  (Physics-backed servos and wire timing are the simulated bus's business.)
 from __future__ import annotations
 
 import os
+import random
 import select
 import threading
 import time
@@ -149,14 +150,19 @@ class EmulatedChain:
 class PtyServer:
     """Serves an :class:`EmulatedChain` on a new pseudo-terminal; ``port`` is its path.
 
-    With ``baud``, replies keep the wire's pace: each status packet leaves after the
+    ``drop_rate`` and ``corrupt_rate`` lose replies or flip one of their bytes, at random
+    (seeded).  With ``baud``, replies keep the wire's pace: each status packet leaves after the
     device's Return Delay Time and the time its bytes take at that baud (10 bits a byte);
     without it they leave at once.
     """
 
-    def __init__(self, chain: EmulatedChain, baud: int | None = None):
+    def __init__(self, chain: EmulatedChain, baud: int | None = None, drop_rate: float = 0.0,
+                 corrupt_rate: float = 0.0, seed: int = 0):
         self.chain = chain
         self.baud = baud
+        # faults on the wire: a reply lost, or one of its bytes flipped (its CRC then fails)
+        self.drop_rate, self.corrupt_rate = drop_rate, corrupt_rate
+        self._rng = random.Random(seed)
         self.master, slave = os.openpty()
         tty.setraw(slave)
         self.port = os.ttyname(slave)
@@ -192,6 +198,11 @@ class PtyServer:
                 return
             for dxl_id, inst, params in parser.feed(data):
                 reply = self.chain.handle(dxl_id, inst, params)
+                if reply and self.drop_rate and self._rng.random() < self.drop_rate:
+                    continue
+                if reply and self.corrupt_rate and self._rng.random() < self.corrupt_rate:
+                    k = self._rng.randrange(len(reply))
+                    reply = reply[:k] + bytes([reply[k] ^ 0x5A]) + reply[k + 1:]
                 if reply:
                     if self.baud:
                         self._pace(reply)
