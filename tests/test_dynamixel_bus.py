@@ -163,3 +163,19 @@ def test_factory_reset_restores_defaults(served):
     result, _ = bus.packets.factoryReset(bus.port, 6, 0x02)  # everything but the ID
     assert result == sdk.COMM_SUCCESS
     assert devices[6].get_named("return_delay_time") == 250 and devices[6].get_named("id") == 6
+
+
+def test_bulk_write_and_bulk_read_through_the_sdk_groups(served):
+    import dynamixel_sdk as sdk
+
+    bus, _, devices = served
+    write = sdk.GroupBulkWrite(bus.port, bus.packets)
+    write.addParam(2, 116, 4, list((1500).to_bytes(4, "little")))
+    write.addParam(200, 68, 1, [1])  # a different address on another device
+    assert write.txPacket() == sdk.COMM_SUCCESS
+    read = sdk.GroupBulkRead(bus.port, bus.packets)
+    read.addParam(2, 116, 4)
+    read.addParam(200, 100, 2)
+    devices[200].set_named("foot_switch_right", 1)
+    assert read.txRxPacket() == sdk.COMM_SUCCESS
+    assert read.getData(2, 116, 4) == 1500 and read.getData(200, 100, 2) == 0x0100

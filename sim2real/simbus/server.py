@@ -69,6 +69,17 @@ class EmulatedChain:
                         int.from_bytes(params[k + 3:k + 5], "little")
                     out += self._read(i, address, size)
                 return out
+            if inst == p2.BULK_WRITE:  # [id, address, length, data] for each device, no status
+                k = 0
+                while k + 5 <= len(params):
+                    target = params[k]
+                    address = int.from_bytes(params[k + 1:k + 3], "little")
+                    size = int.from_bytes(params[k + 3:k + 5], "little")
+                    data = params[k + 5:k + 5 + size]
+                    if target in self.devices and target not in self.silent and len(data) == size:
+                        self.devices[target].write(address, size, int.from_bytes(data, "little"))
+                    k += 5 + size
+                return b""
             if inst == p2.SYNC_WRITE:
                 address, size = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
                 for k in range(4, len(params) - size, 1 + size):
