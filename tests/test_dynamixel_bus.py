@@ -179,3 +179,20 @@ def test_bulk_write_and_bulk_read_through_the_sdk_groups(served):
     devices[200].set_named("foot_switch_right", 1)
     assert read.txRxPacket() == sdk.COMM_SUCCESS
     assert read.getData(2, 116, 4) == 1500 and read.getData(200, 100, 2) == 0x0100
+
+
+def test_fast_sync_read_and_fast_bulk_read_through_the_sdk_groups(served):
+    import dynamixel_sdk as sdk
+
+    bus, _, devices = served
+    devices[4].set_named("present_position", 1999)
+    group = sdk.GroupSyncRead(bus.port, bus.packets, 132, 4)
+    for dxl_id in (3, 4, 5):
+        group.addParam(dxl_id)
+    assert group.fastSyncRead() == sdk.COMM_SUCCESS
+    assert [group.getData(i, 132, 4) for i in (3, 4, 5)] == [2048, 1999, 2048]
+    bulk = sdk.GroupBulkRead(bus.port, bus.packets)
+    bulk.addParam(4, 132, 4)
+    bulk.addParam(200, 0, 2)
+    assert bulk.fastBulkRead() == sdk.COMM_SUCCESS
+    assert bulk.getData(4, 132, 4) == 1999 and bulk.getData(200, 0, 2) == 32512

@@ -57,6 +57,18 @@ def status(dxl_id: int, error: int, data: bytes = b"") -> bytes:
     return packet(dxl_id, STATUS, bytes([error]) + data)
 
 
+def fast_status(replies: list[tuple[int, int, bytes]]) -> bytes:
+    """The one status packet of FAST_SYNC_READ / FAST_BULK_READ: for each device its error
+    byte, ID, data and a CRC of the packet so far; the last CRC is the packet's."""
+    length = 1 + sum(4 + len(data) for _, _, data in replies)
+    out = bytearray(HEADER + bytes([BROADCAST, length & 0xFF, length >> 8, STATUS]))
+    for dxl_id, error, data in replies:
+        out += bytes([error, dxl_id]) + data
+        crc = crc16(bytes(out))
+        out += bytes([crc & 0xFF, crc >> 8])
+    return bytes(out)
+
+
 class Parser:
     """Splits a byte stream into packets: yields (id, instruction, params) of each intact one;
     packets with a bad CRC are counted in ``crc_errors`` and dropped."""

@@ -62,6 +62,19 @@ class EmulatedChain:
             if inst == p2.SYNC_READ:
                 address, size = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
                 return b"".join(self._read(i, address, size) for i in params[4:])
+            if inst in (p2.FAST_SYNC_READ, p2.FAST_BULK_READ):
+                if inst == p2.FAST_SYNC_READ:
+                    address, size = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
+                    wanted = [(i, address, size) for i in params[4:]]
+                else:
+                    wanted = [(params[k], int.from_bytes(params[k + 1:k + 3], "little"),
+                               int.from_bytes(params[k + 3:k + 5], "little")) for k in range(0, len(params) - 4, 5)]
+                replies = []
+                for i, address, size in wanted:
+                    if i in self.devices and i not in self.silent:
+                        value, error = self.devices[i].read(address, size)
+                        replies.append((i, error, value.to_bytes(size, "little")))
+                return p2.fast_status(replies) if replies else b""
             if inst == p2.BULK_READ:
                 out = b""
                 for k in range(0, len(params) - 4, 5):
