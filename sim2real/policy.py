@@ -1,6 +1,7 @@
 """A controller file as a policy: robot readings in, joint goals out (no MuJoCo).
 
-The same wiring as in evolution (:mod:`sim2real.symmetry`, :mod:`sim2real.mapping`):
+The same wiring as in evolution (:mod:`sim2real.symmetry`, :mod:`sim2real.mapping`, which
+the tests use as the oracle of this faster, fused form):
 present joint angles, foot switches and the torso's up-vector become both networks'
 inputs; their outputs become joint goals by the central-0.8 rule, rate-limited to the
 servos' no-load speed per tick; joints the controller does not drive hold the centre of
@@ -13,7 +14,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from sim2real.mapping import normalized_angle, output_to_angle, rate_limit
+from sim2real.mapping import OUTPUT_MARGIN
 from sim2real.network_runtime import ControllerNetworks
 from sim2real.robot import RobotSpec
 from sim2real.symmetry import network_inputs, symmetric_layout
@@ -41,9 +42,12 @@ class Policy:
         self._right_out = self.layout.leg_index["right"]
         self._left_out = self.layout.leg_index["left"]
         self._center_out = self.layout.center_index
-        self._driven_mask = np.zeros(n, dtype=bool)
-        self._driven_mask[self.driven] = True
         self._k = k
+        # the central-0.8 rule as one affine map, clipped to the range afterwards
+        d = self.driven
+        self._scale = (self.high[d] - self.low[d]) / (1.0 - 2.0 * OUTPUT_MARGIN)
+        self._offset = self.low[d] - OUTPUT_MARGIN * self._scale
+        self._span = 2.0 / (self.high - self.low)
 
     def _input_gather(self) -> tuple[np.ndarray, np.ndarray]:
         """Both networks' inputs as one gather from [angles, feet, up] and a sign: the same
@@ -63,15 +67,15 @@ class Policy:
              previous_goal: np.ndarray) -> np.ndarray:
         """One tick: joint angles [rad] (robot order), feet (left, right: touching), up-vector
         (torso frame) and the last goals -> the next goals [rad] for every joint."""
-        readings = np.concatenate([normalized_angle(angles, self.low, self.high),
+        readings = np.concatenate([(angles - self.low) * self._span - 1.0,
                                    np.where(feet_touching, -1.0, 1.0), up])
         out = self.networks.activate(readings[self._gather] * self._sign)
         joint_out = np.empty(len(self.low))
         joint_out[self._right_out] = out[0, :self._k]
         joint_out[self._left_out] = out[1, :self._k]
         joint_out[self._center_out] = 0.5 * (out[0, self._k:] + out[1, self._k:])
-        goal = previous_goal.copy()
         d = self.driven
-        wanted = output_to_angle(joint_out[d], self.low[d], self.high[d])
-        goal[d] = rate_limit(wanted, previous_goal[d], self.max_step[d])
+        wanted = np.clip(joint_out[d] * self._scale + self._offset, self.low[d], self.high[d])
+        goal = previous_goal.copy()
+        goal[d] = previous_goal[d] + np.clip(wanted - previous_goal[d], -self.max_step[d], self.max_step[d])
         return goal
