@@ -196,3 +196,24 @@ def test_fast_sync_read_and_fast_bulk_read_through_the_sdk_groups(served):
     bulk.addParam(200, 0, 2)
     assert bulk.fastBulkRead() == sdk.COMM_SUCCESS
     assert bulk.getData(4, 132, 4) == 1999 and bulk.getData(200, 0, 2) == 32512
+
+
+def test_error_statuses_as_the_servo_gives_them(served):
+
+    from sim2real.simbus import protocol2 as p2
+
+    bus, _, devices = served
+    chain = ServoChain(bus, ROBOT)
+    chain.write(2, "min_position_limit", 1000)
+    chain.write(2, "max_position_limit", 3000)
+    with pytest.raises(ServoError, match="servo 2: data limit error"):
+        chain.write(2, "goal_position", 3500)
+    assert devices[2].get_named("goal_position") != 3500
+    # a packet whose CRC is wrong gets a CRC-error status from the servo it addresses
+    bad = bytearray(p2.packet(3, p2.PING))
+    bad[-1] ^= 0xFF
+    bus.port.clearPort()
+    bus.port.writePort(bytes(bad))
+    bus.port.setPacketTimeout(11)
+    packet, result = bus.packets.rxPacket(bus.port, False)
+    assert packet[8] == p2.CRC_ERROR and packet[4] == 3

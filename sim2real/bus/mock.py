@@ -19,6 +19,7 @@ from sim2real.profiles import DeviceProfile
 from sim2real.robot import RobotSpec
 
 ACCESS_ERROR = 7
+DATA_LIMIT_ERROR = 6
 
 
 @dataclass
@@ -74,6 +75,10 @@ class MockDevice:
             return ACCESS_ERROR | self.alert()  # X series: EEPROM is locked while torque is on
         if reg.name == "torque_enable" and value and self.alert():
             return self.alert()  # refused until REBOOT, and the alert bit says why
+        if reg.name == "goal_position" and "min_position_limit" in self.profile.control_table:
+            signed = value - (1 << 32) if value >= 1 << 31 else value
+            if not self.get_named("min_position_limit") <= signed <= self.get_named("max_position_limit"):
+                return DATA_LIMIT_ERROR | self.alert()  # outside the position limits: not applied
         self.set(address, size, value)
         if reg.name == "torque_enable" and value:
             self.position = float(self.get_named("present_position"))

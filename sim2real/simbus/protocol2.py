@@ -11,6 +11,7 @@ HEADER = b"\xff\xff\xfd\x00"
 MAX_LENGTH = 1024  # longer than any packet a chain of 253 devices exchanges with us
 BROADCAST = 0xFE
 STATUS = 0x55
+CRC_ERROR = 0x03
 PING, READ, WRITE, REG_WRITE, ACTION, FACTORY_RESET, REBOOT = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x08
 SYNC_READ, SYNC_WRITE, FAST_SYNC_READ, BULK_READ, BULK_WRITE, FAST_BULK_READ = 0x82, 0x83, 0x8A, 0x92, 0x93, 0x9A
 
@@ -76,6 +77,7 @@ class Parser:
     def __init__(self) -> None:
         self.buffer = bytearray()
         self.crc_errors = 0
+        self.bad_crc_ids: list[int] = []  # IDs of packets dropped for their CRC, for a status
 
     def feed(self, data: bytes) -> list[tuple[int, int, bytes]]:
         self.buffer += data
@@ -98,6 +100,7 @@ class Parser:
             del self.buffer[:7 + length]
             if crc16(raw[:-2]) != (raw[-2] | (raw[-1] << 8)):
                 self.crc_errors += 1
+                self.bad_crc_ids.append(raw[4])
                 continue
             body = unstuff(raw[7:-2])
             out.append((raw[4], body[0], body[1:]))

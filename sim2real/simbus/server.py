@@ -220,7 +220,13 @@ class PtyServer:
                 data = os.read(self.master, 4096)
             except OSError:
                 return
-            for dxl_id, inst, params in parser.feed(data):
+            packets = parser.feed(data)
+            for dxl_id in getattr(parser, "bad_crc_ids", []):  # the addressed servo says so
+                if dxl_id in self.chain.devices and dxl_id not in self.chain.silent:
+                    os.write(self.master, p2.status(dxl_id, p2.CRC_ERROR))
+            if hasattr(parser, "bad_crc_ids"):
+                parser.bad_crc_ids.clear()
+            for dxl_id, inst, params in packets:
                 reply = self.chain.handle(dxl_id, inst, params)
                 if reply and self.drop_rate and self._rng.random() < self.drop_rate:
                     continue
