@@ -37,12 +37,10 @@ class Policy:
                                   for j in robot.joints])
         self.hold = np.array([j.home_rad if j.name in self.layout.driven else j.center_rad for j in robot.joints])
         self._gather, self._sign = self._input_gather()
-        n = len(self.low)
-        k = self.layout.n_leg
         self._right_out = self.layout.leg_index["right"]
         self._left_out = self.layout.leg_index["left"]
         self._center_out = self.layout.center_index
-        self._k = k
+        self._k = self.layout.n_leg
         # the central-0.8 rule as one affine map, clipped to the range afterwards
         d = self.driven
         self._scale = (self.high[d] - self.low[d]) / (1.0 - 2.0 * OUTPUT_MARGIN)
