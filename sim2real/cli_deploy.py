@@ -109,19 +109,12 @@ def cmd_simbus(args: argparse.Namespace) -> int:
     from sim2real.simbus.physics import PhysicsChain
     from sim2real.simbus.server import EmulatedChain, PtyServer
 
-    from sim2real.dry_run import parse_faults
+    from sim2real.dry_run import arm_faults
 
     robot = load_robot(args.robot)
     physics = PhysicsChain(robot)
     chain = EmulatedChain(physics.devices, advance=physics.advance)
-    timers, rates = [], {}
-    for kind, dxl_id, at in parse_faults(args.faults):
-        if kind == "silent":
-            timers.append(threading.Timer(at, chain.silent.add, (dxl_id,)))
-        elif kind == "overload":
-            physics.overload_at[dxl_id] = at
-        else:
-            rates[f"{kind}_rate"] = at
+    timers, rates = arm_faults(args.faults, chain, physics)
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *a: done.set())
     with PtyServer(chain, baud=args.baud or (robot.bus.baud if robot.bus else None), **rates) as server:

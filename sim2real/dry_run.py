@@ -52,6 +52,21 @@ def parse_faults(spec: str | None) -> list[tuple[str, int, float]]:
     return faults
 
 
+def arm_faults(spec: str | None, chain: EmulatedChain, physics: PhysicsChain,
+               delay_s: float = 0.0) -> tuple[list[threading.Timer], dict[str, float]]:
+    """Timers for silent servos and overload times (``delay_s`` after start), and the wire's
+    drop/corrupt rates as :class:`PtyServer` keyword arguments."""
+    timers, rates = [], {}
+    for kind, dxl_id, at in parse_faults(spec):
+        if kind == "silent":
+            timers.append(threading.Timer(delay_s + at, chain.silent.add, (dxl_id,)))
+        elif kind == "overload":
+            physics.overload_at[dxl_id] = delay_s + at
+        else:
+            rates[f"{kind}_rate"] = at
+    return timers, rates
+
+
 def dry_run(controller_path: Path | str, robot_name: str | None = None, duration_s: float = 10.0,
             trace_path: Path | str | None = None, faults: str | None = None,
             log: Callable[[str], None] = print, ramp_s: float = 2.0,
@@ -62,14 +77,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     physics = PhysicsChain(robot)
     start_soles, start_height = physics.sole_x(), physics.pelvis_height()
     chain = EmulatedChain(physics.devices, advance=physics.advance)
-    timers, rates = [], {}
-    for kind, dxl_id, at in parse_faults(faults):
-        if kind == "silent":
-            timers.append(threading.Timer(ramp_s + at, chain.silent.add, (dxl_id,)))
-        elif kind == "overload":
-            physics.overload_at[dxl_id] = ramp_s + at
-        else:
-            rates[f"{kind}_rate"] = at
+    timers, rates = arm_faults(faults, chain, physics, delay_s=ramp_s)
     with PtyServer(chain, **rates) as server:
         for timer in timers:
             timer.start()
