@@ -26,23 +26,16 @@ from sim2real.controller import save_controller
 WALK_LEG_LENGTHS = 2.2
 
 
-def main(argv=None) -> None:
-    p = parser(__doc__.splitlines()[0])
-    p.add_argument("--minutes", type=float, default=30.0, help="wall-time budget")
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--config", default="walk")
-    p.add_argument("--threads", type=int, help="simulation threads (default: the config's)")
-    p.add_argument("--out", type=Path, help="keep the run folder here (default: a temporary folder)")
-    args = p.parse_args(argv)
-
-    config = load_evolve_config(resolve_config(args.config)).replace(seed=args.seed, generations=10**6)
-    if args.threads is not None:
-        config = config.replace(threads=args.threads)
-    out = args.out or Path(tempfile.mkdtemp(prefix="walk-bench-"))
-    run = Run.create(config, out, log=lambda line: progress(line, args.json))
+def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: int | None = None,
+              quiet: bool = False) -> dict:
+    """One evolution until its first walker or the budget; the result as the JSON keys below."""
+    config = load_evolve_config(resolve_config(config_name)).replace(seed=seed, generations=10**6)
+    if threads is not None:
+        config = config.replace(threads=threads)
+    run = Run.create(config, out, log=lambda line: progress(line, quiet))
     judge = LocomotionEvaluator(run.robot, config.task, 1, threads=1)
     leg = run.robot.body.leg_length
-    budget = args.minutes * 60.0
+    budget = minutes * 60.0
     start = time.perf_counter()
     state = {"walked": False, "minutes_to_walk": None, "best_distance_m": 0.0, "generation": None}
 
@@ -60,7 +53,7 @@ def main(argv=None) -> None:
         return time.perf_counter() - start > budget
 
     run.evolve(stop=stop)
-    report({
+    return {
         "walked": state["walked"],
         "best_distance_m": state.get("walk_distance_m", state["best_distance_m"]),
         "leg_length_m": leg,
@@ -68,12 +61,24 @@ def main(argv=None) -> None:
         "minutes_to_walk": state["minutes_to_walk"],
         "generations": run.population.generation,
         "walk_generation": state["generation"],
-        "seed": args.seed,
+        "seed": seed,
         "population": config.neat.population_size,
         "episode_s": config.task.episode_s,
         "wall_minutes": (time.perf_counter() - start) / 60.0,
         "run_dir": str(out),
-    }, args.json)
+    }
+
+
+def main(argv=None) -> None:
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--minutes", type=float, default=30.0, help="wall-time budget")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--config", default="walk")
+    p.add_argument("--threads", type=int, help="simulation threads (default: the config's)")
+    p.add_argument("--out", type=Path, help="keep the run folder here (default: a temporary folder)")
+    args = p.parse_args(argv)
+    out = args.out or Path(tempfile.mkdtemp(prefix="walk-bench-"))
+    report(walk_once(args.config, args.seed, args.minutes, out, args.threads, args.json), args.json)
 
 
 if __name__ == "__main__":
