@@ -20,10 +20,10 @@ from benchmarks.common import parser, progress, report
 from evolve.cli_commands import resolve_config
 from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
+from evolve.replay import WALK_LEG_LENGTHS
 from evolve.run import Run
 from sim2real.controller import save_controller
 
-WALK_LEG_LENGTHS = 2.2
 
 
 def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: int | None = None,

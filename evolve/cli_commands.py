@@ -23,6 +23,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--population", type=int, help="population size (overrides the config)")
     ev.add_argument("--threads", type=int, help="simulation threads, 0 = all cores (overrides the config)")
     ev.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    ev.add_argument("--backend", choices=("local", "ray"), default="local",
+                    help="where simulations run: this machine, or a Ray cluster (pip install '.[cluster]')")
+    ev.add_argument("--address", help="Ray cluster address, e.g. 10.0.0.1:6379 (default: start a local Ray)")
     ev.add_argument("--quiet", action="store_true", help="no progress lines")
     ev.set_defaults(func=cmd_evolve)
 
@@ -30,6 +33,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         description="Write the best controller of a run folder as controller JSON.")
     ex.add_argument("run_dir", type=Path)
     ex.add_argument("-o", "--output", type=Path, default=Path("controller.json"))
+    ex.add_argument("--stage", help="a staged run's finished stage (default: the latest best)")
     ex.set_defaults(func=cmd_export)
 
     ea = sub.add_parser("eval", help="measure a controller: distance, time upright, falls",
@@ -38,7 +42,13 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ea.add_argument("controller", type=Path)
     ea.add_argument("--robot", help="robot (default: the one the controller was made for)")
     ea.add_argument("--seconds", type=float, help="episode length (default: the controller's task)")
-    ea.add_argument("--episodes", type=int, default=1)
+    ea.add_argument("--episodes", type=int, default=1, help="episodes (each its own draw when randomized)")
+    ea.add_argument("--randomize", nargs="?", const="randomize", metavar="RANGES",
+                    help="randomize every episode with these ranges (default configs/reality/randomize.yaml)")
+    ea.add_argument("--reality", metavar="PROFILE", help="a fixed reality profile (configs/reality/ name or path)")
+    ea.add_argument("--seed", type=int, default=0, help="seed of the randomized draws")
+    ea.add_argument("--disable-module", action="append", default=[], metavar="NAME",
+                    help="switch a module off to get the lower behaviour back (repeatable)")
     ea.add_argument("--json", action="store_true", help="print one JSON object")
     ea.set_defaults(func=cmd_eval)
 
@@ -55,7 +65,8 @@ def cmd_render_controller(args: argparse.Namespace) -> int:
     if args.output.suffix.lower() not in (".mp4", ".gif"):
         raise SystemExit(f"biped render: a controller replay is a video: use -o NAME.mp4 or NAME.gif, not {args.output}")
     images, frame_s = frames(Path(args.robot), args.width, args.height, seconds=args.seconds,
-                             every=2 if args.output.suffix.lower() == ".gif" else 1)
+                             every=2 if args.output.suffix.lower() == ".gif" else 1,
+                             disabled_modules=tuple(args.disable_module))
     save_video(args.output, images, frame_s)
     print(f"wrote {args.output} ({len(images)} frames, {len(images) * frame_s:.1f} s)")
     return 0
@@ -82,7 +93,8 @@ def cmd_view_controller(args: argparse.Namespace) -> int:
                 viewer.sync()
                 time.sleep(max(0.0, t0 + d.time - time.monotonic()))  # real time
 
-            evaluator.evaluate([genome], data["sigmoid_steepness"], on_tick=show)
+            evaluator.evaluate([genome], data["sigmoid_steepness"], on_tick=show,
+                               disabled_modules=tuple(args.disable_module))
     return 0
 
 
@@ -109,7 +121,8 @@ def cmd_evolve(args: argparse.Namespace) -> int:
             raise SystemExit("biped evolve: --resume needs --out RUN_DIR")
         if args.seed is not None or args.population is not None:
             raise SystemExit("biped evolve: --seed and --population cannot change when resuming")
-        run = Run.resume(args.out, generations=args.generations, threads=args.threads, log=log)
+        run = Run.resume(args.out, generations=args.generations, threads=args.threads, log=log,
+                         backend=args.backend, address=args.address)
         log(f"resuming {args.out} at generation {run.population.generation}")
     else:
         path = resolve_config(args.config)
@@ -121,7 +134,7 @@ def cmd_evolve(args: argparse.Namespace) -> int:
             changes["neat"] = neat
         config = config.replace(**changes)
         out = args.out or Path("runs") / f"{path.stem}-seed{config.seed}"
-        run = Run.create(config, out, log=log)
+        run = Run.create(config, out, log=log, backend=args.backend, address=args.address)
         log(f"evolving {config.robot} ({config.task.control_set} joints), population "
             f"{config.neat.population_size}, {config.generations} generations -> {out}")
     try:
@@ -140,6 +153,12 @@ def cmd_export(args: argparse.Namespace) -> int:
     from sim2real.controller import load_controller, save_controller
 
     source = args.run_dir / "controller.json"
+    if args.stage:
+        source = args.run_dir / "stages" / args.stage / "controller.json"
+        if not source.exists():
+            done = sorted(p.name for p in (args.run_dir / "stages").glob("*")) if (args.run_dir / "stages").is_dir() else []
+            raise FileNotFoundError(f"{args.run_dir}: no finished stage {args.stage!r} "
+                                    f"(finished: {', '.join(done) or 'none'}; the running stage's best is controller.json)")
     if not source.exists():
         raise FileNotFoundError(f"{args.run_dir} has no controller.json yet (has the run finished a generation?)")
     save_controller(args.output, load_controller(source))
@@ -150,7 +169,11 @@ def cmd_export(args: argparse.Namespace) -> int:
 def cmd_eval(args: argparse.Namespace) -> int:
     from evolve.replay import evaluate_controller
 
-    report = evaluate_controller(args.controller, robot=args.robot, seconds=args.seconds, episodes=args.episodes)
+    if args.randomize and args.reality:
+        raise SystemExit("biped eval: give --randomize RANGES or --reality PROFILE, not both")
+    report = evaluate_controller(args.controller, robot=args.robot, seconds=args.seconds, episodes=args.episodes,
+                                 disabled_modules=tuple(args.disable_module),
+                                 randomize=args.randomize or args.reality, seed=args.seed)
     if args.json:
         print(json.dumps(report))
     else:

@@ -7,6 +7,11 @@
     checkpoint_every: 25      # keep a numbered checkpoint this often (the latest is always kept)
     task: {...}               # evolve.locomotion.task.TaskConfig
     neat: {...}               # evolve.neat.NeatConfig
+    randomize:                # optional: score every genome on randomized episodes
+      reality: randomize      # ranges: a name from configs/reality/, a path, or a mapping
+      episodes: 4             # randomized episodes per genome
+      score: mean             # mean | worst of them
+    stages: [...]             # optional: a developmental hierarchy (evolve.stages)
 """
 
 from __future__ import annotations
@@ -20,11 +25,46 @@ import yaml
 
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig
+from evolve.stages import Stage, parse_stages
 from sim2real.errors import ConfigError
+from sim2real.reality import Reality, load_reality
 from sim2real.robot import DEFAULT_ROBOT
-from sim2real.validation import load_yaml
+from sim2real.validation import Node, load_yaml
 
-TOP_KEYS = ("robot", "seed", "generations", "threads", "checkpoint_every", "task", "neat")
+TOP_KEYS = ("robot", "seed", "generations", "threads", "checkpoint_every", "task", "neat", "randomize", "stages")
+
+
+@dataclass(frozen=True)
+class RandomizeConfig:
+    reality: str | dict = "nominal"  # configs/reality/ name, path or inline mapping
+    episodes: int = 1  # episodes per genome
+    score: str = "mean"  # mean | worst
+
+    @property
+    def active(self) -> bool:
+        return self.reality != "nominal" or self.episodes > 1
+
+    def load(self) -> Reality:
+        return load_reality(self.reality)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"reality": self.reality, "episodes": self.episodes, "score": self.score}
+
+
+def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
+    if doc is None:
+        return RandomizeConfig()
+    node = Node(doc, source, "randomize").mapping(optional=("reality", "episodes", "score"))
+    reality = node.value.get("reality", "nominal")
+    if not isinstance(reality, (str, dict)):
+        raise node["reality"].error(f"must be a reality name, path or mapping, got {reality!r}")
+    try:
+        load_reality(reality)
+    except FileNotFoundError as exc:
+        raise node["reality"].error(str(exc)) from None
+    episodes = node["episodes"].integer(lo=1) if node.has("episodes") else 1
+    score = node["score"].string(("mean", "worst")) if node.has("score") else "mean"
+    return RandomizeConfig(reality, episodes, score)
 
 
 @dataclass(frozen=True)
@@ -36,11 +76,18 @@ class EvolveConfig:
     checkpoint_every: int = 25
     task: TaskConfig = field(default_factory=TaskConfig)
     neat: NeatConfig = field(default_factory=NeatConfig)
+    randomize: RandomizeConfig = field(default_factory=RandomizeConfig)
+    stages: tuple[Stage, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {"robot": self.robot, "seed": self.seed, "generations": self.generations,
-                "threads": self.threads, "checkpoint_every": self.checkpoint_every,
-                "task": self.task.to_dict(), "neat": self.neat.to_dict()}
+        out = {"robot": self.robot, "seed": self.seed, "generations": self.generations,
+               "threads": self.threads, "checkpoint_every": self.checkpoint_every,
+               "task": self.task.to_dict(), "neat": self.neat.to_dict()}
+        if self.randomize.active:
+            out["randomize"] = self.randomize.to_dict()
+        if self.stages:
+            out["stages"] = [s.to_dict() for s in self.stages]
+        return out
 
     def to_yaml(self) -> str:
         return yaml.safe_dump(self.to_dict(), sort_keys=False)
@@ -70,6 +117,8 @@ def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
         values["robot"] = doc["robot"]
     values["task"] = TaskConfig.from_mapping(doc.get("task"), source, "task.")
     values["neat"] = NeatConfig.from_mapping(doc.get("neat"), source, "neat.")
+    values["randomize"] = parse_randomize(doc.get("randomize"), source)
+    values["stages"] = parse_stages(doc.get("stages"), source)
     return EvolveConfig(**values)
 
 

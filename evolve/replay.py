@@ -12,15 +12,19 @@ from typing import Any
 
 import numpy as np
 
+# "walked": 2.2 leg lengths forward, upright to the end (seed 000's 2 m for a 0.9 m human leg)
+WALK_LEG_LENGTHS = 2.2
+
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import genome_from_controller
 from evolve.locomotion.task import TaskConfig
 from sim2real.controller import load_controller
+from sim2real.reality import NOMINAL, Reality, load_reality
 from sim2real.robot import RobotSpec, load_robot
 
 
 def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
-           keep_going: bool = False):
+           keep_going: bool = False, reality: Reality = NOMINAL):
     data = load_controller(path)
     spec: RobotSpec = load_robot(robot or data["robot"]["name"])
     data = load_controller(path, spec)  # now checked against the robot's joint map
@@ -29,7 +33,7 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
     if keep_going:
         changes.update(fall_height=1e-6, fall_tilt_deg=180.0, stagnation_s=1e9)
     task = dataclasses.replace(task, **changes)
-    evaluator = LocomotionEvaluator(spec, task, max(1, episodes), threads=1)
+    evaluator = LocomotionEvaluator(spec, task, max(1, episodes), threads=1, reality=reality)
     if list(evaluator.layout.input_names) != data["inputs"] or list(evaluator.layout.output_names) != data["outputs"]:
         raise ValueError(f"{path}: its inputs/outputs do not match robot {spec.name}'s {task.control_set} joints")
     genome = genome_from_controller(data)
@@ -37,23 +41,39 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
 
 
 def evaluate_controller(path: Path | str, robot: str | None = None, seconds: float | None = None,
-                        episodes: int = 1, disabled_modules: tuple[str, ...] = ()) -> dict[str, Any]:
-    data, spec, evaluator, genome = _setup(path, robot, seconds, episodes)
+                        episodes: int = 1, disabled_modules: tuple[str, ...] = (),
+                        randomize: str | None = None, seed: int = 0) -> dict[str, Any]:
+    """Measure a controller on ``episodes`` episodes, each drawn from ``randomize`` (a reality
+    file's ranges or fixed profile; None: the nominal robot) with seed ``seed``."""
+    reality = load_reality(randomize)
+    data, spec, evaluator, genome = _setup(path, robot, seconds, episodes, reality=reality)
+    keys = np.array([[seed, e] for e in range(episodes)])
+    perturbation = None if reality.is_nominal else evaluator.sample(keys)
     result = evaluator.evaluate([genome] * episodes, data["sigmoid_steepness"], harness=0.0,
-                                disabled_modules=disabled_modules)
+                                disabled_modules=disabled_modules, perturbation=perturbation)
+    leg = spec.body.leg_length
+    full = result.upright_s >= evaluator.n_ticks * evaluator.tick_s - 1e-9
+    walked = full & ~result.fell & (result.distance_m >= WALK_LEG_LENGTHS * leg)
     return {
         "distance_m": float(np.mean(result.distance_m)),
+        "min_distance_m": float(np.min(result.distance_m)),
+        "max_distance_m": float(np.max(result.distance_m)),
         "upright_s": float(np.mean(result.upright_s)),
         "fell": bool(result.fell.any()),
+        "falls": int(result.fell.sum()),
+        "walked_share": float(walked.mean()),
         "fitness": float(np.mean(result.fitness)),
-        "leg_length_m": spec.body.leg_length,
+        "leg_length_m": leg,
         "episodes": episodes,
+        "reality": reality.name,
+        "disabled_modules": list(disabled_modules),
         "seconds": evaluator.n_ticks * evaluator.tick_s,
     }
 
 
 def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | None = None,
-           seconds: float | None = None, every: int = 1) -> tuple[list[np.ndarray], float]:
+           seconds: float | None = None, every: int = 1,
+           disabled_modules: tuple[str, ...] = ()) -> tuple[list[np.ndarray], float]:
     """Rendered frames of a replay from the tracking camera, and the time between frames [s]."""
     from sim2real.rendering import open_renderer  # sets up offscreen GL before mujoco renders
 
@@ -72,5 +92,6 @@ def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | N
                 images.append(renderer.render().copy())
             count[0] += 1
 
-        evaluator.evaluate([genome], data["sigmoid_steepness"], harness=0.0, on_tick=grab)
+        evaluator.evaluate([genome], data["sigmoid_steepness"], harness=0.0, on_tick=grab,
+                           disabled_modules=disabled_modules)
     return images, evaluator.tick_s * every

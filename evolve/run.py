@@ -6,11 +6,15 @@
       checkpoints/         numbered snapshots every ``checkpoint_every`` generations
       stats.csv            one row per generation, flushed as it goes
       fitness.png          best / mean fitness and best distance over generations
-      controller.json      the best controller so far
+      controller.json      the best controller so far (of the stage running)
       best.json            its genome and scores (what --resume needs to keep it)
+      stages.json          a staged run's finished stages (evolve.stages)
+      stages/<name>/       each finished stage's controller.json and best.json
 
-The best controller is the one with the highest eq. 3 fitness measured without the
-harness; harness-era champions stand in only until a generation runs without it.
+The best controller is the one with the highest fitness measured without the harness;
+harness-era champions stand in only until a generation runs without it.  In a staged run,
+``generation`` in stats.csv counts across stages and the population's own count restarts
+with every stage.
 """
 
 from __future__ import annotations
@@ -27,15 +31,16 @@ from typing import Callable
 import numpy as np
 
 from evolve.config import EvolveConfig, parse_evolve_config
-from evolve.locomotion.evaluator import LocomotionEvaluator
+from evolve.evaluation import Backend, EvaluatorSpec, LocalBackend, build_evaluator, score_population
 from evolve.locomotion.export import controller_from_genome
+from evolve.stages import Stage
 from evolve.neat import Genome, Population
 from sim2real.atomic_json import read_json, write_json_atomic
 from sim2real.controller import save_controller
 from sim2real.robot import load_robot
 from sim2real.validation import load_yaml
 
-STATS_COLUMNS = ("generation", "best_fitness", "mean_fitness", "best_distance_m", "best_upright_s",
+STATS_COLUMNS = ("generation", "stage", "best_fitness", "mean_fitness", "best_distance_m", "best_upright_s",
                  "species", "mean_connections", "mean_hidden", "evaluations", "evaluations_per_s",
                  "steps_per_s", "wall_s", "harness", "threshold")
 
@@ -61,31 +66,57 @@ class Run:
     """One evolution: ``Run(config, out).evolve()``; ``Run.resume(out)`` continues it."""
 
     def __init__(self, config: EvolveConfig, out: Path, *, population: Population | None = None,
-                 log: Callable[[str], None] = print):
+                 log: Callable[[str], None] = print, backend: str = "local", address: str | None = None):
         self.config, self.out, self.log = config, Path(out), log
         self.robot = load_robot(config.robot)
-        self.evaluator = LocomotionEvaluator(self.robot, config.task, config.neat.population_size, config.threads)
-        self.population = population or Population(config.neat, self.evaluator.neat_layout, seed=config.seed)
+        r = config.randomize
+        spec = EvaluatorSpec(config.robot, config.task.to_dict(), r.reality,
+                             config.neat.population_size * r.episodes, config.threads)
+        self.evaluator = build_evaluator(spec)  # the layout, timing and model of this run
+        self.backend: Backend = LocalBackend(spec)
+        if backend == "ray":
+            from evolve.ray_backend import RayBackend
+
+            self.backend = RayBackend(spec, address)
+        elif backend != "local":
+            raise ValueError(f"unknown backend {backend!r} (local or ray)")
+        self.randomized = not r.load().is_nominal
+        self.finished: list[dict] = read_json(self.out / "stages.json") if (self.out / "stages.json").exists() else []
+        first_module = (config.stages[0].name,) if config.stages else ("main",)
+        self.population = population or Population(config.neat, self.evaluator.neat_layout, seed=config.seed,
+                                                   modules=first_module)
         self.best: Best | None = None
         self.champion: Best | None = None
         self.wall_s = 0.0
 
+    @property
+    def stage(self) -> Stage | None:
+        """The stage running (None in a run without stages)."""
+        stages = self.config.stages
+        return stages[min(len(self.finished), len(stages) - 1)] if stages else None
+
+    @property
+    def generation_offset(self) -> int:
+        """Generations of the stages before the one running (or the last one)."""
+        before = self.finished[:len(self.config.stages) - 1]
+        return sum(s["generations"] for s in before)
+
     # -- folder -------------------------------------------------------------------------------
     @classmethod
-    def create(cls, config: EvolveConfig, out: Path, log: Callable[[str], None] = print) -> "Run":
+    def create(cls, config: EvolveConfig, out: Path, log: Callable[[str], None] = print, **backend) -> "Run":
         out = Path(out)
         if (out / "checkpoint.json.gz").exists():
             raise FileExistsError(f"{out} already holds a run; use --resume to continue it or another --out")
         out.mkdir(parents=True, exist_ok=True)
         (out / "config.yaml").write_text(config.to_yaml())
-        run = cls(config, out, log=log)
+        run = cls(config, out, log=log, **backend)
         with open(out / "stats.csv", "w", newline="") as f:
             csv.writer(f).writerow(STATS_COLUMNS)
         return run
 
     @classmethod
     def resume(cls, out: Path, generations: int | None = None, threads: int | None = None,
-               log: Callable[[str], None] = print) -> "Run":
+               log: Callable[[str], None] = print, **backend) -> "Run":
         out = Path(out)
         if not (out / "checkpoint.json.gz").exists():
             raise FileNotFoundError(f"{out} has no checkpoint.json.gz to resume")
@@ -95,13 +126,13 @@ class Run:
             config = config.replace(**changes)
             (out / "config.yaml").write_text(config.to_yaml())
         population = Population.load(out / "checkpoint.json.gz")
-        run = cls(config, out, population=population, log=log)
+        run = cls(config, out, population=population, log=log, **backend)
         if (out / "best.json").exists():
             data = read_json(out / "best.json")
             run.best = Best(data["fitness"], data["distance_m"], data["upright_s"], data["generation"],
                             data["harness"], Genome.from_dict(data["genome"], population.layout))
         rows = _read_stats(out / "stats.csv")
-        kept = [r for r in rows if int(r["generation"]) < population.generation]
+        kept = [r for r in rows if int(r["generation"]) < run.generation_offset + population.generation]
         with open(out / "stats.csv", "w", newline="") as f:
             writer = csv.writer(f)
             writer.writerow(STATS_COLUMNS)
@@ -111,25 +142,44 @@ class Run:
 
     # -- the loop ------------------------------------------------------------------------------
     def evolve(self, stop: Callable[["Run", dict], bool] | None = None) -> Best | None:
-        """Run to the configured generation count, or until ``stop(run, stats_row)`` says so."""
-        pop, config = self.population, self.config
+        """Run every stage to its end (or the configured generation count), or until
+        ``stop(run, stats_row)`` says so."""
+        stages = self.config.stages
+        while not stages or len(self.finished) < len(stages):
+            if self._evolve_stage(stop) or not stages:
+                break
+            self._file_stage()
+            if len(self.finished) < len(stages):
+                self._next_stage()
+        self._checkpoint()
+        self.plot()
+        return self.best
+
+    def _evolve_stage(self, stop) -> bool:
+        pop, config, stage = self.population, self.config, self.stage
+        budget = stage.generations if stage else config.generations
+        index = len(self.finished)
         recent: list[float] = []
-        while pop.generation < config.generations:
+        while pop.generation < budget:
             self._checkpoint()
-            harness = config.task.harness_strength(pop.generation)
+            walking = stage is None or stage.objective == "walk"
+            harness = config.task.harness_strength(pop.generation) if walking else 0.0
             t0 = time.perf_counter()
             episodes = {}
 
             def evaluate(genomes):
-                episodes["e"] = self.evaluator.evaluate(genomes, config.neat.sigmoid_steepness, harness)
+                episodes["e"], _ = score_population(
+                    self.backend, genomes, steepness=config.neat.sigmoid_steepness, harness=harness, stage=stage,
+                    episodes=config.randomize.episodes, score=config.randomize.score, randomized=self.randomized,
+                    key=(config.seed, index, pop.generation))
                 return episodes["e"].selection
 
             stats = pop.evaluate(evaluate)
             e = episodes["e"]
             eval_s = time.perf_counter() - t0
             i = int(np.argmax(e.fitness))
-            candidate = Best(float(e.fitness[i]), float(e.distance_m[i]), float(e.upright_s[i]), pop.generation,
-                             harness, pop.genomes[i].copy(pop.genomes[i].key))
+            candidate = Best(float(e.fitness[i]), float(e.distance_m[i]), float(e.upright_s[i]),
+                             self.generation_offset + pop.generation, harness, pop.genomes[i].copy(pop.genomes[i].key))
             self.champion = candidate  # this generation's
             if candidate.better_than(self.best):
                 self.best = candidate
@@ -138,23 +188,47 @@ class Run:
             gen_s = time.perf_counter() - t0
             self.wall_s += gen_s
             recent = (recent + [gen_s])[-10:]
-            row = dict(generation=stats.generation, best_fitness=float(e.fitness.max()),
+            row = dict(generation=self.generation_offset + stats.generation, stage=stage.name if stage else "",
+                       best_fitness=float(e.fitness.max()),
                        mean_fitness=float(e.fitness.mean()), best_distance_m=float(e.distance_m.max()),
                        best_upright_s=float(e.upright_s.max()), species=stats.species,
                        mean_connections=stats.mean_connections, mean_hidden=stats.mean_hidden,
-                       evaluations=stats.evaluations, evaluations_per_s=len(pop.genomes) / eval_s,
+                       evaluations=stats.evaluations, evaluations_per_s=len(e.fitness) * config.randomize.episodes / eval_s,
                        steps_per_s=e.steps / eval_s, wall_s=self.wall_s, harness=harness,
                        threshold=stats.threshold)
             self._append_stats(row)
-            eta = (config.generations - pop.generation) * float(np.mean(recent))
-            self.log(_progress_line(row, config.generations, eta))
-            if pop.generation % 10 == 0 or pop.generation >= config.generations:
+            eta = (budget - pop.generation) * float(np.mean(recent))
+            self.log(_progress_line(row, pop.generation, budget, eta, stage))
+            if pop.generation % 10 == 0 or pop.generation >= budget:
                 self.plot()
+            if stage is not None and stage.solved(candidate.fitness):
+                self.log(f"stage {stage.name}: threshold reached ({candidate.fitness:.1f} >= "
+                         f"{stage.threshold:.0%} of {stage.max_fitness:.0f}) at its generation {stats.generation + 1}")
+                return False
             if stop is not None and stop(self, row):
-                break
-        self._checkpoint()
-        self.plot()
-        return self.best
+                return True
+        return False
+
+    def _file_stage(self) -> None:
+        """Keep the finished stage's best in stages/<name>/ and note it in stages.json."""
+        stage, best = self.stage, self.best
+        folder = self.out / "stages" / stage.name
+        folder.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(self.out / "best.json", folder / "best.json")
+        shutil.copyfile(self.out / "controller.json", folder / "controller.json")
+        self.finished.append({"name": stage.name, "objective": stage.objective,
+                              "generations": self.population.generation, "solved": stage.solved(best.fitness),
+                              "best_fitness": best.fitness, "max_fitness": stage.max_fitness, "wall_s": self.wall_s})
+        write_json_atomic(self.out / "stages.json", self.finished)
+
+    def _next_stage(self) -> None:
+        """Start the next stage on top of the champion of the one just filed."""
+        best, nxt = self.best, self.stage
+        self.log(f"stage {nxt.name} ({nxt.objective}) starts on top of {', '.join(best.genome.modules)}")
+        self.population = Population.on_top_of(self.config.neat, best.genome, nxt.name,
+                                               seed=self.config.seed + 1_000_003 * len(self.finished))
+        self.best = None
+        (self.out / "best.json").unlink()
 
     def _checkpoint(self) -> None:
         pop = self.population
@@ -213,10 +287,11 @@ def _read_stats(path: Path) -> list[dict]:
         return list(csv.DictReader(f))
 
 
-def _progress_line(row: dict, generations: int, eta_s: float) -> str:
+def _progress_line(row: dict, done: int, generations: int, eta_s: float, stage: Stage | None = None) -> str:
     eta = time.strftime("%H:%M:%S", time.gmtime(eta_s)) if math.isfinite(eta_s) else "?"
     harness = f"harness {row['harness']:.2f} | " if row["harness"] else ""
-    return (f"gen {row['generation'] + 1:>4}/{generations} | best {row['best_fitness']:.3f} "
+    where = f"{stage.name} " if stage else ""
+    return (f"{where}gen {done:>4}/{generations} | best {row['best_fitness']:.3f} "
             f"({row['best_distance_m']:+.3f} m) | mean {row['mean_fitness']:.3f} | species {row['species']:>3} "
             f"| conns {row['mean_connections']:.1f} | {row['evaluations_per_s']:.0f} eval/s "
             f"| {row['steps_per_s'] / 1e3:.0f}k steps/s | {harness}ETA {eta}")

@@ -55,6 +55,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                           "(needs a display).")
     view.add_argument("robot", nargs="?", default=DEFAULT_ROBOT,
                       help=ROBOT_HELP + "; or a controller .json to replay")
+    view.add_argument("--disable-module", action="append", default=[], metavar="NAME",
+                      help="replay a controller with this module switched off (repeatable)")
     view.set_defaults(func=cmd_view)
 
     render = sub.add_parser("render", help="render a robot (image) or a controller (video) offscreen",
@@ -68,6 +70,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     render.add_argument("--seconds", type=float, help="replay length for a controller (default: its episode)")
     render.add_argument("--width", type=int, default=960)
     render.add_argument("--height", type=int, default=720)
+    render.add_argument("--disable-module", action="append", default=[], metavar="NAME",
+                        help="replay a controller with this module switched off (repeatable)")
     render.add_argument("--settle", type=float, default=1.0,
                         help="simulated seconds to stand before the picture (default 1)")
     render.set_defaults(func=cmd_render)

@@ -214,19 +214,28 @@ def hold_ctrl(robot: RobotSpec, driven: set[str] | frozenset[str]) -> np.ndarray
     return np.array([j.home_rad if j.name in driven else j.center_rad for j in robot.joints])
 
 
-def finished_spec(robot: RobotSpec) -> mujoco.MjSpec:
-    """:func:`build_spec` with PD gains scaled by joint inertia and the ``home`` keyframe."""
+def finished_spec(robot: RobotSpec, actuator_history_s: float = 0.0) -> mujoco.MjSpec:
+    """:func:`build_spec` with PD gains scaled by joint inertia and the ``home`` keyframe.
+
+    ``actuator_history_s`` > 0 keeps that much control history per actuator, so that
+    ``actuator_delay`` can model a control latency of up to as long.
+    """
     spec = build_spec(robot)
     model = spec.compile()
     if robot.pd is not None:
         _scale_pd_gains(robot, spec, model)
     _home_keyframe(robot, spec, model)
+    if actuator_history_s > 0:
+        samples = int(np.ceil(actuator_history_s / spec.option.timestep)) + 2
+        for joint in robot.joints:
+            act = spec.actuator(joint.name)
+            act.nsample, act.interp = samples, 0  # zero-order hold, as the servo holds its goal
     return spec
 
 
-def build_model(robot: RobotSpec) -> mujoco.MjModel:
-    """The robot's compiled MuJoCo model."""
-    return finished_spec(robot).compile()
+def build_model(robot: RobotSpec, actuator_history_s: float = 0.0) -> mujoco.MjModel:
+    """The robot's compiled MuJoCo model (see :func:`finished_spec`)."""
+    return finished_spec(robot, actuator_history_s).compile()
 
 
 def to_mjcf(robot: RobotSpec) -> str:

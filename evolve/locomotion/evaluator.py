@@ -15,18 +15,20 @@ the state - the robot, too, reads its servos a little before it writes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
-from sim2real.symmetry import SymmetricLayout, bias_values, joint_outputs, network_inputs, symmetric_layout
+from evolve.locomotion.objectives import Episodes, WalkObjective
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, Layout, PopulationNetwork
 from sim2real.mapping import normalized_angle, output_to_angle, quantize, rate_limit
 from sim2real.model_builder import build_model, hold_ctrl
+from sim2real.reality import (NOMINAL, PERTURBED_FIELDS, Perturbation, Reality, apply, latency_capacity_s,
+                              play, sample)
 from sim2real.robot import RobotSpec
+from sim2real.symmetry import SymmetricLayout, bias_values, joint_outputs, network_inputs, symmetric_layout
 from sim2real.timing import control_timing
 
 GRAVITY = 9.81
@@ -38,28 +40,22 @@ def neat_layout(layout: SymmetricLayout) -> Layout:
     return Layout(layout.n_inputs, layout.n_bias, layout.n_outputs)
 
 
-@dataclass(frozen=True)
-class Episodes:
-    """Per-genome outcome of one evaluation, arrays of shape (n,)."""
-
-    fitness: np.ndarray  # seed 000 eq. 3
-    selection: np.ndarray  # eq. 3 plus the configured tie-breaker
-    distance_m: np.ndarray  # hindmost foot's progress along the facing direction [m]
-    upright_s: np.ndarray  # simulated time before falling or the end [s]
-    fell: np.ndarray  # bool: the pelvis dropped below the fall height
-    unstable: np.ndarray  # bool: numerical instability
-    steps: int  # physics steps simulated in all
-
-
 class LocomotionEvaluator:
-    def __init__(self, robot: RobotSpec, task: TaskConfig, max_population: int, threads: int = 0):
+    """Episodes of many controllers at once on one robot; see the module docstring.
+
+    ``reality`` (randomization ranges or a fixed profile) sizes the model for its longest
+    control latency; each call's ``perturbation`` then gives every simulation its draw.
+    """
+
+    def __init__(self, robot: RobotSpec, task: TaskConfig, max_population: int, threads: int = 0,
+                 reality: Reality = NOMINAL):
         if task.control_set not in robot.control_sets:
             raise ValueError(f"task.control_set: robot {robot.name} has no control set "
                              f"{task.control_set!r} (has {', '.join(robot.control_sets)})")
-        self.robot, self.task = robot, task
-        self.model = model = build_model(robot)
+        self.robot, self.task, self.reality = robot, task, reality
         timing = control_timing(robot)
         self.tick_s, self.substeps = timing.tick_s, timing.substeps
+        self.model = model = build_model(robot, latency_capacity_s(reality, self.tick_s))
         self.n_ticks = int(round(task.episode_s / self.tick_s))
         self.layout = symmetric_layout(robot, robot.control_sets[task.control_set])
         names = [j.name for j in robot.joints]
@@ -79,13 +75,14 @@ class LocomotionEvaluator:
         self.leg = robot.body.leg_length
         self.mass = robot.body.mass
         self.touch_threshold = task.contact_threshold * self.mass * GRAVITY
-        self.min_up_z = np.cos(np.radians(task.fall_tilt_deg))
 
         self.batch = Batch(model, max_population, threads)
         self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
         self.ctrl, self.xfrc = self.batch.bind("ctrl"), self.batch.bind("xfrc_applied")
         self.sensordata = self.batch.bind("sensordata")
         self.site_xpos, self.xipos = self.batch.bind("site_xpos"), self.batch.bind("xipos")
+        self.subtree_com = self.batch.bind("subtree_com")
+        self._perturbed = np.zeros(max_population, dtype=bool)
 
     @property
     def neat_layout(self) -> Layout:
@@ -95,50 +92,63 @@ class LocomotionEvaluator:
     def max_population(self) -> int:
         return self.batch.nsim
 
+    def sample(self, keys: np.ndarray) -> Perturbation:
+        """This evaluator's reality drawn once per row of ``keys`` (see :func:`reality.sample`)."""
+        return sample(self.reality, keys, self.model, self.n_ticks, self.tick_s)
+
     def evaluate(self, genomes: list[Genome], steepness: float, harness: float = 0.0,
                  disabled_modules: tuple[str, ...] = (),
-                 on_tick: Callable[["LocomotionEvaluator", np.ndarray], None] | None = None) -> Episodes:
+                 on_tick: Callable[["LocomotionEvaluator", np.ndarray], None] | None = None,
+                 perturbation: Perturbation | None = None,
+                 objective: Callable[["LocomotionEvaluator", int], object] | None = None) -> Episodes:
         """Run one episode per genome, with the support harness at ``harness`` strength
-        (0: none, 1: full); ``on_tick(self, alive_ids)`` is called after every tick (to record
-        frames or traces of a replay)."""
+        (0: none, 1: full), each simulation perturbed by its row of ``perturbation`` (None:
+        the nominal robot), scored by ``objective(self, n)`` (default :class:`WalkObjective`);
+        ``on_tick(self, alive_ids)`` is called after every tick (to record frames of a replay)."""
         n = len(genomes)
         if n > self.max_population:
             raise ValueError(f"{n} genomes but the batch holds {self.max_population} simulations")
+        if perturbation is not None and len(perturbation) != n:
+            raise ValueError(f"{len(perturbation)} perturbations for {n} genomes")
         task, tick = self.task, self.tick_s
         ids = np.arange(n)
+        self._perturb(ids, perturbation)
         self.batch.reset(ids, keyframe=0)
         self.ctrl[:n] = self.hold
         self.xfrc[:n] = 0.0
         net = PopulationNetwork([g for g in genomes for _ in range(2)], steepness, disabled_modules,
                                 bias_values(n))
-
-        start_x = self.site_xpos[:n, self.soles, 0].mean(axis=1)
+        score = (objective or WalkObjective)(self, n)
         start_pelvis = self.xipos[:n, self.pelvis].copy()
         goal = self.hold[self.driven][None, :].repeat(n, axis=0)
-        fitness = np.full(n, task.epsilon * task.distance_coeff)
-        progress_best = np.zeros(n)  # hindmost foot [leg lengths], for stagnation
-        pelvis_best = np.zeros(n)
-        last_gain = np.zeros(n)
+        played = goal.copy()  # the gear train's side of the backlash
         elapsed = np.zeros(n)
-        fell = np.zeros(n, dtype=bool)
         unstable = np.zeros(n, dtype=bool)
-        distance = np.zeros(n)
         alive = ids
         steps = 0
         k = harness * task.harness_stiffness * self.mass * GRAVITY / self.leg
         c = 2.0 * task.harness_damping * np.sqrt(k * self.mass)
         cap = harness * task.harness_max_force * self.mass * GRAVITY
+        p = perturbation
 
         d_low, d_high, d_step = self.low[self.driven], self.high[self.driven], self.max_step[self.driven]
-        for _ in range(self.n_ticks):
+        for t in range(self.n_ticks):
             sensors = self.sensordata[alive]
-            q = quantize(self.qpos[alive[:, None], self.qadr], self.resolution)
-            feet = np.where(sensors[:, self.touch_adr] > self.touch_threshold, -1.0, 1.0)
+            q = self.qpos[alive[:, None], self.qadr]
+            touch = sensors[:, self.touch_adr] > self.touch_threshold
             up = sensors[:, self.up_adr:self.up_adr + 3]
-            inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high), feet, up)
+            if p is not None:
+                q = q + p.joint_noise_rad[alive, t]
+                touch = touch ^ p.foot_flip[alive, t]
+                up = up + p.up_noise[alive, t]
+            q = quantize(q, self.resolution)
+            inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high),
+                                    np.where(touch, -1.0, 1.0), up)
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
             goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)
             goal[alive] = goal_alive
+            if p is not None:
+                goal_alive = played[alive] = play(played[alive], goal_alive, p.backlash_rad[alive][:, self.driven])
             self.ctrl[alive[:, None], self.driven] = goal_alive
             if harness:
                 self.xfrc[alive, self.pelvis, :3] = self._harness(alive, start_pelvis, k, c, cap)
@@ -152,30 +162,11 @@ class LocomotionEvaluator:
             if on_tick is not None:
                 on_tick(self, alive)
 
-            hind = self.site_xpos[alive[:, None], self.soles, 0].min(axis=1) - start_x[alive]
-            progress = hind / self.leg
-            pelvis_z = self.xipos[alive, self.pelvis, 2]
-            up_z = self.sensordata[alive, self.up_adr + 2]
-            down = (pelvis_z < task.fall_height * start_pelvis[alive, 2]) | (up_z < self.min_up_z)
             # a NaN fails the comparison, so "not all below the limit" also catches NaN
             bad = failed | ~(np.abs(self.qvel[alive]) <= MAX_JOINT_SPEED).all(axis=1) | \
                 ~np.isfinite(self.qpos[alive, 2])
-            ok = ~down & ~bad
-            live = alive[ok]
-            # eq. 3 at this tick; a fall keeps the previous tick's value
-            fitness[live] = (task.distance_coeff * np.maximum(progress[ok], task.epsilon)
-                             + task.time_coeff * elapsed[live])
-            distance[live] = hind[ok]
-            pelvis_best[live] = np.maximum(pelvis_best[live],
-                                           (self.xipos[live, self.pelvis, 0] - start_pelvis[live, 0]) / self.leg)
-            gained = progress > progress_best[alive] + task.epsilon
-            progress_best[alive[gained]] = progress[gained]
-            last_gain[alive[gained]] = elapsed[alive[gained]]
-            fell[alive[down & ~bad]] = True
             unstable[alive[bad]] = True
-            fitness[alive[bad]] = task.epsilon * task.distance_coeff
-            stagnant = elapsed[alive] - last_gain[alive] > task.stagnation_s
-            done = down | bad | stagnant
+            done = score.tick(alive, elapsed, bad)
             if done.any():
                 keep = np.flatnonzero(~done)
                 alive = alive[keep]
@@ -183,10 +174,19 @@ class LocomotionEvaluator:
                     break
                 net.keep(np.stack([2 * keep, 2 * keep + 1], axis=1).ravel())
 
-        upright = np.where(fell, elapsed - tick, elapsed)
-        selection = fitness + task.progress_coeff * np.where(unstable, 0.0, pelvis_best)
-        return Episodes(fitness=fitness, selection=selection, distance_m=distance, upright_s=upright,
-                        fell=fell, unstable=unstable, steps=steps)
+        upright = np.where(score.fell, elapsed - tick, elapsed)  # fell during its last tick
+        return score.result(upright, unstable, steps)
+
+    def _perturb(self, ids: np.ndarray, p: Perturbation | None) -> None:
+        """Give simulations ``ids`` their perturbation, or back their nominal model."""
+        if p is None:
+            if not self._perturbed[ids].any():
+                return
+            p = sample(NOMINAL, np.zeros((len(ids), 1)), self.model, 0, self.tick_s)
+        fields = {name: self.batch.expand(name) for name in PERTURBED_FIELDS}
+        apply(fields, self.model, p, ids)
+        self.batch.set_const(ids)
+        self._perturbed[ids] = True
 
     def _harness(self, alive, start, k, c, cap) -> np.ndarray:
         """Support from the sides, from behind and from below, never against going forward or

@@ -1,0 +1,78 @@
+"""Developmental hierarchy against a single module (seed 002 table 5.1: standing took 36
+generations on top of posing, 803 without).
+
+    python -m benchmarks.hierarchy --seeds 5 --json
+
+For each seed, ``configs/evolve/stand.yaml`` (pose -> stand) and
+``configs/evolve/stand_baseline.yaml`` (stand from scratch) run until the stand threshold
+or their budgets.  ``generations`` of the hierarchy is its stand stage's, as the thesis
+counts them; ``total_generations`` and ``wall_s`` include its pose stage.
+"""
+
+from __future__ import annotations
+
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from benchmarks.common import parser, progress, report
+from evolve.cli_commands import resolve_config
+from evolve.config import load_evolve_config
+from evolve.run import Run
+from sim2real.atomic_json import read_json
+
+
+def stand_run(config_name: str, seed: int, out: Path, threads: int | None, quiet: bool) -> dict:
+    config = load_evolve_config(resolve_config(config_name)).replace(seed=seed)
+    if threads is not None:
+        config = config.replace(threads=threads)
+    start = time.perf_counter()
+    run = Run.create(config, out, log=lambda line: progress(line, quiet))
+    run.evolve()
+    wall = time.perf_counter() - start
+    stages = read_json(out / "stages.json") if (out / "stages.json").exists() else []
+    # the last stage is not filed in stages.json: take it from the run itself
+    last = config.stages[-1]
+    solved = last.solved(run.best.fitness) if run.best else False
+    stand_generations = run.population.generation
+    return {"seed": seed, "solved": solved, "generations": stand_generations,
+            "total_generations": sum(s["generations"] for s in stages) + stand_generations,
+            "earlier_stages": stages, "wall_s": wall,
+            "best_fitness": run.best.fitness if run.best else None, "max_fitness": last.max_fitness}
+
+
+def summary(results: list[dict]) -> dict:
+    solved = [r for r in results if r["solved"]]
+    return {
+        "solved": len(solved), "runs": len(results),
+        "median_generations": statistics.median(r["generations"] for r in results),
+        "median_total_generations": statistics.median(r["total_generations"] for r in results),
+        "median_wall_s": statistics.median(r["wall_s"] for r in results),
+        "per_seed": results,
+    }
+
+
+def main(argv=None) -> None:
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--seeds", type=int, default=5)
+    p.add_argument("--first-seed", type=int, default=1)
+    p.add_argument("--threads", type=int, help="simulation threads (default: the configs')")
+    p.add_argument("--hierarchy", default="stand", help="staged config (default: stand)")
+    p.add_argument("--baseline", default="stand_baseline", help="single-module config")
+    args = p.parse_args(argv)
+    root = Path(tempfile.mkdtemp(prefix="hierarchy-bench-"))
+    results: dict[str, list] = {"hierarchy": [], "baseline": []}
+    for seed in range(args.first_seed, args.first_seed + args.seeds):
+        for kind, name in (("hierarchy", args.hierarchy), ("baseline", args.baseline)):
+            r = stand_run(name, seed, root / f"{kind}-seed{seed}", args.threads, args.json)
+            progress(f"{kind} seed {seed}: solved={r['solved']} generations={r['generations']} "
+                     f"(total {r['total_generations']}) in {r['wall_s']:.0f} s", args.json)
+            results[kind].append(r)
+    report({"seeds": args.seeds, "hierarchy": summary(results["hierarchy"]),
+            "baseline": summary(results["baseline"]), "thesis": {"hierarchy_generations": 36, "baseline_generations": 803},
+            "runs_dir": str(root)}, args.json)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,123 @@
+"""Scoring a population: episodes per genome, randomization, and where they run.
+
+A generation's genomes become simulations (``episodes`` each); each simulation is keyed
+``(seed, stage, generation, genome, episode)``, and its randomization is drawn from that
+key alone, so a result never depends on how the simulations are split across threads,
+processes or machines.  :class:`LocalBackend` runs them in this process's
+``mujoco.batch``; :class:`evolve.ray_backend.RayBackend` splits them over Ray workers.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from evolve.locomotion.evaluator import LocomotionEvaluator
+from evolve.locomotion.objectives import Episodes
+from evolve.locomotion.task import TaskConfig
+from evolve.neat import Genome
+from evolve.stages import Stage
+from sim2real.reality import load_reality
+from sim2real.robot import load_robot
+
+
+@dataclass(frozen=True)
+class EvaluatorSpec:
+    """What a worker needs to build its evaluator: names and plain data, never a model."""
+
+    robot: str
+    task: dict[str, Any]
+    reality: str | dict
+    capacity: int  # simulations
+    threads: int = 0
+
+    def key(self) -> str:
+        return json.dumps([self.robot, self.task, self.reality, self.capacity, self.threads], sort_keys=True)
+
+
+@functools.lru_cache(maxsize=4)
+def _cached(key: str) -> LocomotionEvaluator:
+    robot, task, reality, capacity, threads = json.loads(key)
+    return LocomotionEvaluator(load_robot(robot), TaskConfig.from_mapping(task), capacity, threads,
+                               load_reality(reality))
+
+
+def build_evaluator(spec: EvaluatorSpec) -> LocomotionEvaluator:
+    """The evaluator of ``spec``, built once per process (the model is compiled here)."""
+    return _cached(spec.key())
+
+
+@dataclass(frozen=True)
+class Job:
+    """One generation's simulations: a genome and a key per simulation."""
+
+    genomes: list[Genome]
+    keys: np.ndarray  # (n, 5) int: seed, stage, generation, genome, episode
+    steepness: float
+    harness: float
+    stage: Stage | None  # None: the walk objective
+    randomized: bool
+
+    def rows(self, lo: int, hi: int) -> "Job":
+        return Job(self.genomes[lo:hi], self.keys[lo:hi], self.steepness, self.harness, self.stage, self.randomized)
+
+
+def run_job(evaluator: LocomotionEvaluator, job: Job) -> Episodes:
+    """Simulate every simulation of ``job`` on ``evaluator`` (the reference for every backend)."""
+    perturbation = evaluator.sample(job.keys) if job.randomized else None
+    objective = job.stage.make_objective if job.stage is not None else None
+    return evaluator.evaluate(job.genomes, job.steepness, job.harness, perturbation=perturbation,
+                              objective=objective)
+
+
+class Backend(Protocol):
+    def run(self, job: Job) -> Episodes: ...
+
+    def close(self) -> None: ...
+
+
+class LocalBackend:
+    def __init__(self, spec: EvaluatorSpec):
+        self.evaluator = build_evaluator(spec)
+
+    def run(self, job: Job) -> Episodes:
+        return run_job(self.evaluator, job)
+
+    def close(self) -> None:
+        pass
+
+
+def concatenate(parts: list[Episodes]) -> Episodes:
+    arrays = {name: np.concatenate([getattr(p, name) for p in parts])
+              for name in ("fitness", "selection", "distance_m", "upright_s", "fell", "unstable")}
+    return Episodes(**arrays, steps=sum(p.steps for p in parts))
+
+
+def score_population(backend: Backend, genomes: list[Genome], *, steepness: float, harness: float,
+                     stage: Stage | None, episodes: int, score: str, randomized: bool,
+                     key: tuple[int, int, int]) -> tuple[Episodes, Episodes]:
+    """Every genome on ``episodes`` episodes; returns (per genome, per simulation).
+
+    Per genome, fitness and the other measures are the ``score`` (mean or worst) of its
+    episodes; it fell if it fell in any.
+    """
+    n = len(genomes)
+    sims = [g for g in genomes for _ in range(episodes)]
+    keys = np.array([[*key, i, e] for i in range(n) for e in range(episodes)], dtype=np.int64)
+    per_sim = backend.run(Job(sims, keys, steepness, harness, stage, randomized))
+    if episodes == 1:
+        return per_sim, per_sim
+    combine = np.mean if score == "mean" else np.min
+
+    def by_genome(values):
+        return combine(values.reshape(n, episodes), axis=1)
+
+    return Episodes(
+        fitness=by_genome(per_sim.fitness), selection=by_genome(per_sim.selection),
+        distance_m=by_genome(per_sim.distance_m), upright_s=by_genome(per_sim.upright_s),
+        fell=per_sim.fell.reshape(n, episodes).any(axis=1),
+        unstable=per_sim.unstable.reshape(n, episodes).any(axis=1), steps=per_sim.steps), per_sim

@@ -1,0 +1,105 @@
+"""Developmental hierarchies (seed 002): an evolution in stages, each a new control module
+with its own objective, evolved on top of the frozen modules of the stages before it.
+
+    stages:
+      - {name: pose, objective: pose, generations: 100, threshold: 0.95}
+      - {name: stand, objective: stand, generations: 200, threshold: 0.94}
+      - {name: walk, objective: walk, generations: 400}
+
+A stage ends at its threshold (a share of eq. 4.1's theoretical maximum; walking has no
+maximum, so a walk stage runs its budget) or after ``generations``.  The next stage starts
+from the champion of this one: every genome a copy of it with a new, empty module
+(:meth:`Population.on_top_of`), lower modules frozen but active.  Weights default to
+table 4.1: pose (3, 1), stand (1, 1, 1, 1); the single-module baseline of standing uses
+(2, 1, 1, 1) and a 0.93 threshold (``configs/evolve/stand_baseline.yaml``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from evolve.locomotion.objectives import PoseLimits, PoseObjective, PoseWeights, WalkObjective
+from sim2real.errors import ConfigError
+from sim2real.validation import Node, dataclass_from_mapping
+
+OBJECTIVES = ("pose", "stand", "walk")
+DEFAULT_WEIGHTS = {"pose": PoseWeights(3.0, 1.0, 0.0, 0.0), "stand": PoseWeights(1.0, 1.0, 1.0, 1.0)}
+
+
+@dataclass(frozen=True)
+class Stage:
+    name: str  # the module this stage evolves
+    objective: str  # pose | stand | walk
+    generations: int  # budget
+    threshold: float = 0.0  # share of the theoretical maximum that ends the stage (0: run the budget)
+    weights: PoseWeights | None = None  # eq. 4.1 error weights (pose and stand)
+    target_pose_deg: dict[str, float] = field(default_factory=dict)  # joint -> target; others: home
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"name": self.name, "objective": self.objective, "generations": self.generations}
+        if self.threshold:
+            out["threshold"] = self.threshold
+        if self.weights is not None:
+            out["weights"] = dataclasses.asdict(self.weights)
+        if self.target_pose_deg:
+            out["target_pose_deg"] = dict(self.target_pose_deg)
+        return out
+
+    @property
+    def max_fitness(self) -> float:
+        return math.inf if self.weights is None else self.weights.max_fitness()
+
+    def solved(self, fitness: float) -> bool:
+        return bool(self.threshold) and fitness >= self.threshold * self.max_fitness
+
+    def make_objective(self, ev, n: int):
+        """This stage's objective for ``n`` simulations of evaluator ``ev``
+        (the ``objective`` argument of :meth:`LocomotionEvaluator.evaluate`)."""
+        if self.objective == "walk":
+            return WalkObjective(ev, n)
+        targets = {j.name: j.home_rad for j in ev.robot.joints}
+        targets.update({k: math.radians(v) for k, v in self.target_pose_deg.items()})
+        target = np.array([targets[name] for name in ev.layout.driven])
+        return PoseObjective(ev, n, self.weights, PoseLimits(standing=self.objective == "stand"), target)
+
+
+def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
+    if doc is None:
+        return ()
+    stages, names = [], set()
+    for i, item in enumerate(Node(doc, source, "stages").list(min_len=1)):
+        item.mapping(required=("name", "objective", "generations"),
+                     optional=("threshold", "weights", "target_pose_deg"))
+        name = item["name"].string()
+        if name in names:
+            raise item["name"].error(f"stage name {name!r} is used twice")
+        names.add(name)
+        objective = item["objective"].string(OBJECTIVES)
+        generations = item["generations"].integer(lo=1)
+        threshold = item["threshold"].number(lo=0.0, hi=1.0) if item.has("threshold") else 0.0
+        weights = None
+        if objective != "walk":
+            weights = DEFAULT_WEIGHTS[objective]
+            if item.has("weights"):
+                weights = dataclass_from_mapping(PoseWeights, item["weights"].value, source,
+                                                 f"stages[{i}].weights.", "weight")
+        elif item.has("weights") or threshold:
+            raise item.error("a walk stage has no weights or threshold (eq. 3 has no maximum)")
+        target = {}
+        if item.has("target_pose_deg"):
+            target = {k: v.number() for k, v in item["target_pose_deg"].items()}
+        stages.append(Stage(name, objective, generations, threshold, weights, target))
+    return tuple(stages)
+
+
+def check_stage_joints(stages: tuple[Stage, ...], driven: tuple[str, ...], source: str) -> None:
+    for i, stage in enumerate(stages):
+        for joint in stage.target_pose_deg:
+            if joint not in driven:
+                raise ConfigError(source, f"stages[{i}].target_pose_deg.{joint}",
+                                  f"not a driven joint (driven: {', '.join(driven)})")

@@ -1,0 +1,233 @@
+"""How a real robot differs from its nominal model: reality profiles and randomization.
+
+A *reality file* (``configs/reality/*.yaml``) gives each perturbation below either one
+value (a fixed perturbation: a "reality profile" such as ``default.yaml``) or a
+``[low, high]`` range drawn uniformly per episode (domain randomization, as in
+``randomize.yaml``)::
+
+    description: one plausible XL430 biped, a little off nominal
+    mass_scale: 1.08          # every link's mass and inertia, times
+    kp_scale: [0.8, 1.2]      # each servo's position gain, drawn per servo and episode
+
+Each simulation gets its own draws from its own seeded stream (:func:`sample`, keyed by
+run seed, generation, genome and episode), so results do not depend on how simulations are
+batched or distributed.  Physical parameters go into the model (per simulation through
+``mujoco.batch``, :func:`apply`); backlash, latency and sensor noise act on the control
+path, where the servo and its sensors sit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from sim2real.errors import ConfigError
+from sim2real.validation import Node, load_yaml
+
+# name -> (nominal value, meaning with unit)
+PERTURBATIONS: dict[str, tuple[float, str]] = {
+    "mass_scale": (1.0, "each link's mass and inertia, times (drawn per link)"),
+    "com_offset_m": (0.0, "each link's centre of mass moved this far in a random direction [m]"),
+    "floor_friction_scale": (1.0, "floor sliding friction, times"),
+    "kp_scale": (1.0, "each servo's position gain, times (drawn per servo)"),
+    "torque_scale": (1.0, "each servo's stall torque, times (drawn per servo)"),
+    "damping_scale": (1.0, "each servo's back-EMF damping, times (drawn per servo)"),
+    "friction_scale": (1.0, "each servo's Coulomb friction, times (drawn per servo)"),
+    "backlash_deg": (0.0, "free play of each joint's gears, full width [deg] (drawn per joint)"),
+    "latency_ticks": (0.0, "delay from goal written to goal acted on [control ticks]"),
+    "joint_noise_deg": (0.0, "standard deviation of the noise on joint readings [deg]"),
+    "up_noise": (0.0, "standard deviation of the noise on each up-vector component"),
+    "foot_flip": (0.0, "chance that a foot switch reads wrong at a tick"),
+}
+SCALES = ("mass_scale", "floor_friction_scale", "kp_scale", "torque_scale", "damping_scale", "friction_scale")
+
+
+@dataclass(frozen=True)
+class Reality:
+    """Each perturbation's ``(low, high)`` range; ``low == high`` is a fixed value."""
+
+    name: str = "nominal"
+    description: str = ""
+    ranges: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
+
+    def range(self, key: str) -> tuple[float, float]:
+        nominal = PERTURBATIONS[key][0]
+        return self.ranges.get(key, (nominal, nominal))
+
+    @property
+    def is_nominal(self) -> bool:
+        return all(self.range(k) == (v, v) for k, (v, _) in PERTURBATIONS.items())
+
+    @property
+    def max_latency_ticks(self) -> float:
+        return self.range("latency_ticks")[1]
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"description": self.description} if self.description else {}
+        for key, (lo, hi) in self.ranges.items():
+            out[key] = lo if lo == hi else [lo, hi]
+        return out
+
+
+NOMINAL = Reality()
+
+
+def parse_reality(doc: Any, source: str, name: str = "inline") -> Reality:
+    node = Node(doc if doc is not None else {}, source)
+    node.mapping(optional=("description", *PERTURBATIONS))
+    ranges: dict[str, tuple[float, float]] = {}
+    for key, item in node.items():
+        if key == "description":
+            continue
+        if isinstance(item.value, list):
+            lo, hi = item.pair()
+        else:
+            lo = hi = item.number()
+        if lo < 0:
+            raise item.error(f"must not be negative, got {item.value!r}")
+        if key in SCALES and lo == 0:
+            raise item.error("a scale must be > 0")
+        if key == "foot_flip" and hi > 1:
+            raise item.error(f"is a probability (0-1), got {item.value!r}")
+        ranges[key] = (float(lo), float(hi))
+    description = node.get("description").string() if node.has("description") else ""
+    return Reality(name, description, ranges)
+
+
+def reality_dir() -> Path:
+    from sim2real.paths import data_root
+
+    return data_root() / "configs" / "reality"
+
+
+def load_reality(name_or_path: str | Path | dict | None) -> Reality:
+    """A reality file by name (``configs/reality/<name>.yaml``) or path; a mapping is taken
+    as the file's contents; ``None`` or ``"nominal"`` is the nominal robot."""
+    if name_or_path is None or name_or_path == "nominal":
+        return NOMINAL
+    if isinstance(name_or_path, dict):
+        return parse_reality(name_or_path, "<inline reality>")
+    path = Path(name_or_path)
+    if not path.exists():
+        candidate = reality_dir() / f"{name_or_path}.yaml"
+        if not candidate.exists():
+            known = ", ".join(sorted(p.stem for p in reality_dir().glob("*.yaml")))
+            raise FileNotFoundError(f"unknown reality profile {str(name_or_path)!r} (known: nominal, {known}; or a path)")
+        path = candidate
+    return parse_reality(load_yaml(path), str(path), path.stem)
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """One draw per simulation: arrays with the simulations on the first axis.
+
+    Body arrays cover every body of the model, actuator arrays every actuator (= every
+    joint, in robot order); noise is drawn ahead for ``n_ticks`` ticks.
+    """
+
+    mass_scale: np.ndarray  # (n, nbody)
+    com_offset: np.ndarray  # (n, nbody, 3) [m]
+    floor_friction_scale: np.ndarray  # (n,)
+    kp_scale: np.ndarray  # (n, nu)
+    torque_scale: np.ndarray  # (n, nu)
+    damping_scale: np.ndarray  # (n, nu)
+    friction_scale: np.ndarray  # (n, nu)
+    backlash_rad: np.ndarray  # (n, nu)
+    latency_s: np.ndarray  # (n,)
+    joint_noise_rad: np.ndarray  # (n, n_ticks, nu)
+    up_noise: np.ndarray  # (n, n_ticks, 3)
+    foot_flip: np.ndarray  # (n, n_ticks, 2) bool
+
+    def __len__(self) -> int:
+        return len(self.latency_s)
+
+    def rows(self, index: np.ndarray | slice) -> "Perturbation":
+        return Perturbation(*(getattr(self, f.name)[index] for f in dataclasses.fields(self)))
+
+
+def sample(reality: Reality, keys: np.ndarray, model: mujoco.MjModel, n_ticks: int,
+           tick_s: float) -> Perturbation:
+    """Draw one perturbation per row of ``keys`` (integers; each row seeds its own stream)."""
+    keys = np.atleast_2d(np.asarray(keys, dtype=np.int64))
+    nbody, nu = model.nbody, model.nu
+    out: dict[str, list] = {f.name: [] for f in dataclasses.fields(Perturbation)}
+    for key in keys:
+        rng = np.random.default_rng([int(k) for k in key])
+
+        def draw(name, *shape):
+            lo, hi = reality.range(name)
+            return np.full(shape, lo) if lo == hi else rng.uniform(lo, hi, shape)
+
+        direction = rng.normal(size=(nbody, 3))
+        direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+        out["mass_scale"].append(draw("mass_scale", nbody))
+        out["com_offset"].append(direction * draw("com_offset_m", nbody)[:, None])
+        out["floor_friction_scale"].append(draw("floor_friction_scale"))
+        for name in ("kp_scale", "torque_scale", "damping_scale", "friction_scale"):
+            out[name].append(draw(name, nu))
+        out["backlash_rad"].append(np.radians(draw("backlash_deg", nu)))
+        out["latency_s"].append(draw("latency_ticks") * tick_s)
+        joint_sd, up_sd = np.radians(draw("joint_noise_deg")), draw("up_noise")
+        out["joint_noise_rad"].append(rng.normal(0.0, 1.0, (n_ticks, nu)) * joint_sd)
+        out["up_noise"].append(rng.normal(0.0, 1.0, (n_ticks, 3)) * up_sd)
+        out["foot_flip"].append(rng.random((n_ticks, 2)) < draw("foot_flip"))
+    return Perturbation(**{k: np.array(v) for k, v in out.items()})
+
+
+def latency_capacity_s(reality: Reality, tick_s: float) -> float:
+    """Actuator history a model needs for this reality's longest latency [s]."""
+    return reality.max_latency_ticks * tick_s
+
+
+def apply(fields: dict[str, np.ndarray], nominal: mujoco.MjModel, p: Perturbation,
+          rows: np.ndarray | slice) -> None:
+    """Write ``p`` into per-simulation model fields (``fields[name]`` is ``(n, ...)``, as
+    ``Batch.expand`` returns or a model's array with a leading axis), rows ``rows``.
+
+    The caller runs ``set_const`` afterwards (masses feed derived constants).
+    """
+    floor = nominal.geom("floor").id
+    fields["body_mass"][rows] = nominal.body_mass * p.mass_scale
+    fields["body_inertia"][rows] = nominal.body_inertia * p.mass_scale[..., None]
+    fields["body_ipos"][rows] = nominal.body_ipos + p.com_offset
+    friction = np.array(fields["geom_friction"][rows])
+    friction[:, floor, 0] = nominal.geom_friction[floor, 0] * p.floor_friction_scale
+    fields["geom_friction"][rows] = friction
+    gain = np.array(fields["actuator_gainprm"][rows])
+    bias = np.array(fields["actuator_biasprm"][rows])
+    kp = nominal.actuator_gainprm[:, 0] * p.kp_scale
+    gain[:, :, 0] = kp
+    bias[:, :, 1] = -kp
+    bias[:, :, 2] = nominal.actuator_biasprm[:, 2] * p.kp_scale  # kv of PD robots scales alike
+    fields["actuator_gainprm"][rows], fields["actuator_biasprm"][rows] = gain, bias
+    fields["actuator_forcerange"][rows] = nominal.actuator_forcerange * p.torque_scale[..., None]
+    dofs = nominal.jnt_dofadr[nominal.actuator_trnid[:, 0]]
+    damping = np.array(fields["dof_damping"][rows])
+    frictionloss = np.array(fields["dof_frictionloss"][rows])
+    damping[:, dofs] = nominal.dof_damping[dofs] * p.damping_scale
+    frictionloss[:, dofs] = nominal.dof_frictionloss[dofs] * p.friction_scale
+    fields["dof_damping"][rows], fields["dof_frictionloss"][rows] = damping, frictionloss
+    fields["actuator_delay"][rows] = np.repeat(p.latency_s[:, None], nominal.nu, axis=1)
+
+
+PERTURBED_FIELDS = ("body_mass", "body_inertia", "body_ipos", "geom_friction", "actuator_gainprm",
+                    "actuator_biasprm", "actuator_forcerange", "dof_damping", "dof_frictionloss", "actuator_delay")
+
+
+def apply_to_model(model: mujoco.MjModel, nominal: mujoco.MjModel, p: Perturbation) -> None:
+    """Perturb one model in place with the first row of ``p`` (for a single simulation)."""
+    fields = {name: getattr(model, name)[None] for name in PERTURBED_FIELDS}
+    apply(fields, nominal, p.rows(slice(0, 1)), slice(0, 1))
+    mujoco.mj_setConst(model, mujoco.MjData(model))
+
+
+def play(previous: np.ndarray, command: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """Backlash as a play operator: the gear train follows ``command`` only once it has taken
+    up the free play of ``width`` [rad]; returns the new output angle."""
+    half = width / 2
+    return np.minimum(np.maximum(previous, command - half), command + half)

@@ -1,0 +1,109 @@
+"""Reality profiles and domain randomization: files, draws, and their use per simulation."""
+
+import numpy as np
+import pytest
+
+from evolve.locomotion.evaluator import LocomotionEvaluator, neat_layout
+from evolve.locomotion.task import TaskConfig
+from evolve.neat import NeatConfig, Population
+from sim2real.errors import ConfigError
+from sim2real.reality import NOMINAL, PERTURBATIONS, load_reality, parse_reality, play
+from sim2real.robot import load_robot
+from sim2real.symmetry import symmetric_layout
+
+ROBOT = load_robot()
+TASK = TaskConfig(episode_s=1.0)
+
+
+def test_shipped_files_load_and_default_is_a_fixed_profile():
+    default, ranges = load_reality("default"), load_reality("randomize")
+    assert all(lo == hi for lo, hi in default.ranges.values())
+    assert any(lo < hi for lo, hi in ranges.ranges.values())
+    assert set(ranges.ranges) == set(PERTURBATIONS)
+    assert load_reality("nominal").is_nominal and not default.is_nominal
+
+
+@pytest.mark.parametrize("doc, key, problem", [
+    ({"mass_scal": 1.0}, "mass_scal", "unknown key"),
+    ({"kp_scale": [1.2, 0.8]}, "kp_scale", "low must be below high"),
+    ({"kp_scale": 0}, "kp_scale", "scale must be > 0"),
+    ({"backlash_deg": -1}, "backlash_deg", "must not be negative"),
+    ({"foot_flip": 2}, "foot_flip", "probability"),
+    ({"latency_ticks": "one"}, "latency_ticks", "number"),
+])
+def test_bad_reality_files_name_key_and_problem(doc, key, problem):
+    with pytest.raises(ConfigError) as err:
+        parse_reality(doc, "r.yaml")
+    assert err.value.key == key and problem in str(err.value) and "r.yaml" in str(err.value)
+
+
+def test_unknown_profile_lists_the_known_ones():
+    with pytest.raises(FileNotFoundError, match="default"):
+        load_reality("no-such-profile")
+
+
+def test_play_operator_takes_up_the_free_play_first():
+    width = np.array([0.2])
+    out = np.array([0.0])
+    for command, expected in ((0.05, 0.0), (0.15, 0.05), (0.10, 0.05), (-0.1, 0.0)):
+        out = play(out, np.array([command]), width)
+        assert out[0] == pytest.approx(expected)
+
+
+@pytest.fixture(scope="module")
+def evaluator():
+    return LocomotionEvaluator(ROBOT, TASK, 6, threads=1, reality=load_reality("randomize"))
+
+
+def test_draws_depend_on_the_key_only(evaluator):
+    keys = np.array([[1, 0, 3, i] for i in range(4)])
+    together = evaluator.sample(keys)
+    alone = evaluator.sample(keys[2:3])
+    assert np.array_equal(together.kp_scale[2], alone.kp_scale[0])
+    assert np.array_equal(together.joint_noise_rad[2], alone.joint_noise_rad[0])
+    assert not np.array_equal(together.kp_scale[0], together.kp_scale[1])
+    lo, hi = load_reality("randomize").range("kp_scale")
+    assert (together.kp_scale >= lo).all() and (together.kp_scale <= hi).all()
+
+
+def test_each_simulation_gets_its_own_model_and_nominal_comes_back(evaluator):
+    layout = neat_layout(symmetric_layout(ROBOT, ROBOT.control_sets["walk"]))
+    genomes = Population(NeatConfig(population_size=3, target_species=1), layout, seed=1).genomes
+    p = evaluator.sample(np.array([[7, i] for i in range(3)]))
+    evaluator.evaluate(genomes, 1.0, perturbation=p)
+    nominal = evaluator.model
+    floor = nominal.geom("floor").id
+    for i in range(3):
+        m = evaluator.batch.get_model(i)
+        assert m.body_mass[1:] == pytest.approx(nominal.body_mass[1:] * p.mass_scale[i, 1:])
+        assert m.actuator_gainprm[:, 0] == pytest.approx(nominal.actuator_gainprm[:, 0] * p.kp_scale[i])
+        assert m.geom_friction[floor, 0] == pytest.approx(nominal.geom_friction[floor, 0] * p.floor_friction_scale[i])
+        assert m.actuator_delay == pytest.approx(np.full(nominal.nu, p.latency_s[i]))
+    assert evaluator.batch.get_model(0).body_mass[1] != evaluator.batch.get_model(1).body_mass[1]
+    evaluator.evaluate(genomes, 1.0)  # back to the nominal robot
+    for i in range(3):
+        m = evaluator.batch.get_model(i)
+        assert m.body_mass == pytest.approx(nominal.body_mass)
+        assert m.actuator_delay == pytest.approx(0.0)
+
+
+def test_randomized_results_do_not_depend_on_batching(evaluator):
+    layout = neat_layout(symmetric_layout(ROBOT, ROBOT.control_sets["walk"]))
+    genomes = Population(NeatConfig(population_size=4, target_species=1), layout, seed=2).genomes
+    keys = np.array([[3, 0, 0, i, 0] for i in range(4)])
+    together = evaluator.evaluate(genomes, 1.0, perturbation=evaluator.sample(keys))
+    single = LocomotionEvaluator(ROBOT, TASK, 1, threads=1, reality=load_reality("randomize"))
+    for i in (0, 3):
+        alone = single.evaluate([genomes[i]], 1.0, perturbation=single.sample(keys[i:i + 1]))
+        assert alone.fitness[0] == together.fitness[i] and alone.distance_m[0] == together.distance_m[i]
+    nominal = LocomotionEvaluator(ROBOT, TASK, 4, threads=1).evaluate(genomes, 1.0)
+    assert not np.array_equal(nominal.fitness, together.fitness)
+
+
+def test_a_nominal_reality_changes_nothing():
+    layout = neat_layout(symmetric_layout(ROBOT, ROBOT.control_sets["walk"]))
+    genomes = Population(NeatConfig(population_size=3, target_species=1), layout, seed=4).genomes
+    plain = LocomotionEvaluator(ROBOT, TASK, 3, threads=1)
+    a = plain.evaluate(genomes, 1.0)
+    b = plain.evaluate(genomes, 1.0, perturbation=plain.sample(np.zeros((3, 1))))
+    assert np.array_equal(a.fitness, b.fitness) and NOMINAL.is_nominal
