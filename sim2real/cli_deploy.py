@@ -43,6 +43,9 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
     dry.add_argument("--robot", help="robot (default: the one the controller was made for)")
     dry.add_argument("--duration", type=float, default=10.0, help="seconds of the loop (default 10)")
     dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE")
+    dry.add_argument("--reality", metavar="PROFILE",
+                     help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
+    dry.add_argument("--seed", type=int, default=0, help="seed of the reality profile's random parts")
     dry.add_argument("--trace", type=Path, help="trace CSV (+ JSON sidecar)")
     dry.add_argument("--json", action="store_true", help="print the report as one JSON object")
     dry.set_defaults(func=cmd_dry_run)
@@ -54,6 +57,9 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
     simbus.add_argument("--robot", default=DEFAULT_ROBOT, help=ROBOT_HELP)
     simbus.add_argument("--baud", type=int, help="pace replies like the wire at this baud (default: the robot's)")
     simbus.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start),drop:RATE,corrupt:RATE")
+    simbus.add_argument("--reality", metavar="PROFILE",
+                        help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
+    simbus.add_argument("--seed", type=int, default=0, help="seed of the reality profile's random parts")
     simbus.set_defaults(func=cmd_simbus)
 
 
@@ -93,7 +99,7 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
     from sim2real.dry_run import dry_run
 
     result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults,
-                     log=lambda s: print(s, file=sys.stderr))
+                     log=lambda s: print(s, file=sys.stderr), reality=args.reality, seed=args.seed)
     if args.json:
         print(json.dumps(result))
     else:
@@ -111,8 +117,10 @@ def cmd_simbus(args: argparse.Namespace) -> int:
 
     from sim2real.dry_run import arm_faults
 
+    from sim2real.reality import load_reality
+
     robot = load_robot(args.robot)
-    physics = PhysicsChain(robot)
+    physics = PhysicsChain(robot, reality=load_reality(args.reality), seed=args.seed)
     chain = EmulatedChain(physics.devices, advance=physics.advance)
     timers, rates = arm_faults(args.faults, chain, physics)
     done = threading.Event()

@@ -17,6 +17,7 @@ from sim2real.bus.dynamixel import DynamixelBus
 from sim2real.controller import load_controller
 from sim2real.deploy import drive
 from sim2real.errors import ConfigError
+from sim2real.reality import load_reality
 from sim2real.robot import load_robot
 from sim2real.simbus.physics import PhysicsChain
 from sim2real.simbus.server import EmulatedChain, PtyServer
@@ -70,11 +71,14 @@ def arm_faults(spec: str | None, chain: EmulatedChain, physics: PhysicsChain,
 def dry_run(controller_path: Path | str, robot_name: str | None = None, duration_s: float = 10.0,
             trace_path: Path | str | None = None, faults: str | None = None,
             log: Callable[[str], None] = print, ramp_s: float = 2.0,
-            disabled_modules: tuple[str, ...] = ()) -> dict[str, Any]:
+            disabled_modules: tuple[str, ...] = (), reality: str | None = None, seed: int = 0) -> dict[str, Any]:
+    """Run a controller through the real runtime on the simulated bus, the robot behind it
+    perturbed by the reality profile ``reality`` (None: nominal); see ``biped dry-run``."""
     data = load_controller(controller_path)
     robot = load_robot(robot_name or data["robot"]["name"])
     data = load_controller(controller_path, robot)
-    physics = PhysicsChain(robot)
+    profile = load_reality(reality)
+    physics = PhysicsChain(robot, reality=profile, seed=seed)
     start_soles, start_height = physics.sole_x(), physics.pelvis_height()
     chain = EmulatedChain(physics.devices, advance=physics.advance)
     timers, rates = arm_faults(faults, chain, physics, delay_s=ramp_s)
@@ -91,6 +95,6 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     fell = (physics.pelvis_height() < FALL_HEIGHT * start_height
             or physics.upright() < np.cos(np.radians(FALL_TILT_DEG)))
     return {"distance_m": distance, "fell": bool(fell), "ticks": report.ticks, "overruns": report.overruns,
-            "bus_errors": report.bus_errors, "stop_reason": report.stop_reason,
+            "bus_errors": report.bus_errors, "stop_reason": report.stop_reason, "reality": profile.name,
             "trace": str(trace_path) if trace_path else None, "simulated_s": float(physics.data.time),
             **{k: v for k, v in report.summary().items() if k.startswith(("compute", "jitter"))}}

@@ -139,6 +139,9 @@ class Perturbation:
     friction_scale: np.ndarray  # (n, nu)
     backlash_rad: np.ndarray  # (n, nu)
     latency_s: np.ndarray  # (n,)
+    joint_noise_sd_rad: np.ndarray  # (n,)
+    up_noise_sd: np.ndarray  # (n,)
+    foot_flip_p: np.ndarray  # (n,)
     joint_noise_rad: np.ndarray  # (n, n_ticks, nu)
     up_noise: np.ndarray  # (n, n_ticks, 3)
     foot_flip: np.ndarray  # (n, n_ticks, 2) bool
@@ -172,10 +175,13 @@ def sample(reality: Reality, keys: np.ndarray, model: mujoco.MjModel, n_ticks: i
             out[name].append(draw(name, nu))
         out["backlash_rad"].append(np.radians(draw("backlash_deg", nu)))
         out["latency_s"].append(draw("latency_ticks") * tick_s)
-        joint_sd, up_sd = np.radians(draw("joint_noise_deg")), draw("up_noise")
+        joint_sd, up_sd, flip = np.radians(draw("joint_noise_deg")), draw("up_noise"), draw("foot_flip")
+        out["joint_noise_sd_rad"].append(joint_sd)
+        out["up_noise_sd"].append(up_sd)
+        out["foot_flip_p"].append(flip)
         out["joint_noise_rad"].append(rng.normal(0.0, 1.0, (n_ticks, nu)) * joint_sd)
         out["up_noise"].append(rng.normal(0.0, 1.0, (n_ticks, 3)) * up_sd)
-        out["foot_flip"].append(rng.random((n_ticks, 2)) < draw("foot_flip"))
+        out["foot_flip"].append(rng.random((n_ticks, 2)) < flip)
     return Perturbation(**{k: np.array(v) for k, v in out.items()})
 
 

@@ -95,3 +95,20 @@ def test_dropped_and_corrupted_replies_are_retried(standing_controller):
                      ramp_s=0.3)
     assert result["stop_reason"] == "duration reached"  # the chain's retries absorbed them
     assert not result["fell"]
+
+
+def test_the_simulated_bus_takes_a_reality_profile():
+    from sim2real.reality import load_reality
+    from sim2real.simbus.physics import PhysicsChain
+
+    nominal, real = PhysicsChain(ROBOT), PhysicsChain(ROBOT, reality=load_reality("default"))
+    assert real.model.body_mass[1:] == pytest.approx(nominal.model.body_mass[1:] * 1.08)
+    assert real.kp == pytest.approx(nominal.kp * 0.9)
+    assert real.model.actuator_delay == pytest.approx(0.5 * 0.034)
+    assert real.perturbation.backlash_rad[0] == pytest.approx(np.radians(0.3))
+
+
+def test_a_dry_run_under_the_default_reality_profile(standing_controller):
+    result = dry_run(standing_controller, duration_s=1.0, log=lambda s: None, ramp_s=0.3, reality="default")
+    assert result["reality"] == "default" and result["stop_reason"] == "duration reached"
+    assert not result["fell"] and result["bus_errors"] == 0

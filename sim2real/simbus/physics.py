@@ -7,6 +7,10 @@ report - Present Position quantized to the encoder, Present Velocity, Present Lo
 the sensor board its foot switches (from the soles' contact forces) and the torso's
 up-vector (Q14).  A servo that holds its stall torque for ``overload_s`` latches an
 overload: alert bit, Hardware Error Status, torque off until REBOOT.
+
+A reality profile (:mod:`sim2real.reality`) perturbs the robot behind the bus: masses,
+friction and servo gains in the model, latency as actuator delay, backlash between the
+goal and the gears, noise on what the servos and the board report.
 """
 
 from __future__ import annotations
@@ -22,7 +26,9 @@ import numpy as np
 from sim2real.bus.mock import MockBus
 from sim2real.mapping import ServoMapping
 from sim2real.model_builder import build_model
+from sim2real.reality import NOMINAL, Reality, apply_to_model, latency_capacity_s, play, sample
 from sim2real.robot import RobotSpec
+from sim2real.timing import control_timing
 
 OVERLOAD_BIT = 1 << 5
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
@@ -30,9 +36,15 @@ CONTACT_SHARE = 0.05  # a foot switch closes at this share of the body weight
 
 
 class PhysicsChain:
-    def __init__(self, robot: RobotSpec, clock: Callable[[], float] = time.monotonic, overload_s: float = 2.0):
+    def __init__(self, robot: RobotSpec, clock: Callable[[], float] = time.monotonic, overload_s: float = 2.0,
+                 reality: Reality = NOMINAL, seed: int = 0):
         self.robot, self.clock, self.overload_s = robot, clock, overload_s
-        self.model = build_model(robot)
+        tick_s = control_timing(robot).tick_s
+        history = latency_capacity_s(reality, tick_s)
+        self.model = build_model(robot, history)
+        self.perturbation = sample(reality, np.array([[seed]]), self.model, 0, tick_s)
+        apply_to_model(self.model, build_model(robot, history), self.perturbation)
+        self.rng = np.random.default_rng(seed)
         self.data = mujoco.MjData(self.model)
         mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)
         mujoco.mj_forward(self.model, self.data)
@@ -43,7 +55,9 @@ class PhysicsChain:
         self.qadr = np.array([self.model.jnt_qposadr[self.model.joint(n).id] for n in names])
         self.dadr = np.array([self.model.jnt_dofadr[self.model.joint(n).id] for n in names])
         self.kp = self.model.actuator_gainprm[:, 0].copy()
-        self.stall = np.array([j.servo.profile.motor.stall_torque_nm for j in robot.joints])
+        self.stall = np.array([j.servo.profile.motor.stall_torque_nm for j in robot.joints])  # datasheet
+        self.torque_limit = self.model.actuator_forcerange[:, 1].copy()  # this robot's
+        self.played = self.data.ctrl.copy()  # the gears' side of the backlash
         self.touch = [self.model.sensor_adr[self.model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
         self.up = self.model.sensor_adr[self.model.sensor("torso_up").id]
         self.board = robot.sensor_board.id if robot.sensor_board else None
@@ -82,7 +96,8 @@ class PhysicsChain:
             if steps <= 0:
                 return
             goal, on = self._goals()
-            self.data.ctrl[:] = np.where(on, goal, self.data.qpos[self.qadr])
+            self.played = play(self.played, goal, self.perturbation.backlash_rad[0])
+            self.data.ctrl[:] = np.where(on, self.played, self.data.qpos[self.qadr])
             self.model.actuator_gainprm[:, 0] = np.where(on, self.kp, 0.0)  # torque off: limp
             self.model.actuator_biasprm[:, 1] = -self.model.actuator_gainprm[:, 0]
             for _ in range(steps):
@@ -92,7 +107,7 @@ class PhysicsChain:
 
     def _check_overload(self, on: np.ndarray) -> None:
         force = np.abs(self.data.actuator_force)
-        self.saturated = np.where(on & (force >= 0.99 * self.stall), self.saturated + self.model.opt.timestep, 0.0)
+        self.saturated = np.where(on & (force >= 0.99 * self.torque_limit), self.saturated + self.model.opt.timestep, 0.0)
         for k, dxl_id in enumerate(self.ids):
             due = self.overload_at.get(dxl_id)
             if self.saturated[k] >= self.overload_s or (due is not None and self.data.time >= due):
@@ -101,7 +116,8 @@ class PhysicsChain:
                 self.devices[dxl_id].raise_hardware_error(OVERLOAD_BIT)
 
     def _publish(self) -> None:
-        q = self.data.qpos[self.qadr]
+        p = self.perturbation
+        q = self.data.qpos[self.qadr] + self.rng.normal(0.0, 1.0, len(self.qadr)) * p.joint_noise_sd_rad[0]
         ticks = self._ticks(q)
         qdot = self.data.qvel[self.dadr]
         for k, dxl_id in enumerate(self.ids):
@@ -117,10 +133,11 @@ class PhysicsChain:
                 device.set_named("present_load", int(round(self.mapping.direction[k] * load)))
         if self.board is not None:
             board = self.devices[self.board]
-            touching = [self.data.sensordata[a] > CONTACT_SHARE * self.weight for a in self.touch]
+            touching = [(self.data.sensordata[a] > CONTACT_SHARE * self.weight) != (self.rng.random() < p.foot_flip_p[0])
+                        for a in self.touch]
             board.set_named("foot_switch_left", int(touching[0]))
             board.set_named("foot_switch_right", int(touching[1]))
-            up = self.data.sensordata[self.up:self.up + 3]
+            up = self.data.sensordata[self.up:self.up + 3] + self.rng.normal(0.0, 1.0, 3) * p.up_noise_sd[0]
             for axis, value in zip("xyz", up):
                 board.set_named(f"up_vector_{axis}", int(round(float(value) * 16384)))
 
