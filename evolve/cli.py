@@ -15,7 +15,7 @@ import sys
 if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
     os.environ.setdefault("MUJOCO_GL", "egl")
 
-from evolve import cli_commands  # noqa: E402
+from evolve import cli_commands, quickstart  # noqa: E402
 from sim2real import cli as sim2real_cli  # noqa: E402
 from sim2real.errors import BipedError  # noqa: E402
 
@@ -29,6 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     sim2real_cli.add_commands(sub)
     cli_commands.add_commands(sub)
+    quickstart.add_command(sub)
     cli_commands.register_replay(sim2real_cli.CONTROLLER_HANDLERS)
     return parser
 

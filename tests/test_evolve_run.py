@@ -157,3 +157,12 @@ def test_controller_matches_its_json_schema_and_stays_small(config_file, tmp_pat
     from sim2real.controller import save_controller
     save_controller(tmp_path / "big.json", data)
     assert (tmp_path / "big.json").stat().st_size < 20_000
+
+
+def test_quickstart_runs_the_whole_job(tmp_path, capsys):
+    out = tmp_path / "qs"
+    assert main(["quickstart", "--out", str(out), "--generations", "1", "--population", "8", "--no-video"]) == 0
+    for name in ("controller.json", "dry_run.csv", "dry_run.json", "compare.png", "run/stats.csv"):
+        assert (out / name).exists(), name
+    text = capsys.readouterr().out
+    assert "[5/5]" in text and "contact agreement" in text and str(out) in text
