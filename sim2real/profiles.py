@@ -36,6 +36,7 @@ class Register:
     unit: str | None  # physical size of one LSB, e.g. "0.229 rpm"; None for codes
     default: int = 0
     encoding: str | None = None  # e.g. "sign_magnitude_bit10" (AX-12A speed and load)
+    range: tuple[int, int] | None = None  # the e-manual's Range column: writes outside it are refused
 
 
 @dataclass(frozen=True)
@@ -127,7 +128,7 @@ _UNIT_KEYS = ("velocity_unit_rpm", "load_unit_percent", "voltage_unit_v")
 def _read_register(node: Node) -> Register:
     node.mapping(
         required=("name", "address", "size", "signed", "access", "area", "unit"),
-        optional=("default", "encoding"),
+        optional=("default", "encoding", "range"),
     )
     size = node["size"].integer()
     if size not in (1, 2, 4):
@@ -143,7 +144,15 @@ def _read_register(node: Node) -> Register:
         unit=None if unit is None else str(unit),
         default=node.get("default", 0).integer(),
         encoding=node["encoding"].string() if node.has("encoding") else None,
+        range=_register_range(node["range"]) if node.has("range") else None,
     )
+
+
+def _register_range(node: Node) -> tuple[int, int]:
+    items = node.list()
+    if len(items) != 2 or items[0].integer() > items[1].integer():
+        raise node.error(f"must be [min, max], got {node.value!r}")
+    return items[0].integer(), items[1].integer()
 
 
 def parse_profile(doc: Any, path: Path) -> DeviceProfile:

@@ -199,6 +199,7 @@ def test_fast_sync_read_and_fast_bulk_read_through_the_sdk_groups(served):
 
 
 def test_error_statuses_as_the_servo_gives_them(served):
+    import dynamixel_sdk as sdk
 
     from sim2real.simbus import protocol2 as p2
 
@@ -209,6 +210,15 @@ def test_error_statuses_as_the_servo_gives_them(served):
     with pytest.raises(ServoError, match="servo 2: data limit error"):
         chain.write(2, "goal_position", 3500)
     assert devices[2].get_named("goal_position") != 3500
+    with pytest.raises(ServoError, match="servo 2: data range error"):
+        chain.write(2, "operating_mode", 99)  # outside the e-manual's range
+    assert devices[2].get_named("operating_mode") == 3
+    # the official client, byte by byte: too short a write, and one spanning two entries
+    result, error = bus.packets.write1ByteTxRx(bus.port, 2, 116, 5)  # goal position is 4 bytes
+    assert result == sdk.COMM_SUCCESS and error == 5  # data length error
+    data = (0).to_bytes(4, "little") + (2000).to_bytes(4, "little")  # profile velocity, goal position
+    result, error = bus.packets.writeTxRx(bus.port, 2, 112, 8, list(data))
+    assert result == sdk.COMM_SUCCESS and error == 0 and devices[2].get_named("goal_position") == 2000
     # a packet whose CRC is wrong gets a CRC-error status from the servo it addresses
     bad = bytearray(p2.packet(3, p2.PING))
     bad[-1] ^= 0xFF

@@ -18,8 +18,11 @@ from sim2real.bus.base import ALERT_BIT, Bus, CommunicationError, ServoError
 from sim2real.profiles import DeviceProfile
 from sim2real.robot import RobotSpec
 
-ACCESS_ERROR = 7
+# Protocol 2.0 status errors (e-manual, "Status Packet")
+DATA_RANGE_ERROR = 4
+DATA_LENGTH_ERROR = 5
 DATA_LIMIT_ERROR = 6
+ACCESS_ERROR = 7
 
 
 @dataclass
@@ -66,13 +69,28 @@ class MockDevice:
         return self.get(address, size), self.alert()
 
     def write(self, address: int, size: int, value: int) -> int:
-        """Apply a WRITE as the firmware would; returns the status error byte."""
+        """Apply a WRITE as the firmware would; returns the status error byte.
+
+        A write may span consecutive entries (e.g. profile velocity and goal position in one
+        go); one shorter than its first entry is a data length error.
+        """
         reg = next((r for r in self.profile.control_table.values() if r.address == address), None)
-        if reg is None or reg.size != size or reg.access != "RW":
+        if reg is not None and size < reg.size:
+            return DATA_LENGTH_ERROR | self.alert()
+        if reg is not None and size > reg.size:
+            error = self.write(address, reg.size, value & ((1 << (8 * reg.size)) - 1))
+            if error & 0x7F:
+                return error
+            return self.write(address + reg.size, size - reg.size, value >> (8 * reg.size))
+        if reg is None or reg.access != "RW":
             return ACCESS_ERROR | self.alert()
         torque_on = self.profile.is_servo and self.get_named("torque_enable")
         if reg.area == "EEPROM" and torque_on and self.profile.protocol == 2.0:
             return ACCESS_ERROR | self.alert()  # X series: EEPROM is locked while torque is on
+        if reg.range is not None:
+            signed = value - (1 << (8 * size)) if reg.signed and value >= 1 << (8 * size - 1) else value
+            if not reg.range[0] <= signed <= reg.range[1]:
+                return DATA_RANGE_ERROR | self.alert()
         if reg.name == "torque_enable" and value and self.alert():
             return self.alert()  # refused until REBOOT, and the alert bit says why
         if reg.name == "goal_position" and "min_position_limit" in self.profile.control_table:
