@@ -107,3 +107,38 @@ def test_a_nominal_reality_changes_nothing():
     a = plain.evaluate(genomes, 1.0)
     b = plain.evaluate(genomes, 1.0, perturbation=plain.sample(np.zeros((3, 1))))
     assert np.array_equal(a.fitness, b.fitness) and NOMINAL.is_nominal
+
+
+def test_evolve_config_randomize_block_is_validated():
+    from evolve.config import parse_evolve_config
+
+    config = parse_evolve_config({"randomize": {"reality": "randomize", "episodes": 3, "score": "worst"}}, "e.yaml")
+    assert config.randomize.episodes == 3 and config.to_dict()["randomize"]["score"] == "worst"
+    assert "randomize" not in parse_evolve_config({}, "e.yaml").to_dict()
+    for block, key in (({"reality": "nope"}, "randomize.reality"), ({"episodes": 0}, "randomize.episodes"),
+                       ({"score": "median"}, "randomize.score"), ({"reality": {"kp_scale": -1}}, "kp_scale")):
+        with pytest.raises(ConfigError) as err:
+            parse_evolve_config({"randomize": block}, "e.yaml")
+        assert err.value.key == key
+
+
+def test_eval_reports_the_spread_over_randomized_episodes(tmp_path, capsys):
+    import json
+
+    from evolve.cli import main
+    from evolve.locomotion.export import controller_from_genome
+    from evolve.neat import Genome
+    from sim2real.controller import save_controller
+
+    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
+    path = tmp_path / "stand.json"
+    save_controller(path, controller_from_genome(Genome(0, neat_layout(layout)), ROBOT, layout,
+                                                 TaskConfig(episode_s=1.0), 1.0, {"seed": 0}))
+    assert main(["eval", str(path), "--randomize", "--episodes", "3", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["episodes"] == 3 and report["reality"] == "randomize"
+    assert report["min_distance_m"] <= report["distance_m"] <= report["max_distance_m"]
+    assert report["min_distance_m"] < report["max_distance_m"]  # three different robots
+    assert set(report) >= {"falls", "walked_share", "upright_s"}
+    with pytest.raises(SystemExit, match="not both"):
+        main(["eval", str(path), "--randomize", "--reality", "default"])
