@@ -26,7 +26,6 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from sim2real.errors import ConfigError
 from sim2real.validation import Node, load_yaml
 
 # name -> (nominal value, meaning with unit)

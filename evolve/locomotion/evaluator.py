@@ -1,13 +1,18 @@
-"""Whole-population evaluation of the locomotion task with ``mujoco.batch``.
+"""Whole-population evaluation of locomotion tasks with ``mujoco.batch``.
 
 Every genome of a generation gets its own simulation in one :class:`mujoco.batch.Batch`.
 One batch call advances every living simulation by one control tick (``nstep``
 substeps, on all threads); between calls, one vectorized step reads every robot's
 sensors, activates both networks of every genome (:class:`PopulationNetwork`), maps
-outputs to rate-limited joint goals and checks termination.  Terminated simulations
+outputs to rate-limited joint goals, and lets the objective (walk, pose, stand:
+:mod:`evolve.locomotion.objectives`) check termination.  Terminated simulations
 leave the ids and their networks leave the population network, so nothing is spent on
 them; there is no Python loop over individuals.  MuJoCo's batch is bit-identical at any
 thread count, and so are the results.
+
+A simulation may carry a perturbation (:mod:`sim2real.reality`): its own masses, friction,
+gains and latency in the batch's per-simulation model fields, backlash and sensor noise on
+the control path.
 
 Sensor readings are the batch's derived fields, one physics substep (2 ms) older than
 the state - the robot, too, reads its servos a little before it writes.
@@ -20,7 +25,7 @@ from typing import Callable
 import numpy as np
 from mujoco.batch import Batch, SimulationError
 
-from evolve.locomotion.objectives import Episodes, WalkObjective
+from evolve.locomotion.objectives import Episodes, Objective, WalkObjective
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, Layout, PopulationNetwork
 from sim2real.mapping import normalized_angle, output_to_angle, quantize, rate_limit
@@ -100,7 +105,7 @@ class LocomotionEvaluator:
                  disabled_modules: tuple[str, ...] = (),
                  on_tick: Callable[["LocomotionEvaluator", np.ndarray], None] | None = None,
                  perturbation: Perturbation | None = None,
-                 objective: Callable[["LocomotionEvaluator", int], object] | None = None) -> Episodes:
+                 objective: Callable[["LocomotionEvaluator", int], Objective] | None = None) -> Episodes:
         """Run one episode per genome, with the support harness at ``harness`` strength
         (0: none, 1: full), each simulation perturbed by its row of ``perturbation`` (None:
         the nominal robot), scored by ``objective(self, n)`` (default :class:`WalkObjective`);
@@ -179,14 +184,13 @@ class LocomotionEvaluator:
 
     def _perturb(self, ids: np.ndarray, p: Perturbation | None) -> None:
         """Give simulations ``ids`` their perturbation, or back their nominal model."""
-        if p is None:
-            if not self._perturbed[ids].any():
-                return
-            p = sample(NOMINAL, np.zeros((len(ids), 1)), self.model, 0, self.tick_s)
+        if p is None and not self._perturbed[ids].any():
+            return
         fields = {name: self.batch.expand(name) for name in PERTURBED_FIELDS}
-        apply(fields, self.model, p, ids)
-        self.batch.set_const(ids)
-        self._perturbed[ids] = True
+        nominal = sample(NOMINAL, np.zeros((len(ids), 1)), self.model, 0, self.tick_s) if p is None else None
+        apply(fields, self.model, p if p is not None else nominal, ids)
+        self.batch.set_const(ids)  # masses feed derived constants
+        self._perturbed[ids] = p is not None
 
     def _harness(self, alive, start, k, c, cap) -> np.ndarray:
         """Support from the sides, from behind and from below, never against going forward or

@@ -9,6 +9,7 @@ thresholds for a 1.8 m human (20 cm, 50 cm) become shares of its 0.9 m leg.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -25,9 +26,17 @@ class Episodes:
     unstable: np.ndarray  # bool: numerical instability
     steps: int  # physics steps simulated in all
 
-    def rows(self, index) -> "Episodes":
-        return Episodes(self.fitness[index], self.selection[index], self.distance_m[index],
-                        self.upright_s[index], self.fell[index], self.unstable[index], self.steps)
+
+class Objective(Protocol):
+    """Watches ``n`` simulations of an evaluator from their reset on."""
+
+    fell: np.ndarray  # (n,) bool: ended by a failure rule (instability aside)
+
+    def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
+        """After a tick: update the scores of simulations ``alive`` (``bad``: numerically
+        unstable) and return which of them are done."""
+
+    def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes: ...
 
 
 class WalkObjective:
