@@ -112,3 +112,19 @@ def test_a_dry_run_under_the_default_reality_profile(standing_controller):
     result = dry_run(standing_controller, duration_s=1.0, log=lambda s: None, ramp_s=0.3, reality="default")
     assert result["reality"] == "default" and result["stop_reason"] == "duration reached"
     assert not result["fell"] and result["bus_errors"] == 0
+
+
+def test_current_sensing_servos_report_present_current():
+    from sim2real.simbus.physics import PhysicsChain
+
+    robot = load_robot("op3_legs")
+    chain = PhysicsChain(robot)
+    servo = next(j.servo for j in robot.joints if j.servo.profile.model.startswith("XM430"))
+    device = chain.devices[servo.id]
+    assert "present_current" in device.profile.control_table and "present_load" not in device.profile.control_table
+    chain.data.actuator_force[:] = 1.0  # [N m]: 1.0 / (4.1 N m / 2.3 A) = 0.561 A = 209 LSB of 2.69 mA
+    chain._publish()
+    k = chain.ids.index(servo.id)
+    value = device.get_named("present_current")
+    value = value - (1 << 16) if value >= 1 << 15 else value
+    assert value == round(chain.mapping.direction[k] * 1.0 * 2.3 / 4.1 * 1000 / 2.69)

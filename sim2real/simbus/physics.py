@@ -3,7 +3,8 @@
 The robot's model advances in real time, lazily: whenever an instruction arrives, the
 simulation catches up with the wall clock, each servo driven toward its Goal Position
 (torque on) or limp (torque off).  Then the control tables get what the servos would
-report - Present Position quantized to the encoder, Present Velocity, Present Load - and
+report - Present Position quantized to the encoder, Present Velocity, Present Load (or
+Present Current on servos that sense it) - and
 the sensor board its foot switches (from the soles' contact forces) and the torso's
 up-vector (Q14).  A servo that holds its stall torque for ``overload_s`` latches an
 overload: alert bit, Hardware Error Status, torque off until REBOOT.
@@ -128,9 +129,15 @@ class PhysicsChain:
             if unit and "present_velocity" in device.profile.control_table:
                 rpm = self.mapping.direction[k] * qdot[k] * 60 / (2 * math.pi)
                 device.set_named("present_velocity", int(round(rpm / unit)))
-            if "present_load" in device.profile.control_table:
+            table = device.profile.control_table
+            if "present_load" in table:
                 load = self.data.actuator_force[k] / self.stall[k] * 1000.0
                 device.set_named("present_load", int(round(self.mapping.direction[k] * load)))
+            elif "present_current" in table:  # current-sensing servos (XM430): torque / K_t
+                motor = device.profile.motor
+                amps = self.data.actuator_force[k] * motor.stall_current_a / motor.stall_torque_nm
+                lsb_ma = float(table["present_current"].unit.split()[0])  # e.g. "2.69 mA"
+                device.set_named("present_current", int(round(self.mapping.direction[k] * amps * 1000 / lsb_ma)))
         if self.board is not None:
             board = self.devices[self.board]
             touching = [(self.data.sensordata[a] > CONTACT_SHARE * self.weight) != (self.rng.random() < p.foot_flip_p[0])
