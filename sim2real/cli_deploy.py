@@ -42,7 +42,8 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
     dry.add_argument("controller", type=Path)
     dry.add_argument("--robot", help="robot (default: the one the controller was made for)")
     dry.add_argument("--duration", type=float, default=10.0, help="seconds of the loop (default 10)")
-    dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE")
+    dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE "
+                     "or a YAML file of them")
     dry.add_argument("--reality", metavar="PROFILE",
                      help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
     dry.add_argument("--seed", type=int, default=0, help="seed of the reality profile's random parts")
@@ -56,7 +57,8 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
                             "until Ctrl-C or SIGTERM; any Dynamixel tool can connect to it.")
     simbus.add_argument("--robot", default=DEFAULT_ROBOT, help=ROBOT_HELP)
     simbus.add_argument("--baud", type=int, help="pace replies like the wire at this baud (default: the robot's)")
-    simbus.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start),drop:RATE,corrupt:RATE")
+    simbus.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start),"
+                        "drop:RATE,corrupt:RATE or a YAML file of them")
     simbus.add_argument("--reality", metavar="PROFILE",
                         help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
     simbus.add_argument("--seed", type=int, default=0, help="seed of the reality profile's random parts")

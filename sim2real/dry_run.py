@@ -21,14 +21,18 @@ from sim2real.reality import load_reality
 from sim2real.robot import load_robot
 from sim2real.simbus.physics import PhysicsChain
 from sim2real.simbus.server import EmulatedChain, PtyServer
+from sim2real.validation import Node, load_yaml
 
 FALL_HEIGHT = 0.7  # as in evolution: pelvis below 70 % of its start height
 FALL_TILT_DEG = 60.0
 
 
 def parse_faults(spec: str | None) -> list[tuple[str, int, float]]:
-    """``silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE`` -> [(kind, id, value)]
-    (id 0 for the wire-wide rates)."""
+    """``silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE``, or a YAML file of the
+    same (``silent: [{id: 4, at_s: 3}]``, ``overload: [...]``, ``drop: 0.02``, ``corrupt: 0.01``)
+    -> [(kind, id, value)] (id 0 for the wire-wide rates)."""
+    if spec and spec.endswith((".yaml", ".yml")):
+        return _faults_file(Path(spec))
     faults = []
     for item in filter(None, (spec or "").split(",")):
         if item.startswith(("drop:", "corrupt:")):
@@ -50,6 +54,19 @@ def parse_faults(spec: str | None) -> list[tuple[str, int, float]]:
                               "or KIND:RATE (drop:0.02, corrupt:0.01)") from None
         if faults[-1][0] not in ("silent", "overload"):
             raise ConfigError("--faults", item, "kind must be silent or overload")
+    return faults
+
+
+def _faults_file(path: Path) -> list[tuple[str, int, float]]:
+    node = Node(load_yaml(path) or {}, str(path)).mapping(optional=("silent", "overload", "drop", "corrupt"))
+    faults = []
+    for kind in ("silent", "overload"):
+        for item in node[kind].list() if node.has(kind) else []:
+            item.mapping(required=("id", "at_s"))
+            faults.append((kind, item["id"].integer(0, 252), item["at_s"].number(lo=0.0)))
+    for kind in ("drop", "corrupt"):
+        if node.has(kind):
+            faults.append((kind, 0, node[kind].number(0.0, 1.0)))
     return faults
 
 

@@ -128,3 +128,18 @@ def test_current_sensing_servos_report_present_current():
     value = device.get_named("present_current")
     value = value - (1 << 16) if value >= 1 << 15 else value
     assert value == round(chain.mapping.direction[k] * 1.0 * 2.3 / 4.1 * 1000 / 2.69)
+
+
+def test_faults_from_a_flag_or_a_yaml_file(tmp_path):
+    from sim2real.dry_run import parse_faults
+    from sim2real.errors import ConfigError
+
+    flag = parse_faults("silent:4@3,overload:7@5.5,drop:0.02")
+    path = tmp_path / "faults.yaml"
+    path.write_text("silent: [{id: 4, at_s: 3}]\noverload: [{id: 7, at_s: 5.5}]\ndrop: 0.02\n")
+    assert parse_faults(str(path)) == flag == [("silent", 4, 3.0), ("overload", 7, 5.5), ("drop", 0, 0.02)]
+    path.write_text("drop: 2\n")
+    with pytest.raises(ConfigError, match="faults.yaml: drop"):
+        parse_faults(str(path))
+    with pytest.raises(ConfigError, match="kind must be silent or overload"):
+        parse_faults("melt:3@1")
