@@ -20,6 +20,7 @@ with every stage.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import hashlib
 import math
 import shutil
@@ -72,13 +73,16 @@ class Run:
         r = config.randomize
         spec = EvaluatorSpec(config.robot, config.task.to_dict(), r.reality,
                              config.neat.population_size * r.episodes, config.threads)
-        self.evaluator = build_evaluator(spec)  # the layout, timing and model of this run
-        self.backend: Backend = LocalBackend(spec)
         if backend == "ray":
             from evolve.ray_backend import RayBackend
 
-            self.backend = RayBackend(spec, address)
-        elif backend != "local":
+            self.backend: Backend = RayBackend(spec, address)
+            # here only for the layout, timing and model: one simulation, one thread
+            self.evaluator = build_evaluator(dataclasses.replace(spec, capacity=1, threads=1))
+        elif backend == "local":
+            self.backend = LocalBackend(spec)
+            self.evaluator = self.backend.evaluator
+        else:
             raise ValueError(f"unknown backend {backend!r} (local or ray)")
         self.randomized = not r.load().is_nominal
         self.finished: list[dict] = read_json(self.out / "stages.json") if (self.out / "stages.json").exists() else []
