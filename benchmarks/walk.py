@@ -27,8 +27,9 @@ from sim2real.controller import save_controller
 
 
 def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: int | None = None,
-              quiet: bool = False) -> dict:
-    """One evolution until its first walker or the budget; the result as the JSON keys below."""
+              quiet: bool = False, generations: int | None = None) -> dict:
+    """One evolution until its first walker or the budget (wall minutes, and generations if
+    given: on a shared machine a generation budget is the fair one); the result as below."""
     config = load_evolve_config(resolve_config(config_name)).replace(seed=seed, generations=10**6)
     if threads is not None:
         config = config.replace(threads=threads)
@@ -50,7 +51,8 @@ def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: i
                          generation=row["generation"], walk_distance_m=distance)
             save_controller(out / "walker.json", run.controller(champion))  # judged without the harness
             return True
-        return time.perf_counter() - start > budget
+        over = generations is not None and row["generation"] + 1 >= generations
+        return over or time.perf_counter() - start > budget
 
     run.evolve(stop=stop)
     return {
@@ -72,13 +74,14 @@ def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: i
 def main(argv=None) -> None:
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--minutes", type=float, default=30.0, help="wall-time budget")
+    p.add_argument("--generations", type=int, help="generation budget as well")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--config", default="walk")
     p.add_argument("--threads", type=int, help="simulation threads (default: the config's)")
     p.add_argument("--out", type=Path, help="keep the run folder here (default: a temporary folder)")
     args = p.parse_args(argv)
     out = args.out or Path(tempfile.mkdtemp(prefix="walk-bench-"))
-    report(walk_once(args.config, args.seed, args.minutes, out, args.threads, args.json), args.json)
+    report(walk_once(args.config, args.seed, args.minutes, out, args.threads, args.json, args.generations), args.json)
 
 
 if __name__ == "__main__":

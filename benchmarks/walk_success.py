@@ -1,6 +1,7 @@
 """Success rate of independent walking runs on the default robot (seed 000: 28 of 30).
 
     python -m benchmarks.walk_success --seeds 10 --minutes 20 --out runs/walk-success --json
+    python -m benchmarks.walk_success --seeds 10 --generations 130 --minutes 60 --out runs/ws --json  # shared machine
     python -m benchmarks.walk_success --seeds 10 --out runs/walk-success --randomize-episodes 20 --json
 
 Each seed is one ``benchmarks.walk`` run (first walker or the budget).  With ``--out`` every
@@ -26,6 +27,7 @@ def main(argv=None) -> None:
     p.add_argument("--seeds", type=int, default=10, help="independent runs, seeds 1..N")
     p.add_argument("--first-seed", type=int, default=1)
     p.add_argument("--minutes", type=float, default=20.0, help="wall-time budget per run")
+    p.add_argument("--generations", type=int, help="generation budget per run as well")
     p.add_argument("--config", default="walk")
     p.add_argument("--threads", type=int, help="simulation threads (default: the config's)")
     p.add_argument("--out", type=Path, help="keep every run here; seeds done there are reused")
@@ -47,7 +49,8 @@ def main(argv=None) -> None:
 
                 shutil.rmtree(folder)
             progress(f"seed {seed}: evolving (budget {args.minutes:.0f} min)", args.json)
-            result = walk_once(args.config, seed, args.minutes, folder, args.threads, quiet=True)
+            result = walk_once(args.config, seed, args.minutes, folder, args.threads, quiet=True,
+                               generations=args.generations)
             write_json_atomic(folder / "result.json", result)
         progress(f"seed {seed}: walked={result['walked']} minutes={result['minutes_to_walk']}", args.json)
         results.append(result)
@@ -59,6 +62,8 @@ def main(argv=None) -> None:
         "rate": len(walked) / len(results) if results else 0.0,
         "median_minutes_to_walk": statistics.median(r["minutes_to_walk"] for r in walked) if walked else None,
         "minutes_budget": args.minutes,
+        "generations_budget": args.generations,
+        "median_generations_to_walk": statistics.median(r["walk_generation"] + 1 for r in walked) if walked else None,
         "per_seed": [{k: r[k] for k in ("seed", "walked", "minutes_to_walk", "best_distance_m", "walk_generation")}
                      for r in results],
         "out": str(out),
