@@ -315,13 +315,18 @@ def plot_stats(stats_csv: Path, png: Path) -> bool:
         return False
     gen = [int(r["generation"]) for r in rows]
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    ax.plot(gen, [float(r["best_fitness"]) for r in rows], label="best fitness (eq. 3)")
+    staged = any(r.get("stage") for r in rows)
+    ax.plot(gen, [float(r["best_fitness"]) for r in rows], label="best fitness" + ("" if staged else " (eq. 3)"))
     ax.plot(gen, [float(r["mean_fitness"]) for r in rows], label="mean fitness")
     ax.set_xlabel("generation")
     ax.set_ylabel("fitness")
     ax2 = ax.twinx()
     ax2.plot(gen, [float(r["best_distance_m"]) for r in rows], color="tab:green", alpha=0.7, label="best distance")
     ax2.set_ylabel("best distance [m]")
+    for g, r, prev in zip(gen[1:], rows[1:], rows):
+        if r.get("stage") != prev.get("stage"):  # a new stage: a new module, a new objective
+            ax.axvline(g - 0.5, color="0.5", linestyle="--", linewidth=0.8)
+            ax.text(g, ax.get_ylim()[1], f" {r['stage']}", va="top", fontsize=8, color="0.3")
     harness_end = [g for g, r in zip(gen, rows) if float(r["harness"]) > 0]
     if harness_end:
         ax.axvspan(0, max(harness_end) + 0.5, color="0.9", label="support harness")
