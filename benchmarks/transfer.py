@@ -1,12 +1,18 @@
 """The transfer check: does a controller keep its gait on a perturbed robot behind the bus?
 
     python -m benchmarks.transfer CONTROLLER --reality default --runs 3 --json
+    python -m benchmarks.transfer --select-from runs/robust --reality default --json
 
 Measures the controller's distance in the nominal simulation (``biped eval``, the
 evolution's own episode) and in dry runs of the same length through the real runtime on
 the simulated Dynamixel bus under a reality profile (``biped dry-run --reality``), one per
 seed of the profile's random parts.  It passes when the mean dry-run distance keeps at
 least ``--keep`` (default 80 %) of the simulated one and no dry run falls.
+
+``--select-from RUN`` first picks the controller from an evolution run's last population:
+every genome is replayed on the nominal robot and on ``--episodes`` randomized ones, and the
+one that walks (upright, 2.2 leg lengths) in the most of them wins, ties broken by its
+worst distance; it is saved as ``RUN/robust_walker.json``.
 """
 
 from __future__ import annotations
@@ -14,18 +20,64 @@ from __future__ import annotations
 import statistics
 from pathlib import Path
 
+import numpy as np
+
 from benchmarks.common import parser, progress, report
-from evolve.replay import evaluate_controller
+from evolve.evaluation import EvaluatorSpec, build_evaluator
+from evolve.neat import Population
+from evolve.replay import WALK_LEG_LENGTHS, evaluate_controller
+from evolve.run import Run
+from sim2real.controller import save_controller
 from sim2real.dry_run import dry_run
+
+
+def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tuple[Path, dict]:
+    """The genome of ``run_dir``'s last population that walks on the most robots (see above)."""
+    run = Run.resume(run_dir, log=lambda line: None)
+    pop = Population.load(run_dir / "checkpoint.json.gz")
+    genomes = pop.genomes
+    n = len(genomes)
+    config = run.config
+    evaluator = build_evaluator(EvaluatorSpec(config.robot, config.task.to_dict(), ranges, n * episodes, 0))
+    nominal = evaluator.evaluate(genomes, config.neat.sigmoid_steepness)
+    keys = np.array([[10_000 + i, e] for i in range(n) for e in range(episodes)])
+    sims = [g for g in genomes for _ in range(episodes)]
+    varied = evaluator.evaluate(sims, config.neat.sigmoid_steepness, perturbation=evaluator.sample(keys))
+    required = WALK_LEG_LENGTHS * run.robot.body.leg_length
+    full = evaluator.n_ticks * evaluator.tick_s - 1e-9
+
+    def walks(e):
+        return (e.upright_s >= full) & ~e.fell & (e.distance_m >= required)
+
+    share = (walks(nominal)[:, None].astype(float) + walks(varied).reshape(n, episodes).sum(axis=1, keepdims=True)) \
+        / (episodes + 1)
+    worst = np.minimum(nominal.distance_m, varied.distance_m.reshape(n, episodes).min(axis=1))
+    best = int(np.lexsort((worst, share[:, 0]))[-1])
+    genome = genomes[best]
+    from evolve.run import Best
+
+    path = run_dir / "robust_walker.json"
+    save_controller(path, run.controller(Best(float(nominal.fitness[best]), float(nominal.distance_m[best]),
+                                              float(nominal.upright_s[best]), pop.generation, 0.0, genome)))
+    return path, {"genome": genome.key, "walks_share": float(share[best, 0]), "worst_distance_m": float(worst[best]),
+                  "population_walks_share_mean": float(share.mean()), "selected_from": n, "episodes": episodes + 1}
 
 
 def main(argv=None) -> None:
     p = parser(__doc__.splitlines()[0])
-    p.add_argument("controller", type=Path)
+    p.add_argument("controller", type=Path, nargs="?", help="controller JSON (or --select-from)")
+    p.add_argument("--select-from", type=Path, metavar="RUN", help="pick the most robust walker of a run's population")
+    p.add_argument("--episodes", type=int, default=8, help="randomized episodes per genome for --select-from")
     p.add_argument("--reality", default="default", help="reality profile (default: configs/reality/default.yaml)")
     p.add_argument("--runs", type=int, default=3, help="dry runs, seeds 0..N-1 of the profile's noise")
     p.add_argument("--keep", type=float, default=0.8, help="share of the simulated distance to keep")
     args = p.parse_args(argv)
+    selection = None
+    if args.select_from:
+        args.controller, selection = select_robust(args.select_from, args.episodes)
+        progress(f"selected {args.controller}: {selection}", args.json)
+    elif args.controller is None:
+        p.error("give a CONTROLLER or --select-from RUN")
 
     sim = evaluate_controller(args.controller)
     progress(f"simulation: {sim['distance_m']:.3f} m in {sim['seconds']:.1f} s, fell={sim['fell']}", args.json)
@@ -44,6 +96,7 @@ def main(argv=None) -> None:
         "dry_run_distance_m": mean, "dry_run_min_m": min(r["distance_m"] for r in runs),
         "ratio": ratio, "keep": args.keep,
         "passed": ratio >= args.keep and not any(r["fell"] for r in runs), "runs": runs,
+        "selection": selection,
     }, args.json)
 
 
