@@ -26,7 +26,7 @@ from benchmarks.common import parser, progress, report
 from evolve.evaluation import EvaluatorSpec, build_evaluator
 from evolve.neat import Population
 from evolve.replay import WALK_LEG_LENGTHS, evaluate_controller
-from evolve.run import Run
+from evolve.run import Best, Run
 from sim2real.controller import save_controller
 from sim2real.dry_run import dry_run
 
@@ -54,8 +54,6 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
     worst = np.minimum(nominal.distance_m, varied.distance_m.reshape(n, episodes).min(axis=1))
     best = int(np.lexsort((worst, share[:, 0]))[-1])
     genome = genomes[best]
-    from evolve.run import Best
-
     path = run_dir / "robust_walker.json"
     save_controller(path, run.controller(Best(float(nominal.fitness[best]), float(nominal.distance_m[best]),
                                               float(nominal.upright_s[best]), pop.generation, 0.0, genome)))

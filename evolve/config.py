@@ -27,7 +27,7 @@ from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig
 from evolve.stages import Stage, parse_stages
 from sim2real.errors import ConfigError
-from sim2real.reality import Reality, load_reality
+from sim2real.reality import load_reality
 from sim2real.robot import DEFAULT_ROBOT
 from sim2real.validation import Node, load_yaml
 
@@ -43,9 +43,6 @@ class RandomizeConfig:
     @property
     def active(self) -> bool:
         return self.reality != "nominal" or self.episodes > 1
-
-    def load(self) -> Reality:
-        return load_reality(self.reality)
 
     def to_dict(self) -> dict[str, Any]:
         return {"reality": self.reality, "episodes": self.episodes, "score": self.score}

@@ -77,8 +77,6 @@ def run_job(evaluator: LocomotionEvaluator, job: Job) -> Episodes:
 class Backend(Protocol):
     def run(self, job: Job) -> Episodes: ...
 
-    def close(self) -> None: ...
-
 
 class LocalBackend:
     def __init__(self, spec: EvaluatorSpec):
@@ -86,9 +84,6 @@ class LocalBackend:
 
     def run(self, job: Job) -> Episodes:
         return run_job(self.evaluator, job)
-
-    def close(self) -> None:
-        pass
 
 
 def concatenate(parts: list[Episodes]) -> Episodes:
@@ -99,8 +94,8 @@ def concatenate(parts: list[Episodes]) -> Episodes:
 
 def score_population(backend: Backend, genomes: list[Genome], *, steepness: float, harness: float,
                      stage: Stage | None, episodes: int, score: str, randomized: bool,
-                     key: tuple[int, int, int]) -> tuple[Episodes, Episodes]:
-    """Every genome on ``episodes`` episodes; returns (per genome, per simulation).
+                     key: tuple[int, int, int]) -> Episodes:
+    """Every genome on ``episodes`` episodes; the outcome per genome.
 
     Per genome, fitness and the other measures are the ``score`` (mean or worst) of its
     episodes; it fell if it fell in any.
@@ -110,7 +105,7 @@ def score_population(backend: Backend, genomes: list[Genome], *, steepness: floa
     keys = np.array([[*key, i, e] for i in range(n) for e in range(episodes)], dtype=np.int64)
     per_sim = backend.run(Job(sims, keys, steepness, harness, stage, randomized))
     if episodes == 1:
-        return per_sim, per_sim
+        return per_sim
     combine = np.mean if score == "mean" else np.min
 
     def by_genome(values):
@@ -120,4 +115,4 @@ def score_population(backend: Backend, genomes: list[Genome], *, steepness: floa
         fitness=by_genome(per_sim.fitness), selection=by_genome(per_sim.selection),
         distance_m=by_genome(per_sim.distance_m), upright_s=by_genome(per_sim.upright_s),
         fell=per_sim.fell.reshape(n, episodes).any(axis=1),
-        unstable=per_sim.unstable.reshape(n, episodes).any(axis=1), steps=per_sim.steps), per_sim
+        unstable=per_sim.unstable.reshape(n, episodes).any(axis=1), steps=per_sim.steps)

@@ -45,9 +45,6 @@ class RayBackend:
         futures = [self.remote.remote(self.spec_ref, job.rows(lo, hi)) for lo, hi in chunk_bounds(n, self.chunk)]
         return concatenate(self.ray.get(futures))
 
-    def close(self) -> None:
-        pass  # the Ray instance outlives the run, as a cluster should; ray.shutdown() ends a local one
-
 
 def chunk_bounds(n: int, chunk: int) -> list[tuple[int, int]]:
     return [(lo, min(n, lo + chunk)) for lo in range(0, n, chunk)]

@@ -34,7 +34,7 @@ import numpy as np
 from evolve.config import EvolveConfig, parse_evolve_config
 from evolve.evaluation import Backend, EvaluatorSpec, LocalBackend, build_evaluator, score_population
 from evolve.locomotion.export import controller_from_genome
-from evolve.stages import Stage
+from evolve.stages import Stage, check_stage_joints
 from evolve.neat import Genome, Population
 from sim2real.atomic_json import read_json, write_json_atomic
 from sim2real.controller import save_controller
@@ -84,7 +84,8 @@ class Run:
             self.evaluator = self.backend.evaluator
         else:
             raise ValueError(f"unknown backend {backend!r} (local or ray)")
-        self.randomized = not r.load().is_nominal
+        self.randomized = not self.evaluator.reality.is_nominal
+        check_stage_joints(config.stages, self.evaluator.layout.driven, str(self.out / "config.yaml"))
         self.finished: list[dict] = read_json(self.out / "stages.json") if (self.out / "stages.json").exists() else []
         first_module = (config.stages[0].name,) if config.stages else ("main",)
         self.population = population or Population(config.neat, self.evaluator.neat_layout, seed=config.seed,
@@ -172,7 +173,7 @@ class Run:
             episodes = {}
 
             def evaluate(genomes):
-                episodes["e"], _ = score_population(
+                episodes["e"] = score_population(
                     self.backend, genomes, steepness=config.neat.sigmoid_steepness, harness=harness, stage=stage,
                     episodes=config.randomize.episodes, score=config.randomize.score, randomized=self.randomized,
                     key=(config.seed, index, pop.generation))

@@ -11,7 +11,7 @@ maximum, so a walk stage runs its budget) or after ``generations``.  The next st
 from the champion of this one: every genome a copy of it with a new, empty module
 (:meth:`Population.on_top_of`), lower modules frozen but active.  Weights default to
 table 4.1: pose (3, 1), stand (1, 1, 1, 1); the single-module baseline of standing uses
-(2, 1, 1, 1) and a 0.93 threshold (``configs/evolve/stand_baseline.yaml``).
+(2, 1, 1, 1) (``configs/evolve/stand_baseline.yaml``).
 """
 
 from __future__ import annotations

@@ -108,3 +108,11 @@ def test_a_staged_run_resumes_exactly(staged_run, tmp_path):
     assert rows(split) == rows(staged_run)
     assert (split / "controller.json").read_bytes() != b"" and \
         load_controller(split / "controller.json")["connections"] == load_controller(staged_run / "controller.json")["connections"]
+
+
+def test_a_target_pose_for_a_joint_not_driven_is_refused(tmp_path):
+    doc = {**STAGED, "stages": [{"name": "pose", "objective": "pose", "generations": 1,
+                                 "target_pose_deg": {"left_ankle_pitch": 5.0}}]}
+    with pytest.raises(ConfigError) as err:
+        Run.create(parse_evolve_config(doc, "staged"), tmp_path / "run", log=lambda _: None)
+    assert err.value.key == "stages[0].target_pose_deg.left_ankle_pitch" and "not a driven joint" in str(err.value)

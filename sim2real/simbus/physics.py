@@ -16,6 +16,7 @@ goal and the gears, noise on what the servos and the board report.
 
 from __future__ import annotations
 
+import copy
 import math
 import threading
 import time
@@ -44,7 +45,7 @@ class PhysicsChain:
         history = latency_capacity_s(reality, tick_s)
         self.model = build_model(robot, history)
         self.perturbation = sample(reality, np.array([[seed]]), self.model, 0, tick_s)
-        apply_to_model(self.model, build_model(robot, history), self.perturbation)
+        apply_to_model(self.model, copy.copy(self.model), self.perturbation)
         self.rng = np.random.default_rng(seed)
         self.data = mujoco.MjData(self.model)
         mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)

@@ -59,29 +59,16 @@ class EmulatedChain:
             self._advance()
             if self.protocol == 1.0:
                 return self._handle_p1(dxl_id, inst, params)
-            if inst == p2.SYNC_READ:
-                address, size = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
-                return b"".join(self._read(i, address, size) for i in params[4:])
-            if inst in (p2.FAST_SYNC_READ, p2.FAST_BULK_READ):
-                if inst == p2.FAST_SYNC_READ:
-                    address, size = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
-                    wanted = [(i, address, size) for i in params[4:]]
-                else:
-                    wanted = [(params[k], int.from_bytes(params[k + 1:k + 3], "little"),
-                               int.from_bytes(params[k + 3:k + 5], "little")) for k in range(0, len(params) - 4, 5)]
-                replies = []
+            if inst in (p2.SYNC_READ, p2.BULK_READ, p2.FAST_SYNC_READ, p2.FAST_BULK_READ):
+                wanted = _read_targets(inst, params)
+                if inst in (p2.SYNC_READ, p2.BULK_READ):  # each device answers in turn
+                    return b"".join(self._read(i, address, size) for i, address, size in wanted)
+                replies = []  # one packet for all
                 for i, address, size in wanted:
                     if i in self.devices and i not in self.silent:
                         value, error = self.devices[i].read(address, size)
                         replies.append((i, error, value.to_bytes(size, "little")))
                 return p2.fast_status(replies) if replies else b""
-            if inst == p2.BULK_READ:
-                out = b""
-                for k in range(0, len(params) - 4, 5):
-                    i, address, size = params[k], int.from_bytes(params[k + 1:k + 3], "little"), \
-                        int.from_bytes(params[k + 3:k + 5], "little")
-                    out += self._read(i, address, size)
-                return out
             if inst == p2.BULK_WRITE:  # [id, address, length, data] for each device, no status
                 k = 0
                 while k + 5 <= len(params):
@@ -171,6 +158,15 @@ class EmulatedChain:
         return p2.status(dxl_id, error, value.to_bytes(size, "little"))
 
 
+def _read_targets(inst: int, params: bytes) -> list[tuple[int, int, int]]:
+    """(id, address, size) of each device a sync or bulk read (fast or not) asks."""
+    if inst in (p2.SYNC_READ, p2.FAST_SYNC_READ):  # address, size, then the IDs
+        address, size = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
+        return [(i, address, size) for i in params[4:]]
+    return [(params[k], int.from_bytes(params[k + 1:k + 3], "little"), int.from_bytes(params[k + 3:k + 5], "little"))
+            for k in range(0, len(params) - 4, 5)]  # id, address, size for each
+
+
 class PtyServer:
     """Serves an :class:`EmulatedChain` on a new pseudo-terminal; ``port`` is its path.
 
@@ -221,11 +217,11 @@ class PtyServer:
             except OSError:
                 return
             packets = parser.feed(data)
-            for dxl_id in getattr(parser, "bad_crc_ids", []):  # the addressed servo says so
+            bad_crc = getattr(parser, "bad_crc_ids", [])  # Protocol 2.0 only
+            for dxl_id in bad_crc:  # the addressed servo says so
                 if dxl_id in self.chain.devices and dxl_id not in self.chain.silent:
                     os.write(self.master, p2.status(dxl_id, p2.CRC_ERROR))
-            if hasattr(parser, "bad_crc_ids"):
-                parser.bad_crc_ids.clear()
+            bad_crc.clear()
             for dxl_id, inst, params in packets:
                 reply = self.chain.handle(dxl_id, inst, params)
                 if reply and self.drop_rate and self._rng.random() < self.drop_rate:
