@@ -1,7 +1,7 @@
 """Double pole balancing with NEAT, with and without velocities (Stanley & Miikkulainen 2002).
 
     python -m benchmarks.pole_balancing --variant velocities --runs 50 --json
-    python -m benchmarks.pole_balancing --variant no-velocities --runs 50 --json
+    python -m benchmarks.pole_balancing --variant no-velocities --runs 50 --workers 2 --json
 
 ``velocities`` (Markovian): the network sees all six state variables; fitness is the number
 of control steps balanced; solved when a network balances 100,000 steps (30 minutes of
@@ -15,11 +15,12 @@ if it holds, on the 625 generalization start states (solved at >= 200 of them ba
 from __future__ import annotations
 
 import time
+from functools import partial
 
 import numpy as np
 
 from benchmarks import double_pole as dp
-from benchmarks.common import parser, progress, report
+from benchmarks.common import map_runs, parser, progress, report
 from evolve.neat import Layout, NeatConfig, Population, PopulationNetwork, RecurrentNetwork
 from evolve.neat.genome import Genome
 
@@ -138,15 +139,20 @@ def main(argv=None) -> None:
     p.add_argument("--variant", choices=sorted(VARIANTS), required=True)
     p.add_argument("--runs", type=int, default=50)
     p.add_argument("--seed", type=int, default=0, help="seed of the first run (run i uses seed + i)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="runs in parallel processes (results do not depend on it)")
     args = p.parse_args(argv)
 
     t0 = time.perf_counter()
-    results = []
-    for i in range(args.runs):
-        t = time.perf_counter()
-        results.append(run(args.variant, args.seed + i))
-        progress(f"run {i + 1}/{args.runs}: {results[-1] or 'failed'} ({time.perf_counter() - t:.1f} s)",
+    done = []
+
+    def report_run(i: int, result: dict, seconds: float) -> None:
+        done.append(i)
+        progress(f"run {i + 1}/{args.runs} ({len(done)} done): {result or 'failed'} ({seconds:.1f} s)",
                  args.json)
+
+    results = map_runs(partial(run, args.variant), [args.seed + i for i in range(args.runs)],
+                       args.workers, report_run)
     solved = [r for r in results if r]
     evals = [r["evaluations"] for r in solved]
     result = {

@@ -40,3 +40,16 @@ def test_lone_survivor_path_matches_the_vectorized_path():
         alone, wig_alone = balance([genomes[i], genomes[i]], 4.9, True, 300)  # two copies: vector path
         assert alone[0] == together[i]
         assert wig_alone[0] == pytest.approx(wig_together[i], rel=1e-9)
+
+
+def _square(x: int) -> int:
+    return x * x
+
+
+def test_parallel_runs_return_the_same_results_in_the_same_order():
+    from benchmarks.common import map_runs
+
+    seen = []
+    parallel = map_runs(_square, [3, 1, 2, 5], workers=2, on_result=lambda i, r, s: seen.append(i))
+    assert parallel == map_runs(_square, [3, 1, 2, 5]) == [9, 1, 4, 25]
+    assert sorted(seen) == [0, 1, 2, 3]
