@@ -9,6 +9,7 @@ import pytest
 from sim2real.bus import CommunicationError, MockBus, ServoChain, ServoError
 from sim2real.bus.dynamixel import DynamixelBus
 from sim2real.robot import load_robot
+from sim2real.simbus import protocol1 as p1
 from sim2real.simbus.protocol2 import crc16
 from sim2real.simbus.server import EmulatedChain, PtyServer
 
@@ -138,6 +139,14 @@ def test_protocol_1_ax12a_chain_through_the_sdk(tmp_path):
         assert chain.sync_read("present_position").tolist() == [512] * 11  # (a round trip)
         assert devices[4].get_named("goal_position") == 600
         assert bus.ping(3) in (0, 12)  # the SDK's protocol-1.0 ping reads the model number separately
+        # a bad checksum gets a status with the checksum-error bit, as a real AX-12A sends
+        bad = bytearray(p1.packet(3, p1.PING))
+        bad[-1] ^= 0xFF
+        bus.port.clearPort()
+        bus.port.writePort(bytes(bad))
+        bus.port.setPacketTimeout(6)
+        packet, result = bus.packets.rxPacket(bus.port)
+        assert packet[2] == 3 and packet[4] == p1.CHECKSUM_ERROR
         bus.close()
 
 

@@ -25,11 +25,13 @@ def status(dxl_id: int, error: int, data: bytes = b"") -> bytes:
 
 
 class Parser:
-    """Yields (id, instruction, params) of each intact packet; bad checksums are counted."""
+    """Yields (id, instruction, params) of each intact packet; packets with a bad checksum are
+    counted in ``crc_errors`` and dropped."""
 
     def __init__(self) -> None:
         self.buffer = bytearray()
         self.crc_errors = 0
+        self.bad_crc_ids: list[int] = []  # IDs of packets dropped for their checksum, for a status
 
     def feed(self, data: bytes) -> list[tuple[int, int, bytes]]:
         self.buffer += data
@@ -54,5 +56,6 @@ class Parser:
             del self.buffer[:4 + length]
             if checksum(raw[2:-1]) != raw[-1]:
                 self.crc_errors += 1
+                self.bad_crc_ids.append(raw[2])
                 continue
             out.append((raw[2], raw[4], raw[5:-1]))

@@ -53,6 +53,15 @@ class EmulatedChain:
     def parser(self):
         return p2.Parser() if self.protocol == 2.0 else p1.Parser()
 
+    def checksum_error(self, dxl_id: int) -> bytes:
+        """The status the addressed servo sends back for a packet whose checksum (1.0) or CRC
+        (2.0) was wrong; nothing from a broadcast, a missing or a silent ID."""
+        if dxl_id not in self.devices or dxl_id in self.silent:
+            return b""
+        if self.protocol == 1.0:
+            return p1.status(dxl_id, p1.CHECKSUM_ERROR)
+        return p2.status(dxl_id, p2.CRC_ERROR)
+
     def handle(self, dxl_id: int, inst: int, params: bytes) -> bytes:
         """Replies (status packets, concatenated) to one instruction packet."""
         with self.lock:
@@ -217,11 +226,9 @@ class PtyServer:
             except OSError:
                 return
             packets = parser.feed(data)
-            bad_crc = getattr(parser, "bad_crc_ids", [])  # Protocol 2.0 only
-            for dxl_id in bad_crc:  # the addressed servo says so
-                if dxl_id in self.chain.devices and dxl_id not in self.chain.silent:
-                    os.write(self.master, p2.status(dxl_id, p2.CRC_ERROR))
-            bad_crc.clear()
+            for dxl_id in parser.bad_crc_ids:  # the addressed servo says so
+                os.write(self.master, self.chain.checksum_error(dxl_id))
+            parser.bad_crc_ids.clear()
             for dxl_id, inst, params in packets:
                 reply = self.chain.handle(dxl_id, inst, params)
                 if reply and self.drop_rate and self._rng.random() < self.drop_rate:
