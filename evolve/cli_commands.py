@@ -4,9 +4,10 @@ for view and render."""
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
+
+from sim2real.cli import print_result
 
 DEFAULT_CONFIG = "walk"
 
@@ -174,9 +175,5 @@ def cmd_eval(args: argparse.Namespace) -> int:
     report = evaluate_controller(args.controller, robot=args.robot, seconds=args.seconds, episodes=args.episodes,
                                  disabled_modules=tuple(args.disable_module),
                                  randomize=args.randomize or args.reality, seed=args.seed)
-    if args.json:
-        print(json.dumps(report))
-    else:
-        for key, value in report.items():
-            print(f"{key:>14}: {value}")
+    print_result(report, args.json)
     return 0

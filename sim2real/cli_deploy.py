@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+from sim2real.cli import print_result
 from sim2real.robot import DEFAULT_ROBOT, load_robot
 
 ROBOT_HELP = "robot name from configs/robots/ or a path to a robot YAML (default: xl430_biped)"
@@ -102,11 +103,7 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
 
     result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults,
                      log=lambda s: print(s, file=sys.stderr), reality=args.reality, seed=args.seed)
-    if args.json:
-        print(json.dumps(result))
-    else:
-        for key, value in result.items():
-            print(f"{key:>16}: {value}")
+    print_result(result, args.json)
     return 0
 
 
@@ -165,14 +162,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         log("no --port: running on the simulated bus (MuJoCo behind a pseudo-terminal)")
         result = dry_run(args.controller, robot.name if args.robot else None, args.duration or 10.0,
                          args.trace, log=log, disabled_modules=tuple(args.disable_module))
-        print(json.dumps(result) if args.json else "\n".join(f"{k:>16}: {v}" for k, v in result.items()))
+        print_result(result, args.json)
         return 0 if result["stop_reason"] == "duration reached" else 1
-    summary = report.summary()
-    if args.json:
-        print(json.dumps(summary))
-    else:
-        for key, value in summary.items():
-            print(f"{key:>16}: {value}")
+    print_result(report.summary(), args.json)
     return 0 if report.stop_reason in ("duration reached", "interrupted (Ctrl-C)", "terminated (SIGTERM)") else 1
 
 

@@ -82,7 +82,7 @@ def test_run_without_a_port_uses_the_simulated_bus(tmp_path):
     save_controller(tmp_path / "c.json", controller_from_genome(Genome(0, neat_layout(layout)), robot, layout,
                                                                 TaskConfig(), 1.0, {"seed": 0}))
     result = run_biped("run", str(tmp_path / "c.json"), "--duration", "0.5", "--json")
-    assert result.returncode == 0, result.stderr
+    assert result.returncode == 0, result.stdout + result.stderr
     assert "simulated bus" in result.stderr
     report = json.loads(result.stdout.strip().splitlines()[-1])
     assert report["stop_reason"] == "duration reached" and not report["fell"]
