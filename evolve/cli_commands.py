@@ -4,6 +4,7 @@ for view and render."""
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -43,11 +44,15 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ea.add_argument("controller", type=Path)
     ea.add_argument("--robot", help="robot (default: the one the controller was made for)")
     ea.add_argument("--seconds", type=float, help="episode length (default: the controller's task)")
-    ea.add_argument("--episodes", type=int, default=1, help="episodes (each its own draw when randomized)")
+    ea.add_argument("--episodes", type=int, help="episodes (each its own draw when randomized; default 1, "
+                    "3 with --ablate)")
     ea.add_argument("--randomize", nargs="?", const="randomize", metavar="RANGES",
                     help="randomize every episode with these ranges (default configs/reality/randomize.yaml)")
     ea.add_argument("--reality", metavar="PROFILE", help="a fixed reality profile (configs/reality/ name or path)")
     ea.add_argument("--seed", type=int, default=0, help="seed of the randomized draws")
+    ea.add_argument("--ablate", action="store_true",
+                    help="with --reality/--randomize: measure each perturbation alone too, to see which "
+                    "one breaks the controller (default 3 episodes)")
     ea.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                     help="switch a module off to get the lower behaviour back (repeatable)")
     ea.add_argument("--json", action="store_true", help="print one JSON object")
@@ -168,12 +173,27 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from evolve.replay import evaluate_controller
+    from evolve.replay import ablate_controller, evaluate_controller
 
     if args.randomize and args.reality:
         raise SystemExit("biped eval: give --randomize RANGES or --reality PROFILE, not both")
-    report = evaluate_controller(args.controller, robot=args.robot, seconds=args.seconds, episodes=args.episodes,
-                                 disabled_modules=tuple(args.disable_module),
-                                 randomize=args.randomize or args.reality, seed=args.seed)
-    print_result(report, args.json)
+    reality = args.randomize or args.reality
+    options = {"robot": args.robot, "seconds": args.seconds, "disabled_modules": tuple(args.disable_module)}
+    if not args.ablate:
+        print_result(evaluate_controller(args.controller, episodes=args.episodes or 1, randomize=reality,
+                                         seed=args.seed, **options), args.json)
+        return 0
+    if not reality or reality == "nominal":
+        raise SystemExit("biped eval --ablate: give the reality to take apart, --reality PROFILE or --randomize")
+    report = ablate_controller(args.controller, reality, episodes=args.episodes or 3, seed=args.seed, **options)
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    print(f"{args.controller} on {report['reality']}, {report['episodes']} episodes (seed {report['seed']}):")
+    print(f"{'perturbation':>22} {'value':>14} {'distance m':>10} {'min m':>7} {'falls':>5} {'walked':>6}")
+    rows = [("nominal", "", report["nominal"]), ("all together", "", report["all"])]
+    rows += [(key, str(row.pop("value")), row) for key, row in report["only"].items()]
+    for name, value, r in rows:
+        print(f"{name:>22} {value:>14} {r['distance_m']:10.3f} {r['min_distance_m']:7.3f} {r['falls']:5d} "
+              f"{r['walked_share']:6.0%}")
     return 0

@@ -42,7 +42,7 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
 
 def evaluate_controller(path: Path | str, robot: str | None = None, seconds: float | None = None,
                         episodes: int = 1, disabled_modules: tuple[str, ...] = (),
-                        randomize: str | None = None, seed: int = 0) -> dict[str, Any]:
+                        randomize: str | Reality | None = None, seed: int = 0) -> dict[str, Any]:
     """Measure a controller on ``episodes`` episodes, each drawn from ``randomize`` (a reality
     file's ranges or fixed profile; None: the nominal robot) with seed ``seed``."""
     reality = load_reality(randomize)
@@ -68,6 +68,28 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         "reality": reality.name,
         "disabled_modules": list(disabled_modules),
         "seconds": evaluator.n_ticks * evaluator.tick_s,
+    }
+
+
+def ablate_controller(path: Path | str, reality: str | Reality, episodes: int = 3, seed: int = 0,
+                      **options: Any) -> dict[str, Any]:
+    """Which perturbation breaks a controller: it is measured on ``reality`` as a whole, then
+    with each of the reality's perturbations alone (the others nominal), on the same episode
+    draws (``seed``), so the rows differ by the perturbation only.  ``options`` go to
+    :func:`evaluate_controller` (robot, seconds, disabled_modules)."""
+    reality = load_reality(reality)
+    if reality.is_nominal:
+        raise ValueError("ablation needs a reality profile or ranges that differ from nominal")
+    keep = ("distance_m", "min_distance_m", "falls", "walked_share")
+
+    def measure(r: Reality | None) -> dict[str, Any]:
+        report = evaluate_controller(path, episodes=episodes, randomize=r, seed=seed, **options)
+        return {k: report[k] for k in keep}
+
+    return {
+        "reality": reality.name, "episodes": episodes, "seed": seed,
+        "nominal": measure(None), "all": measure(reality),
+        "only": {key: {"value": reality.to_dict()[key], **measure(reality.only(key))} for key in reality.perturbed},
     }
 
 

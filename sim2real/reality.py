@@ -66,6 +66,15 @@ class Reality:
     def max_latency_ticks(self) -> float:
         return self.range("latency_ticks")[1]
 
+    def only(self, key: str) -> "Reality":
+        """This reality with every perturbation but ``key`` at its nominal value."""
+        return Reality(f"{self.name} (only {key})", self.description, {key: self.range(key)})
+
+    @property
+    def perturbed(self) -> list[str]:
+        """The perturbations this reality moves off nominal, in :data:`PERTURBATIONS` order."""
+        return [k for k, (v, _) in PERTURBATIONS.items() if self.range(k) != (v, v)]
+
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"description": self.description} if self.description else {}
         for key, (lo, hi) in self.ranges.items():
@@ -104,9 +113,11 @@ def reality_dir() -> Path:
     return data_root() / "configs" / "reality"
 
 
-def load_reality(name_or_path: str | Path | dict | None) -> Reality:
+def load_reality(name_or_path: str | Path | dict | Reality | None) -> Reality:
     """A reality file by name (``configs/reality/<name>.yaml``) or path; a mapping is taken
     as the file's contents; ``None`` or ``"nominal"`` is the nominal robot."""
+    if isinstance(name_or_path, Reality):
+        return name_or_path
     if name_or_path is None or name_or_path == "nominal":
         return NOMINAL
     if isinstance(name_or_path, dict):

@@ -142,3 +142,25 @@ def test_eval_reports_the_spread_over_randomized_episodes(tmp_path, capsys):
     assert set(report) >= {"falls", "walked_share", "upright_s"}
     with pytest.raises(SystemExit, match="not both"):
         main(["eval", str(path), "--randomize", "--reality", "default"])
+
+    # --ablate: the whole profile, then each of its perturbations alone on the same draws
+    profile = {"kp_scale": 0.5, "joint_noise_deg": 0.2}
+    (tmp_path / "soft.yaml").write_text(json.dumps(profile))
+    assert main(["eval", str(path), "--reality", str(tmp_path / "soft.yaml"), "--ablate", "--episodes", "1",
+                 "--json"]) == 0
+    ablation = json.loads(capsys.readouterr().out)
+    assert list(ablation["only"]) == ["kp_scale", "joint_noise_deg"]
+    assert ablation["only"]["kp_scale"]["value"] == 0.5
+    # the network has no connections, so only the softer servos move the robot differently
+    assert ablation["only"]["kp_scale"]["distance_m"] == ablation["all"]["distance_m"] != ablation["nominal"]["distance_m"]
+    assert ablation["only"]["joint_noise_deg"]["distance_m"] == ablation["nominal"]["distance_m"]
+    with pytest.raises(SystemExit, match="reality to take apart"):
+        main(["eval", str(path), "--ablate"])
+
+
+def test_only_keeps_one_perturbation():
+    default = load_reality("default")
+    soft = default.only("kp_scale")
+    assert soft.perturbed == ["kp_scale"] and soft.range("kp_scale") == default.range("kp_scale")
+    assert soft.range("mass_scale") == (1.0, 1.0)
+    assert NOMINAL.perturbed == [] and "latency_ticks" in default.perturbed
