@@ -42,9 +42,9 @@ def balance(genomes: list[Genome], steepness: float, velocities: bool, max_steps
             starts: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Steps each network balances (<= max_steps), and Gruau's wiggle over its last 100 steps.
 
-    All carts run at once; finished ones leave the arrays, and the last few survivors
-    continue one by one in plain floats (numpy's per-call overhead would dominate a
-    100,000-step tail).
+    All carts run at once; finished ones leave the arrays, and the last few survivors (or a
+    few carts from the start, such as a champion's 100,000-step test) continue one by one in
+    plain floats: numpy's per-call overhead would dominate such a tail ~10 times over.
     """
     n = len(genomes)
     state = dp.start_states(n) if starts is None else starts.copy()
@@ -52,6 +52,11 @@ def balance(genomes: list[Genome], steepness: float, velocities: bool, max_steps
     alive = np.arange(n)
     steps = np.zeros(n, dtype=np.int64)
     wiggle = np.zeros((100, n))
+    if n <= FEW:
+        for i in range(n):
+            _finish_alone(genomes[i], net.state_of(i), state[i], velocities, steepness, 0, max_steps,
+                          steps, wiggle, i)
+        return steps, wiggle.sum(axis=0)
     for t in range(max_steps):
         out = net.activate(dp.observe(state, velocities))[:, 0]
         state = dp.control_step(state, out)
