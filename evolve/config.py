@@ -39,19 +39,26 @@ class RandomizeConfig:
     reality: str | dict = "nominal"  # configs/reality/ name, path or inline mapping
     episodes: int = 1  # episodes per genome
     score: str = "mean"  # mean | worst
+    ramp_generations: int = 0  # ranges grow from nominal to full over this many generations
 
     @property
     def active(self) -> bool:
         return self.reality != "nominal" or self.episodes > 1
 
+    def intensity(self, generation: int) -> float:
+        """Randomization strength at ``generation`` of a stage: 0 (nominal) at the first,
+        growing linearly to 1 (the reality file's ranges) at ``ramp_generations``."""
+        return 1.0 if self.ramp_generations <= 0 else min(1.0, generation / self.ramp_generations)
+
     def to_dict(self) -> dict[str, Any]:
-        return {"reality": self.reality, "episodes": self.episodes, "score": self.score}
+        out = {"reality": self.reality, "episodes": self.episodes, "score": self.score}
+        return {**out, "ramp_generations": self.ramp_generations} if self.ramp_generations else out
 
 
 def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     if doc is None:
         return RandomizeConfig()
-    node = Node(doc, source, "randomize").mapping(optional=("reality", "episodes", "score"))
+    node = Node(doc, source, "randomize").mapping(optional=("reality", "episodes", "score", "ramp_generations"))
     reality = node.value.get("reality", "nominal")
     if not isinstance(reality, (str, dict)):
         raise node["reality"].error(f"must be a reality name, path or mapping, got {reality!r}")
@@ -61,7 +68,8 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
         raise node["reality"].error(str(exc)) from None
     episodes = node["episodes"].integer(lo=1) if node.has("episodes") else 1
     score = node["score"].string(("mean", "worst")) if node.has("score") else "mean"
-    return RandomizeConfig(reality, episodes, score)
+    ramp = node["ramp_generations"].integer(lo=0) if node.has("ramp_generations") else 0
+    return RandomizeConfig(reality, episodes, score, ramp)
 
 
 @dataclass(frozen=True)

@@ -60,15 +60,15 @@ class Job:
     steepness: float
     harness: float
     stage: Stage | None  # None: the walk objective
-    randomized: bool
+    intensity: float  # randomization strength: 0 nominal, 1 the evaluator's reality in full
 
     def rows(self, lo: int, hi: int) -> "Job":
-        return Job(self.genomes[lo:hi], self.keys[lo:hi], self.steepness, self.harness, self.stage, self.randomized)
+        return Job(self.genomes[lo:hi], self.keys[lo:hi], self.steepness, self.harness, self.stage, self.intensity)
 
 
 def run_job(evaluator: LocomotionEvaluator, job: Job) -> Episodes:
     """Simulate every simulation of ``job`` on ``evaluator`` (the reference for every backend)."""
-    perturbation = evaluator.sample(job.keys) if job.randomized else None
+    perturbation = evaluator.sample(job.keys, job.intensity) if job.intensity > 0 else None
     objective = job.stage.make_objective if job.stage is not None else None
     return evaluator.evaluate(job.genomes, job.steepness, job.harness, perturbation=perturbation,
                               objective=objective)
@@ -93,17 +93,17 @@ def concatenate(parts: list[Episodes]) -> Episodes:
 
 
 def score_population(backend: Backend, genomes: list[Genome], *, steepness: float, harness: float,
-                     stage: Stage | None, episodes: int, score: str, randomized: bool,
+                     stage: Stage | None, episodes: int, score: str, intensity: float,
                      key: tuple[int, int, int]) -> Episodes:
     """Every genome on ``episodes`` episodes; the outcome per genome.
 
     Per genome, fitness and the other measures are the ``score`` (mean or worst) of its
-    episodes; it fell if it fell in any.
+    episodes; it fell if it fell in any.  ``intensity`` scales the randomization (0: none).
     """
     n = len(genomes)
     sims = [g for g in genomes for _ in range(episodes)]
     keys = np.array([[*key, i, e] for i in range(n) for e in range(episodes)], dtype=np.int64)
-    per_sim = backend.run(Job(sims, keys, steepness, harness, stage, randomized))
+    per_sim = backend.run(Job(sims, keys, steepness, harness, stage, intensity))
     if episodes == 1:
         return per_sim
     combine = np.mean if score == "mean" else np.min

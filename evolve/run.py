@@ -175,7 +175,8 @@ class Run:
             def evaluate(genomes):
                 episodes["e"] = score_population(
                     self.backend, genomes, steepness=config.neat.sigmoid_steepness, harness=harness, stage=stage,
-                    episodes=config.randomize.episodes, score=config.randomize.score, randomized=self.randomized,
+                    episodes=config.randomize.episodes, score=config.randomize.score,
+                    intensity=config.randomize.intensity(pop.generation) if self.randomized else 0.0,
                     key=(config.seed, index, pop.generation))
                 return episodes["e"].selection
 

@@ -66,6 +66,17 @@ class Reality:
     def max_latency_ticks(self) -> float:
         return self.range("latency_ticks")[1]
 
+    def scaled(self, intensity: float) -> "Reality":
+        """Every range moved toward nominal: ``nominal + intensity * (value - nominal)``;
+        0 is the nominal robot, 1 (or more) this reality itself."""
+        if intensity >= 1.0:
+            return self
+        ranges = {}
+        for key, (lo, hi) in self.ranges.items():
+            nominal = PERTURBATIONS[key][0]
+            ranges[key] = (nominal + intensity * (lo - nominal), nominal + intensity * (hi - nominal))
+        return Reality(f"{self.name} x{intensity:g}", self.description, ranges)
+
     def only(self, key: str) -> "Reality":
         """This reality with every perturbation but ``key`` at its nominal value."""
         return Reality(f"{self.name} (only {key})", self.description, {key: self.range(key)})

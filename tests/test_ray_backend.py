@@ -69,7 +69,7 @@ def test_a_worker_killed_mid_generation_changes_nothing(tmp_path, local_ray):
     spec = EvaluatorSpec("xl430_biped", {"episode_s": 3.0}, "randomize", 8, threads=1)
     local = LocalBackend(spec)
     genomes = Population(NeatConfig(population_size=8, target_species=2), local.evaluator.neat_layout, seed=4).genomes
-    job = Job(genomes, np.array([[1, 0, 0, i, 0] for i in range(8)]), 1.0, 0.0, None, True)
+    job = Job(genomes, np.array([[1, 0, 0, i, 0] for i in range(8)]), 1.0, 0.0, None, 1.0)
     expected = local.run(job)
     backend = RayBackend(spec)
     backend.run(job)  # workers warm: each has built its evaluator

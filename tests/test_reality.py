@@ -64,6 +64,18 @@ def test_draws_depend_on_the_key_only(evaluator):
     assert not np.array_equal(together.kp_scale[0], together.kp_scale[1])
     lo, hi = load_reality("randomize").range("kp_scale")
     assert (together.kp_scale >= lo).all() and (together.kp_scale <= hi).all()
+    # a ramp's weaker randomization: the same streams, every range pulled toward nominal
+    half = evaluator.sample(keys, intensity=0.5)
+    assert np.allclose(half.kp_scale - 1.0, (together.kp_scale - 1.0) / 2)
+    assert np.allclose(half.backlash_rad, together.backlash_rad / 2)
+    assert np.array_equal(evaluator.sample(keys, intensity=1.0).kp_scale, together.kp_scale)
+
+
+def test_scaled_reality_goes_from_nominal_to_itself():
+    full = load_reality("randomize")
+    assert full.scaled(0.0).is_nominal and full.scaled(1.0) is full
+    assert full.scaled(0.5).range("kp_scale") == pytest.approx((0.9, 1.1))
+    assert full.scaled(0.5).range("backlash_deg") == pytest.approx((0.0, 0.3))
 
 
 def test_each_simulation_gets_its_own_model_and_nominal_comes_back(evaluator):
@@ -115,8 +127,13 @@ def test_evolve_config_randomize_block_is_validated():
     config = parse_evolve_config({"randomize": {"reality": "randomize", "episodes": 3, "score": "worst"}}, "e.yaml")
     assert config.randomize.episodes == 3 and config.to_dict()["randomize"]["score"] == "worst"
     assert "randomize" not in parse_evolve_config({}, "e.yaml").to_dict()
+    ramped = parse_evolve_config({"randomize": {"reality": "randomize", "ramp_generations": 40}}, "e.yaml")
+    assert [ramped.randomize.intensity(g) for g in (0, 10, 40, 90)] == [0.0, 0.25, 1.0, 1.0]
+    assert parse_evolve_config(ramped.to_dict(), "e.yaml") == ramped
+    assert config.randomize.intensity(0) == 1.0  # no ramp: full strength from the start
     for block, key in (({"reality": "nope"}, "randomize.reality"), ({"episodes": 0}, "randomize.episodes"),
-                       ({"score": "median"}, "randomize.score"), ({"reality": {"kp_scale": -1}}, "kp_scale")):
+                       ({"score": "median"}, "randomize.score"), ({"reality": {"kp_scale": -1}}, "kp_scale"),
+                       ({"ramp_generations": -5}, "randomize.ramp_generations")):
         with pytest.raises(ConfigError) as err:
             parse_evolve_config({"randomize": block}, "e.yaml")
         assert err.value.key == key

@@ -97,9 +97,10 @@ class LocomotionEvaluator:
     def max_population(self) -> int:
         return self.batch.nsim
 
-    def sample(self, keys: np.ndarray) -> Perturbation:
-        """This evaluator's reality drawn once per row of ``keys`` (see :func:`reality.sample`)."""
-        return sample(self.reality, keys, self.model, self.n_ticks, self.tick_s)
+    def sample(self, keys: np.ndarray, intensity: float = 1.0) -> Perturbation:
+        """This evaluator's reality, its ranges scaled toward nominal by ``intensity``
+        (:meth:`Reality.scaled`), drawn once per row of ``keys`` (see :func:`reality.sample`)."""
+        return sample(self.reality.scaled(intensity), keys, self.model, self.n_ticks, self.tick_s)
 
     def evaluate(self, genomes: list[Genome], steepness: float, harness: float = 0.0,
                  disabled_modules: tuple[str, ...] = (),
