@@ -73,9 +73,9 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
 
 def ablate_controller(path: Path | str, reality: str | Reality, episodes: int = 3, seed: int = 0,
                       **options: Any) -> dict[str, Any]:
-    """Which perturbation breaks a controller: it is measured on ``reality`` as a whole, then
-    with each of the reality's perturbations alone (the others nominal), on the same episode
-    draws (``seed``), so the rows differ by the perturbation only.  ``options`` go to
+    """Which perturbation breaks a controller: it is measured on the nominal robot, on
+    ``reality`` as a whole, then with each of the reality's perturbations alone (the others
+    nominal), every row on the same episode seeds (``seed``).  ``options`` go to
     :func:`evaluate_controller` (robot, seconds, disabled_modules)."""
     reality = load_reality(reality)
     if reality.is_nominal:

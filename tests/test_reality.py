@@ -160,7 +160,7 @@ def test_eval_reports_the_spread_over_randomized_episodes(tmp_path, capsys):
     with pytest.raises(SystemExit, match="not both"):
         main(["eval", str(path), "--randomize", "--reality", "default"])
 
-    # --ablate: the whole profile, then each of its perturbations alone on the same draws
+    # --ablate: the whole profile, then each of its perturbations alone on the same seeds
     profile = {"kp_scale": 0.5, "joint_noise_deg": 0.2}
     (tmp_path / "soft.yaml").write_text(json.dumps(profile))
     assert main(["eval", str(path), "--reality", str(tmp_path / "soft.yaml"), "--ablate", "--episodes", "1",
