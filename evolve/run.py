@@ -169,6 +169,7 @@ class Run:
             self._checkpoint()
             walking = stage is None or stage.objective == "walk"
             harness = config.task.harness_strength(pop.generation) if walking else 0.0
+            intensity = config.randomize.intensity(pop.generation) if self.randomized else 0.0
             t0 = time.perf_counter()
             episodes = {}
 
@@ -176,7 +177,7 @@ class Run:
                 episodes["e"] = score_population(
                     self.backend, genomes, steepness=config.neat.sigmoid_steepness, harness=harness, stage=stage,
                     episodes=config.randomize.episodes, score=config.randomize.score,
-                    intensity=config.randomize.intensity(pop.generation) if self.randomized else 0.0,
+                    intensity=intensity,
                     key=(config.seed, index, pop.generation))
                 return episodes["e"].selection
 
@@ -204,7 +205,7 @@ class Run:
                        threshold=stats.threshold)
             self._append_stats(row)
             eta = (budget - pop.generation) * float(np.mean(recent))
-            self.log(_progress_line(row, pop.generation, budget, eta, stage))
+            self.log(_progress_line(row, pop.generation, budget, eta, stage, intensity))
             if pop.generation % 10 == 0 or pop.generation >= budget:
                 self.plot()
             if stage is not None and stage.solved(candidate.fitness):
@@ -293,9 +294,12 @@ def _read_stats(path: Path) -> list[dict]:
         return list(csv.DictReader(f))
 
 
-def _progress_line(row: dict, done: int, generations: int, eta_s: float, stage: Stage | None = None) -> str:
+def _progress_line(row: dict, done: int, generations: int, eta_s: float, stage: Stage | None = None,
+                   intensity: float = 0.0) -> str:
     eta = time.strftime("%H:%M:%S", time.gmtime(eta_s)) if math.isfinite(eta_s) else "?"
     harness = f"harness {row['harness']:.2f} | " if row["harness"] else ""
+    if 0.0 < intensity < 1.0:  # a randomization ramp under way
+        harness += f"randomize x{intensity:.2f} | "
     where = f"{stage.name} " if stage else ""
     return (f"{where}gen {done:>4}/{generations} | best {row['best_fitness']:.3f} "
             f"({row['best_distance_m']:+.3f} m) | mean {row['mean_fitness']:.3f} | species {row['species']:>3} "
