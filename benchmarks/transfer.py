@@ -6,8 +6,9 @@
 Measures the controller's distance in the nominal simulation (``biped eval``, the
 evolution's own episode) and in dry runs of the same length through the real runtime on
 the simulated Dynamixel bus under a reality profile (``biped dry-run --reality``), one per
-seed of the profile's random parts.  It passes when the mean dry-run distance keeps at
-least ``--keep`` (default 80 %) of the simulated one and no dry run falls.
+seed of the profile's random parts.  It passes when the controller walks in simulation
+(upright, 2.2 leg lengths), the mean dry-run distance keeps at least ``--keep`` (default
+80 %) of the simulated one and no dry run falls.
 
 ``--select-from RUN`` first picks the controller from an evolution run's last population:
 every genome is replayed on the nominal robot and on ``--episodes`` randomized ones, and the
@@ -92,8 +93,10 @@ def main(argv=None) -> None:
         "controller": str(args.controller), "reality": args.reality,
         "sim_distance_m": sim["distance_m"], "sim_fell": sim["fell"], "seconds": sim["seconds"],
         "dry_run_distance_m": mean, "dry_run_min_m": min(r["distance_m"] for r in runs),
-        "ratio": ratio, "keep": args.keep,
-        "passed": ratio >= args.keep and not any(r["fell"] for r in runs), "runs": runs,
+        "ratio": ratio, "keep": args.keep, "sim_walked": sim["walked_share"] == 1.0,
+        # a controller that does not walk in simulation has no distance to keep: no pass
+        "passed": sim["walked_share"] == 1.0 and ratio >= args.keep and not any(r["fell"] for r in runs),
+        "runs": runs,
         "selection": selection,
     }, args.json)
 
