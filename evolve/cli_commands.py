@@ -185,7 +185,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
         return 0
     if not reality or reality == "nominal":
         raise SystemExit("biped eval --ablate: give the reality to take apart, --reality PROFILE or --randomize")
-    report = ablate_controller(args.controller, reality, episodes=args.episodes or 3, seed=args.seed, **options)
+    try:
+        report = ablate_controller(args.controller, reality, episodes=args.episodes or 3, seed=args.seed, **options)
+    except ValueError as exc:
+        raise SystemExit(f"biped eval --ablate: {exc}") from None
     if args.json:
         print(json.dumps(report))
         return 0
