@@ -89,13 +89,13 @@ def main(argv=None) -> None:
         runs.append({k: r[k] for k in ("distance_m", "fell", "ticks", "overruns", "bus_errors", "stop_reason")})
     mean = statistics.mean(r["distance_m"] for r in runs)
     ratio = mean / sim["distance_m"] if sim["distance_m"] > 0 else 0.0
+    walked = sim["walked_share"] == 1.0  # without a walk in simulation there is no distance to keep
     report({
         "controller": str(args.controller), "reality": args.reality,
         "sim_distance_m": sim["distance_m"], "sim_fell": sim["fell"], "seconds": sim["seconds"],
         "dry_run_distance_m": mean, "dry_run_min_m": min(r["distance_m"] for r in runs),
-        "ratio": ratio, "keep": args.keep, "sim_walked": sim["walked_share"] == 1.0,
-        # a controller that does not walk in simulation has no distance to keep: no pass
-        "passed": sim["walked_share"] == 1.0 and ratio >= args.keep and not any(r["fell"] for r in runs),
+        "ratio": ratio, "keep": args.keep, "sim_walked": walked,
+        "passed": walked and ratio >= args.keep and not any(r["fell"] for r in runs),
         "runs": runs,
         "selection": selection,
     }, args.json)

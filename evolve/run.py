@@ -176,8 +176,7 @@ class Run:
             def evaluate(genomes):
                 episodes["e"] = score_population(
                     self.backend, genomes, steepness=config.neat.sigmoid_steepness, harness=harness, stage=stage,
-                    episodes=config.randomize.episodes, score=config.randomize.score,
-                    intensity=intensity,
+                    episodes=config.randomize.episodes, score=config.randomize.score, intensity=intensity,
                     key=(config.seed, index, pop.generation))
                 return episodes["e"].selection
 

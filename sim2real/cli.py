@@ -27,7 +27,6 @@ ROBOT_HELP = (
 CONTROLLER_HANDLERS: dict[str, "callable"] = {}
 
 
-
 def print_result(result: dict, as_json: bool) -> None:
     """A command's result: one JSON line, or aligned ``key: value`` lines for people."""
     if as_json:
@@ -36,6 +35,7 @@ def print_result(result: dict, as_json: bool) -> None:
         width = max(map(len, result), default=0)
         for key, value in result.items():
             print(f"{key:>{width}}: {value}")
+
 
 def _is_controller(arg: str) -> bool:
     return str(arg).endswith(".json")

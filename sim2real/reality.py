@@ -60,7 +60,7 @@ class Reality:
 
     @property
     def is_nominal(self) -> bool:
-        return all(self.range(k) == (v, v) for k, (v, _) in PERTURBATIONS.items())
+        return not self.perturbed
 
     @property
     def max_latency_ticks(self) -> float:
