@@ -9,7 +9,10 @@ import sys
 from pathlib import Path
 
 from sim2real.cli import print_result
-from sim2real.robot import DEFAULT_ROBOT, load_robot
+from sim2real.deploy import LOST_AFTER_S
+from sim2real.robot import load_robot
+from sim2real.simbus import service as simbus_service
+from sim2real.simbus.service import add_realtime_arguments
 
 ROBOT_HELP = "robot name from configs/robots/ or a path to a robot YAML (default: xl430_biped)"
 
@@ -29,7 +32,11 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--trace", type=Path, help="write a trace CSV (+ JSON sidecar) here")
     run.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                      help="switch a control module off (repeatable)")
+    run.add_argument("--lost-after-ms", type=float, default=LOST_AFTER_S * 1e3, metavar="MS",
+                     help="stop when no read has succeeded for this long (default %(default).0f ms; single "
+                     "missed replies are retried and their ticks hold the last goals)")
     run.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    add_realtime_arguments(run)
     run.set_defaults(func=cmd_run)
     add_simulated_bus_commands(sub)
     add_compare_command(sub)
@@ -50,20 +57,15 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
     dry.add_argument("--seed", type=int, default=0, help="seed of the reality profile's random parts")
     dry.add_argument("--trace", type=Path, help="trace CSV (+ JSON sidecar)")
     dry.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    add_realtime_arguments(dry)
     dry.set_defaults(func=cmd_dry_run)
 
     simbus = sub.add_parser("simbus", help="serve a simulated Dynamixel bus on a pseudo-terminal",
                             description="Serve the robot's servos and sensor board, simulated by MuJoCo in real "
                             "time, on a pseudo-terminal.  Prints the port path as the first line, then serves "
                             "until Ctrl-C or SIGTERM; any Dynamixel tool can connect to it.")
-    simbus.add_argument("--robot", default=DEFAULT_ROBOT, help=ROBOT_HELP)
-    simbus.add_argument("--baud", type=int, help="pace replies like the wire at this baud (default: the robot's)")
-    simbus.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start),"
-                        "drop:RATE,corrupt:RATE or a YAML file of them")
-    simbus.add_argument("--reality", metavar="PROFILE",
-                        help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
-    simbus.add_argument("--seed", type=int, default=0, help="seed of the reality profile's random parts")
-    simbus.set_defaults(func=cmd_simbus)
+    simbus_service.add_arguments(simbus)
+    simbus.set_defaults(func=simbus_service.serve)
 
 
 def add_compare_command(sub: argparse._SubParsersAction) -> None:
@@ -101,41 +103,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def cmd_dry_run(args: argparse.Namespace) -> int:
     from sim2real.dry_run import dry_run
 
-    result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults,
-                     log=lambda s: print(s, file=sys.stderr), reality=args.reality, seed=args.seed)
+    log = lambda line: print(line, file=sys.stderr)  # noqa: E731
+    result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults, log=log,
+                     reality=args.reality, seed=args.seed, realtime=simbus_service.realtime_request(args),
+                     simbus_realtime=simbus_service.realtime_flags(args))
     print_result(result, args.json)
-    return 0
-
-
-def cmd_simbus(args: argparse.Namespace) -> int:
-    import signal
-    import threading
-
-    from sim2real.simbus.physics import PhysicsChain
-    from sim2real.simbus.server import EmulatedChain, PtyServer
-
-    from sim2real.dry_run import arm_faults
-
-    from sim2real.reality import load_reality
-
-    robot = load_robot(args.robot)
-    physics = PhysicsChain(robot, reality=load_reality(args.reality), seed=args.seed)
-    chain = EmulatedChain(physics.devices, advance=physics.advance)
-    timers, rates = arm_faults(args.faults, chain, physics)
-    done = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *a: done.set())
-    with PtyServer(chain, baud=args.baud or (robot.bus.baud if robot.bus else None), **rates) as server:
-        print(server.port, flush=True)
-        for timer in timers:
-            timer.start()
-        try:
-            while not done.wait(0.2):
-                physics.advance()  # keep the simulation in real time even when nobody asks
-        except KeyboardInterrupt:
-            pass
-        for timer in timers:
-            timer.cancel()
-    return 0
+    return run_exit_code(result["stop_reason"], result["torque_off"], log)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -147,24 +120,42 @@ def cmd_run(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot or data["robot"]["name"])
     data = load_controller(args.controller, robot)
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
-    if args.port:
-        from sim2real.bus.dynamixel import DynamixelBus
+    realtime = simbus_service.realtime_request(args)
+    if args.port or args.bus == "mock":
+        if args.port:
+            from sim2real.bus.dynamixel import DynamixelBus
 
-        report = drive(DynamixelBus(args.port, args.baud or robot.bus.baud, robot), robot, data,
-                       duration_s=args.duration, trace_path=args.trace,
-                       disabled_modules=tuple(args.disable_module), log=log)
-    elif args.bus == "mock":
-        report = drive(MockBus(robot), robot, data, duration_s=args.duration, trace_path=args.trace,
-                       disabled_modules=tuple(args.disable_module), log=log)
+            bus = DynamixelBus(args.port, args.baud or robot.bus.baud, robot)
+        else:
+            bus = MockBus(robot)
+        report = drive(bus, robot, data, duration_s=args.duration, trace_path=args.trace,
+                       disabled_modules=tuple(args.disable_module), log=log, lost_after_s=args.lost_after_ms / 1e3,
+                       realtime=realtime)
+        result = report.summary()
     else:  # neither: the simulated bus, as in a dry run
         from sim2real.dry_run import dry_run
 
         log("no --port: running on the simulated bus (MuJoCo behind a pseudo-terminal)")
         result = dry_run(args.controller, robot.name if args.robot else None, args.duration or 10.0,
-                         args.trace, log=log, disabled_modules=tuple(args.disable_module))
-        print_result(result, args.json)
-        return 0 if result["stop_reason"] == "duration reached" else 1
-    print_result(report.summary(), args.json)
-    return 0 if report.stop_reason in ("duration reached", "interrupted (Ctrl-C)", "terminated (SIGTERM)") else 1
+                         args.trace, log=log, disabled_modules=tuple(args.disable_module), realtime=realtime,
+                         simbus_realtime=simbus_service.realtime_flags(args))
+    print_result(result, args.json)
+    return run_exit_code(result["stop_reason"], result["torque_off"], log)
 
 
+ENDED_AS_ASKED = ("duration reached", "interrupted (Ctrl-C)", "terminated (SIGTERM)")
+EXIT_TORQUE_UNCONFIRMED = 3
+
+
+def run_exit_code(stop_reason: str, torque_off: dict | None, log) -> int:
+    """0: the run ended as asked; 1: it stopped on a fault; 3: torque off was not confirmed on
+    every servo (the most important message, so it wins)."""
+    unconfirmed = (torque_off or {}).get("unconfirmed", [])
+    if torque_off is None or unconfirmed:
+        who = ", ".join(map(str, unconfirmed)) or "every servo"
+        log(f"biped: error: torque off NOT confirmed on servo {who}: cut the power to the robot")
+        return EXIT_TORQUE_UNCONFIRMED
+    if stop_reason not in ENDED_AS_ASKED:
+        log(f"biped: error: the run stopped early: {stop_reason}")
+        return 1
+    return 0

@@ -7,16 +7,25 @@ error), sets Return Delay Time 0, position mode, position limits from the joint 
 the Bus Watchdog, refuses servos with a latched hardware error, then turns torque on and
 ramps slowly from the present pose to the controller's start pose.  The loop keeps a fixed
 rate on absolute deadlines (an overrun re-syncs instead of catching up, and is counted);
-each tick reads joints, feet and up-vector, activates, maps and sync-writes.  Whatever ends
-the run - its duration, Ctrl-C, SIGTERM, an exception, lost communication, a hardware
-error, a non-finite output - the robot ramps to its rest pose if the bus still answers and
-torque goes off.  No MuJoCo here.
+each tick reads joints, feet and up-vector, activates, maps and sync-writes.
+
+A noisy bus does not stop the robot: a failed read is retried while the tick's budget lasts,
+a tick without a good read holds the last goals (and is counted), and communication counts
+as lost only after ``lost_after_s`` without one good read.  The servos' Bus Watchdog stops
+them on its own if the host itself goes silent.
+
+Whatever ends the run - its duration, Ctrl-C, SIGTERM, an exception, ``SystemExit``, lost
+communication, a hardware error, a non-finite output - the robot ramps to its rest pose if
+the bus still answers, torque goes off, and every servo's Torque Enable is read back: the
+report lists the servos confirmed off and those that are not.  Signals that arrive during
+the stop cut the ramp short; nothing skips the torque-off.  No MuJoCo here.
 """
 
 from __future__ import annotations
 
 import math
 import signal
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +38,7 @@ from sim2real.bus.chain import ServoChain
 from sim2real.errors import BipedError
 from sim2real.mapping import ServoMapping
 from sim2real.policy import Policy
+from sim2real.realtime import RealtimeRequest, no_garbage_collection, ordinary_scheduling, request_realtime
 from sim2real.robot import RobotSpec
 from sim2real.trace import TraceWriter
 
@@ -37,6 +47,10 @@ WATCHDOG_MS = 100  # servos stop if the host is silent this long (X series: 20 m
 RAMP_S = 2.0  # start-up and shutdown ramps [s]
 RAMP_TICK_S = 0.02
 SPIN_S = 0.0005  # the loop spins this long before each deadline instead of sleeping (5 % of a 10 ms tick)
+LOST_AFTER_S = 0.1  # communication is lost after this long without one good read [s]
+READ_BUDGET = 0.6  # a tick's reads are retried until this share of the tick has passed
+TICK_ATTEMPTS = 4  # ... and at most this often each (a failing mock bus answers at once)
+PATIENT_ATTEMPTS = 10  # start-up and torque-off: nothing moves meanwhile, so keep asking
 
 
 class StartupError(BipedError):
@@ -52,31 +66,55 @@ class Shutdown(BaseException):
 
 
 @dataclass
+class TorqueOff:
+    """Servos whose Torque Enable read back 0 after the stop, and those that did not answer
+    (or still read 1): power to those must be cut by hand."""
+
+    confirmed: list[int] = field(default_factory=list)
+    unconfirmed: list[int] = field(default_factory=list)
+
+
+@dataclass
 class RunReport:
     ticks: int = 0
     overruns: int = 0
     bus_errors: int = 0
+    retries: int = 0  # reads repeated within a tick
+    missed_ticks: int = 0  # ticks without a good read: the last goals were held
+    corrupt_replies: int = 0  # failed reads whose reply came but was corrupt
     stop_reason: str = ""
+    stop_notes: list[str] = field(default_factory=list)
+    torque_off: TorqueOff | None = None
+    realtime: dict[str, Any] | None = None
     compute_s: list[float] = field(default_factory=list)
     jitter_s: list[float] = field(default_factory=list)
+
+    @property
+    def torque_confirmed_off(self) -> bool:
+        return self.torque_off is not None and not self.torque_off.unconfirmed
 
     def summary(self) -> dict[str, Any]:
         def pct(values, q, scale):
             return float(np.percentile(values, q) * scale) if values else None
 
+        torque = None if self.torque_off is None else {"confirmed": self.torque_off.confirmed,
+                                                       "unconfirmed": self.torque_off.unconfirmed}
         return {"ticks": self.ticks, "overruns": self.overruns, "bus_errors": self.bus_errors,
-                "stop_reason": self.stop_reason,
+                "retries": self.retries, "missed_ticks": self.missed_ticks, "corrupt_replies": self.corrupt_replies,
+                "stop_reason": self.stop_reason, "stop_notes": self.stop_notes, "torque_off": torque,
                 "compute_us_p50": pct(self.compute_s, 50, 1e6), "compute_us_p99": pct(self.compute_s, 99, 1e6),
-                "jitter_ms_p99": pct(self.jitter_s, 99, 1e3)}
+                "jitter_ms_p99": pct(self.jitter_s, 99, 1e3), "realtime": self.realtime}
 
 
 def start_up(chain: ServoChain, mapping: ServoMapping, warn: Callable[[str], None] = print) -> None:
     problems = []
     for dxl_id, profile in chain.devices.items():
         try:
-            model = chain._retry(lambda: chain.bus.ping(dxl_id))
-        except CommunicationError:
-            problems.append(f"ID {dxl_id} ({profile.model}) does not answer")
+            model = chain.ping(dxl_id, PATIENT_ATTEMPTS)
+        except CommunicationError as exc:
+            problems.append(f"ID {dxl_id} ({profile.model}) "
+                            + ("answers only with corrupt packets (wrong baud rate, or noise on the wire?)"
+                               if exc.corrupt else "does not answer"))
             continue
         if model != profile.model_number:
             problems.append(f"ID {dxl_id} is model number {model}, the config expects {profile.model} "
@@ -87,7 +125,7 @@ def start_up(chain: ServoChain, mapping: ServoMapping, warn: Callable[[str], Non
     for dxl_id in chain.servo_ids:
         if "hardware_error_status" in chain.devices[dxl_id].control_table:
             try:
-                status = chain.read(dxl_id, "hardware_error_status")
+                status = chain.read(dxl_id, "hardware_error_status", PATIENT_ATTEMPTS)
             except ServoError as exc:  # the alert bit comes with the very value we asked for
                 if exc.value is None:
                     raise
@@ -96,18 +134,19 @@ def start_up(chain: ServoChain, mapping: ServoMapping, warn: Callable[[str], Non
                 errors.append(f"ID {dxl_id}: {decode_hardware_error(status)}")
     if errors:
         raise StartupError("hardware errors latched (power-cycle or REBOOT the servo): " + "; ".join(errors))
-    chain.torque(False)  # EEPROM settings need torque off
+    chain.torque(False, attempts=PATIENT_ATTEMPTS)  # EEPROM settings need torque off
     for k, dxl_id in enumerate(chain.servo_ids):
         profile = chain.devices[dxl_id]
-        chain.write(dxl_id, "return_delay_time", 0)
+        settings = [("return_delay_time", 0)]
         if "operating_mode" in profile.control_table:
-            chain.write(dxl_id, "operating_mode", POSITION_MODE)
+            settings.append(("operating_mode", POSITION_MODE))
         if "min_position_limit" in profile.control_table:
-            chain.write(dxl_id, "min_position_limit", int(mapping.tick_low[k]))
-            chain.write(dxl_id, "max_position_limit", int(mapping.tick_high[k]))
-        if "bus_watchdog" in profile.control_table:
-            chain.write(dxl_id, "bus_watchdog", 0)  # clears a tripped watchdog
-            chain.write(dxl_id, "bus_watchdog", WATCHDOG_MS // 20)
+            settings += [("min_position_limit", int(mapping.tick_low[k])),
+                         ("max_position_limit", int(mapping.tick_high[k]))]
+        if "bus_watchdog" in profile.control_table:  # 0 first: clears a tripped watchdog
+            settings += [("bus_watchdog", 0), ("bus_watchdog", WATCHDOG_MS // 20)]
+        for name, value in settings:
+            chain.write(dxl_id, name, value, PATIENT_ATTEMPTS)
     latency = usb_latency_timer_ms(getattr(chain.bus, "port_name", None))
     if latency is not None and latency != 1:
         warn(f"warning: the USB adapter's latency timer is {latency} ms; set it to 1 ms "
@@ -126,53 +165,93 @@ def usb_latency_timer_ms(port: str | None) -> int | None:
 
 
 def ramp(chain: ServoChain, mapping: ServoMapping, start: np.ndarray, target: np.ndarray,
-         seconds: float = RAMP_S, sleep: Callable[[float], None] = time.sleep) -> None:
-    """Move goals linearly from ``start`` to ``target`` [rad] over ``seconds``."""
+         seconds: float = RAMP_S, sleep: Callable[[float], None] = time.sleep,
+         cut_short: Callable[[], bool] = lambda: False) -> bool:
+    """Move goals linearly from ``start`` to ``target`` [rad] over ``seconds``; False if
+    ``cut_short()`` turned true on the way (the goals stop where they were)."""
     steps = max(1, int(math.ceil(seconds / RAMP_TICK_S)))
     for k in range(1, steps + 1):
+        if cut_short():
+            return False
         chain.sync_write("goal_position", mapping.ticks(start + (target - start) * k / steps))
         sleep(RAMP_TICK_S)
+    return True
 
 
 class RealTimeLoop:
     def __init__(self, chain: ServoChain, mapping: ServoMapping, policy: Policy, tick_s: float,
                  trace: TraceWriter | None = None, clock: Callable[[], float] = time.monotonic,
-                 sleep: Callable[[float], None] = time.sleep):
+                 sleep: Callable[[float], None] = time.sleep, lost_after_s: float = LOST_AFTER_S):
         self.chain, self.mapping, self.policy, self.tick_s = chain, mapping, policy, tick_s
         self.trace, self.clock, self.sleep = trace, clock, sleep
+        self.lost_after_s = lost_after_s
         self.goal = policy.hold.copy()
+        self.goal_ticks = mapping.ticks(self.goal)
 
     def run(self, duration_s: float | None, report: RunReport) -> None:
-        start = deadline = self.clock()
+        start = deadline = self.last_good = self.clock()
         n_ticks = None if duration_s is None else int(round(duration_s / self.tick_s))
         while n_ticks is None or report.ticks < n_ticks:
             began = self.clock()
             report.jitter_s.append(max(0.0, began - deadline))
+            readings = self._read(began + READ_BUDGET * self.tick_s, report)
+            bus_s = self.clock() - began
+            compute_s = 0.0
+            if readings is None:  # hold the last goals; writing them again keeps the watchdog fed
+                report.missed_ticks += 1
+            else:
+                angles, feet, up = readings
+                t0 = self.clock()
+                goal = self.policy.step(angles, feet, up, self.goal)
+                compute_s = self.clock() - t0
+                if not np.all(np.isfinite(goal)):
+                    raise UnsafeOutput(f"non-finite goal at tick {report.ticks}: held the last goals")
+                self.goal, self.goal_ticks = goal, self.mapping.ticks(goal)
+                report.compute_s.append(compute_s)
             t_bus = self.clock()
-            angles = self.mapping.angles(self.chain.sync_read("present_position"))
-            feet, up = self.chain.read_board()
-            bus_s = self.clock() - t_bus
-            t0 = self.clock()
-            goal = self.policy.step(angles, feet, up, self.goal)
-            compute_s = self.clock() - t0
-            if not np.all(np.isfinite(goal)):
-                raise UnsafeOutput(f"non-finite goal at tick {report.ticks}: held the last goals")
-            t_bus = self.clock()
-            self.chain.sync_write("goal_position", self.mapping.ticks(goal))
+            self.chain.sync_write("goal_position", self.goal_ticks)
             bus_s += self.clock() - t_bus
-            self.goal = goal
-            report.compute_s.append(compute_s)
             deadline += self.tick_s
             now = self.clock()
             overrun = now > deadline
             if overrun:
                 report.overruns += 1
                 deadline = now  # re-sync: never try to catch up
-            if self.trace is not None:
-                self.trace.write(began - start, report.ticks, goal, angles, feet, up, compute_s, bus_s, overrun)
+            if self.trace is not None and readings is not None:
+                self.trace.write(began - start, report.ticks, self.goal, angles, feet, up, compute_s, bus_s, overrun)
             report.ticks += 1
             if not overrun:
                 self._wait_until(deadline)
+
+    def _read(self, give_up_at: float, report: RunReport) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Joint angles, foot switches and up-vector, each read retried until ``give_up_at``;
+        None when the tick ran out.  Raises :class:`CommunicationError` once no read has
+        succeeded for ``lost_after_s``."""
+        angles = self._attempt(lambda: self.mapping.angles(self.chain.sync_read("present_position", attempts=1)),
+                               give_up_at, report)
+        if angles is None:
+            return None
+        board = self._attempt(lambda: self.chain.read_board(attempts=1), give_up_at, report)
+        if board is None:
+            return None
+        self.last_good = self.clock()
+        return angles, board[0], board[1]
+
+    def _attempt(self, read: Callable[[], Any], give_up_at: float, report: RunReport) -> Any:
+        for attempt in range(TICK_ATTEMPTS):
+            try:
+                return read()
+            except CommunicationError as exc:
+                report.corrupt_replies += exc.corrupt
+                now = self.clock()
+                silent_s = now - self.last_good
+                if silent_s >= self.lost_after_s:
+                    raise CommunicationError(exc.ids, f"{exc.what} (no good reply for {silent_s * 1e3:.0f} ms)",
+                                             exc.corrupt) from exc
+                if now >= give_up_at or attempt == TICK_ATTEMPTS - 1:
+                    return None
+                report.retries += 1
+        return None
 
     def _wait_until(self, deadline: float) -> None:
         """Sleep, then spin the last ``SPIN_S``: a thread woken from a long sleep starts late
@@ -185,92 +264,174 @@ class RealTimeLoop:
             pass
 
 
-def _on_sigterm(signum, frame):
-    raise Shutdown()
+class StopSignals:
+    """SIGINT and SIGTERM for the whole of a run, from start-up to the read-back of torque.
+
+    The first signal ends the run (``KeyboardInterrupt`` or :class:`Shutdown`, raised in the
+    main thread); from then on - and once the stop has begun for any reason - signals only
+    set ``cut_short``, which ends the ramp to rest early.  So no signal can skip the
+    torque-off, and at most one exception ever comes from here.  (The default handlers were
+    back in place during the stop before, and a SIGTERM in the final ramp killed the process
+    with every servo powered.)
+    """
+
+    def __init__(self) -> None:
+        self.stopping = False
+        self.cut_short = False
+        self.received: list[str] = []
+        self._previous: dict[int, Any] = {}
+
+    def __enter__(self) -> "StopSignals":
+        if threading.current_thread() is threading.main_thread():
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                self._previous[signum] = signal.signal(signum, self._handle)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
+
+    def _handle(self, signum: int, frame) -> None:
+        self.received.append(signal.Signals(signum).name)
+        if self.stopping:
+            self.cut_short = True
+            return
+        self.stopping = True
+        raise KeyboardInterrupt if signum == signal.SIGINT else Shutdown()
 
 
 def drive(bus: Bus, robot: RobotSpec, controller: dict[str, Any], duration_s: float | None = None,
           trace_path: Path | str | None = None, disabled_modules: tuple[str, ...] = (),
           log: Callable[[str], None] = print, clock: Callable[[], float] = time.monotonic,
-          sleep: Callable[[float], None] = time.sleep, ramp_s: float = RAMP_S) -> RunReport:
-    """Start up, ramp, run the loop, and always end safe; returns what happened."""
+          sleep: Callable[[float], None] = time.sleep, ramp_s: float = RAMP_S,
+          lost_after_s: float = LOST_AFTER_S, realtime: RealtimeRequest | None = None) -> RunReport:
+    """Start up, ramp, run the loop, and always end with torque off, read back; returns what
+    happened (``report.torque_off`` lists servos confirmed off and those that are not).
+    ``realtime``: ask the OS for real-time treatment first (None: do not ask)."""
     report = RunReport()
     chain = ServoChain(bus, robot)
     mapping = ServoMapping(robot)
     policy = Policy(controller, robot, disabled_modules)
     trace = None
-    previous = signal.signal(signal.SIGTERM, _on_sigterm) if _main_thread() else None
-    loop = None
-    bus.open()
-    try:
-        start_up(chain, mapping, warn=log)
-        if trace_path is not None:
-            trace = TraceWriter(trace_path, robot.joint_names, {
-                "robot": robot.name, "controller_hash": controller["robot"]["joint_map_hash"],
-                "controller_provenance": controller.get("provenance", {}), "tick_s": policy.tick_s,
-                "software": "servo-biped-evolve"})
-        present = mapping.angles(chain.sync_read("present_position"))
-        chain.torque(True)
-        ramp(chain, mapping, present, policy.reset(), ramp_s, sleep)
-        loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep)
-        loop.run(duration_s, report)
-        report.stop_reason = "duration reached"
-    except KeyboardInterrupt:
-        report.stop_reason = "interrupted (Ctrl-C)"
-    except Shutdown:
-        report.stop_reason = "terminated (SIGTERM)"
-    except ServoError as exc:
+    startup_error: StartupError | None = None
+    if realtime is not None:
+        grant = request_realtime(realtime)
+        report.realtime = grant.summary()
+        log(grant.describe())
+    with StopSignals() as signals:
+        try:
+            bus.open()
+            start_up(chain, mapping, warn=log)
+            if trace_path is not None:
+                trace = TraceWriter(trace_path, robot.joint_names, {
+                    "robot": robot.name, "controller_hash": controller["robot"]["joint_map_hash"],
+                    "controller_provenance": controller.get("provenance", {}), "tick_s": policy.tick_s,
+                    "software": "servo-biped-evolve"})
+            present = mapping.angles(chain.sync_read("present_position", attempts=PATIENT_ATTEMPTS))
+            chain.torque(True, attempts=PATIENT_ATTEMPTS)
+            ramp(chain, mapping, present, policy.reset(), ramp_s, sleep)
+            loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s)
+            with no_garbage_collection():
+                loop.run(duration_s, report)
+            report.stop_reason = "duration reached"
+        except BaseException as exc:  # noqa: BLE001 - every way out leads to the same safe stop
+            signals.stopping = True
+            if isinstance(exc, StartupError):
+                startup_error = exc
+            report.stop_reason = _stop_reason(exc, chain, report)
+        finally:
+            # A signal may still raise once (see StopSignals); the stop then simply starts again.
+            for _ in range(2):
+                try:
+                    signals.stopping = True
+                    _stop_safely(chain, mapping, policy, report, signals, sleep, ramp_s, log,
+                                 ramp_to_rest=startup_error is None)
+                    break
+                except (KeyboardInterrupt, Shutdown):
+                    report.stop_notes.append("a signal arrived as the stop began; the stop started again")
+            report.retries += chain.retries_used
+            if trace is not None:
+                trace.close()
+            bus.close()
+            if report.realtime is not None and report.realtime["priority"] is not None:
+                ordinary_scheduling()
+    if signals.received and signals.cut_short:
+        report.stop_notes.append(f"ramp to rest cut short by {signals.received[-1]}")
+    if startup_error is not None:
+        raise startup_error
+    return report
+
+
+def _stop_reason(exc: BaseException, chain: ServoChain, report: RunReport) -> str:
+    if isinstance(exc, KeyboardInterrupt):
+        return "interrupted (Ctrl-C)"
+    if isinstance(exc, Shutdown):
+        return "terminated (SIGTERM)"
+    if isinstance(exc, ServoError):
         report.bus_errors += 1
         detail = ""
         try:
             detail = decode_hardware_error(chain.read(exc.id, "hardware_error_status"))
         except ServoError as again:
             detail = decode_hardware_error(again.value or 0)
-        except BipedError:
+        except (BipedError, KeyError):
             pass
-        report.stop_reason = f"{exc}" + (f" (hardware error: {detail})" if detail and detail != "none" else "")
-    except CommunicationError as exc:
+        return f"{exc}" + (f" (hardware error: {detail})" if detail and detail != "none" else "")
+    if isinstance(exc, CommunicationError):
         report.bus_errors += 1
-        report.stop_reason = f"lost communication: {exc}"
-    except UnsafeOutput as exc:
-        report.stop_reason = str(exc)
-    except StartupError:
-        _torque_off(chain)
-        bus.close()
-        raise
-    except Exception as exc:  # a bug must not leave torque on
-        report.stop_reason = f"error: {type(exc).__name__}: {exc}"
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
-        if report.stop_reason:
-            _stop_safely(chain, mapping, policy, loop, report, sleep, ramp_s, log)
-            if trace is not None:
-                trace.close()
-            bus.close()
-    return report
+        return f"lost communication: {exc}" + (" (corrupt replies: noise on the wire?)" if exc.corrupt else "")
+    if isinstance(exc, (UnsafeOutput, StartupError)):
+        return str(exc)
+    if isinstance(exc, SystemExit):
+        return f"exit requested inside the loop (SystemExit {exc.code!r})"
+    return f"error: {type(exc).__name__}: {exc}"  # a bug must not leave torque on
 
 
-def _stop_safely(chain, mapping, policy, loop, report, sleep, ramp_s, log) -> None:
-    try:
-        if "hardware" not in report.stop_reason:
-            present = mapping.angles(chain.sync_read("present_position"))
-            ramp(chain, mapping, present, policy.hold, ramp_s, sleep)
-    except (BipedError, KeyboardInterrupt, Shutdown):
-        log("warning: could not ramp to the rest pose; turning torque off")
-    _torque_off(chain)
-
-
-def _torque_off(chain: ServoChain) -> None:
-    """Torque off on every servo that answers; keeps going past the ones that do not."""
-    for dxl_id in chain.servo_ids:
+def _stop_safely(chain: ServoChain, mapping: ServoMapping, policy: Policy, report: RunReport,
+                 signals: StopSignals, sleep: Callable[[float], None], ramp_s: float,
+                 log: Callable[[str], None], ramp_to_rest: bool = True) -> None:
+    """Ramp to the rest pose unless a servo is in hardware error, the bus is silent or a
+    signal cuts it short; then torque off on every servo, read back."""
+    if ramp_to_rest and "hardware" not in report.stop_reason and not signals.cut_short:
         try:
-            chain.write(dxl_id, "torque_enable", 0)
+            present = mapping.angles(chain.sync_read("present_position"))
+            if not ramp(chain, mapping, present, policy.hold, ramp_s, sleep, lambda: signals.cut_short):
+                log("warning: ramp to rest cut short by a signal; turning torque off")
         except (BipedError, ValueError):
-            continue
+            log("warning: could not ramp to the rest pose; turning torque off")
+    report.torque_off = torque_off(chain)
+    if report.torque_off.unconfirmed:
+        log(f"DANGER: torque off not confirmed on servo(s) {', '.join(map(str, report.torque_off.unconfirmed))}: "
+            "cut the power to the robot")
 
 
-def _main_thread() -> bool:
-    import threading
+def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS) -> TorqueOff:
+    """Torque off on every servo, confirmed by reading Torque Enable back.
 
-    return threading.current_thread() is threading.main_thread()
+    One sync write first (a single packet, no reply to lose, reaches every servo at once),
+    then per servo: read back, and write again while it still reads 1.
+    """
+    try:
+        chain.sync_write("torque_enable", np.zeros(len(chain.servo_ids), dtype=np.int64))
+    except (BipedError, ValueError):  # a port gone, or servos of different tables: per servo below
+        pass
+    result = TorqueOff()
+    for dxl_id in chain.servo_ids:
+        for _ in range(attempts):
+            try:
+                if chain.read(dxl_id, "torque_enable", attempts=1) == 0:
+                    result.confirmed.append(dxl_id)
+                    break
+            except ServoError as exc:  # alert bit set: the value still came with it
+                if exc.value == 0:
+                    result.confirmed.append(dxl_id)
+                    break
+            except (BipedError, ValueError):
+                continue
+            try:
+                chain.write(dxl_id, "torque_enable", 0, attempts=1)
+            except (BipedError, ValueError):
+                pass
+        else:
+            result.unconfirmed.append(dxl_id)
+    return result

@@ -2,35 +2,48 @@
 the simulated bus on a pseudo-terminal, with ground truth from the simulator.
 
 Nothing in the loop knows it is not talking to hardware.  Faults end the way they would on
-hardware: retried, or a safe stop with torque off.
+hardware: retried, or a safe stop with torque off.  The simulated bus is a child process
+(:mod:`sim2real.simbus.service`), so this side imports no MuJoCo.
 """
 
 from __future__ import annotations
 
-import threading
+import json
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 from typing import Any, Callable
-
-import numpy as np
 
 from sim2real.bus.dynamixel import DynamixelBus
 from sim2real.controller import load_controller
 from sim2real.deploy import drive
-from sim2real.errors import ConfigError
+from sim2real.errors import BipedError, ConfigError
+from sim2real.realtime import RealtimeRequest
 from sim2real.reality import load_reality
-from sim2real.robot import load_robot
-from sim2real.simbus.physics import PhysicsChain
-from sim2real.simbus.server import EmulatedChain, PtyServer
+from sim2real.robot import RobotSpec, load_robot
 from sim2real.validation import Node, load_yaml
 
-FALL_HEIGHT = 0.7  # as in evolution: pelvis below 70 % of its start height
-FALL_TILT_DEG = 60.0
 
-
-def parse_faults(spec: str | None) -> list[tuple[str, int, float]]:
+def parse_faults(spec: str | None, robot: RobotSpec | None = None) -> list[tuple[str, int, float]]:
     """``silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE``, or a YAML file of the
     same (``silent: [{id: 4, at_s: 3}]``, ``overload: [...]``, ``drop: 0.02``, ``corrupt: 0.01``)
-    -> [(kind, id, value)] (id 0 for the wire-wide rates)."""
+    -> [(kind, id, value)] (id 0 for the wire-wide rates).  With ``robot``, every ID must be
+    one of its devices (overload: one of its servos)."""
+    faults = _parse_faults(spec)
+    if robot is not None:
+        servos = [j.servo.id for j in robot.joints if j.servo]
+        devices = servos + ([robot.sensor_board.id] if robot.sensor_board else [])
+        for kind, dxl_id, _ in faults:
+            allowed = servos if kind == "overload" else devices if kind == "silent" else None
+            if allowed is not None and dxl_id not in allowed:
+                raise ConfigError("--faults", f"{kind}:{dxl_id}", f"ID {dxl_id} is not a "
+                                  f"{'servo' if kind == 'overload' else 'device'} of robot {robot.name} "
+                                  f"(IDs: {', '.join(map(str, sorted(allowed)))})")
+    return faults
+
+
+def _parse_faults(spec: str | None) -> list[tuple[str, int, float]]:
     if spec and spec.endswith((".yaml", ".yml")):
         return _faults_file(Path(spec))
     faults = []
@@ -70,48 +83,79 @@ def _faults_file(path: Path) -> list[tuple[str, int, float]]:
     return faults
 
 
-def arm_faults(spec: str | None, chain: EmulatedChain, physics: PhysicsChain,
-               delay_s: float = 0.0) -> tuple[list[threading.Timer], dict[str, float]]:
-    """Timers for silent servos and overload times (``delay_s`` after start), and the wire's
-    drop/corrupt rates as :class:`PtyServer` keyword arguments."""
-    timers, rates = [], {}
-    for kind, dxl_id, at in parse_faults(spec):
-        if kind == "silent":
-            timers.append(threading.Timer(delay_s + at, chain.silent.add, (dxl_id,)))
-        elif kind == "overload":
-            physics.overload_at[dxl_id] = delay_s + at
-        else:
-            rates[f"{kind}_rate"] = at
-    return timers, rates
+class SimulatedBusProcess:
+    """``python -m sim2real.simbus`` as a child process: ``port`` once started; its ground
+    truth once stopped (by closing its standard input)."""
+
+    def __init__(self, args: list[str], log: Callable[[str], None] = print):
+        self.args, self.log = args, log
+        self.port = ""
+        self.ground_truth: dict[str, Any] = {}
+
+    def __enter__(self) -> "SimulatedBusProcess":
+        self._stderr = tempfile.TemporaryFile(mode="w+")
+        self.proc = subprocess.Popen([sys.executable, "-m", "sim2real.simbus", *self.args,
+                                      "--exit-on-stdin-eof", "--report"],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._stderr, text=True)
+        self.port = self.proc.stdout.readline().strip()
+        if not self.port:
+            self.proc.wait(timeout=30)
+            raise BipedError(f"the simulated bus did not start: {self._errors() or f'exit {self.proc.returncode}'}")
+        return self
+
+    def __exit__(self, *exc) -> None:
+        try:
+            out, _ = self.proc.communicate(timeout=30)  # closes the child's stdin: its signal to stop
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            out, _ = self.proc.communicate()
+        lines = [line for line in out.splitlines() if line.strip()]
+        try:
+            self.ground_truth = json.loads(lines[-1]) if lines else {}
+        except json.JSONDecodeError:
+            self.ground_truth = {}
+        for line in self._errors().splitlines():
+            self.log(line)
+        self._stderr.close()
+
+    def _errors(self) -> str:
+        self._stderr.seek(0)
+        return self._stderr.read().strip()
 
 
 def dry_run(controller_path: Path | str, robot_name: str | None = None, duration_s: float = 10.0,
             trace_path: Path | str | None = None, faults: str | None = None,
             log: Callable[[str], None] = print, ramp_s: float = 2.0,
-            disabled_modules: tuple[str, ...] = (), reality: str | None = None, seed: int = 0) -> dict[str, Any]:
+            disabled_modules: tuple[str, ...] = (), reality: str | None = None, seed: int = 0,
+            realtime: RealtimeRequest | None = None, simbus_realtime: list[str] | None = None) -> dict[str, Any]:
     """Run a controller through the real runtime on the simulated bus, the robot behind it
-    perturbed by the reality profile ``reality`` (None: nominal); see ``biped dry-run``."""
+    perturbed by the reality profile ``reality`` (None: nominal); see ``biped dry-run``.
+
+    The simulated bus runs in its own process.  ``realtime`` is the runtime's real-time
+    request (None: none); ``simbus_realtime`` the simulated bus's as its flags (None: none).
+    """
     data = load_controller(controller_path)
-    robot = load_robot(robot_name or data["robot"]["name"])
+    robot_arg = robot_name or data["robot"]["name"]
+    robot = load_robot(robot_arg)
     data = load_controller(controller_path, robot)
-    profile = load_reality(reality)
-    physics = PhysicsChain(robot, reality=profile, seed=seed)
-    start_soles, start_height = physics.sole_x(), physics.pelvis_height()
-    chain = EmulatedChain(physics.devices, advance=physics.advance)
-    timers, rates = arm_faults(faults, chain, physics, delay_s=ramp_s)
-    with PtyServer(chain, **rates) as server:
-        for timer in timers:
-            timer.start()
-        try:
-            report = drive(DynamixelBus(server.port, robot.bus.baud, robot), robot, data, duration_s=duration_s,
-                           trace_path=trace_path, log=log, ramp_s=ramp_s, disabled_modules=disabled_modules)
-        finally:
-            for timer in timers:
-                timer.cancel()
-    distance = float(np.min(physics.sole_x() - start_soles))
-    fell = (physics.pelvis_height() < FALL_HEIGHT * start_height
-            or physics.upright() < np.cos(np.radians(FALL_TILT_DEG)))
-    return {"distance_m": distance, "fell": bool(fell), "ticks": report.ticks, "overruns": report.overruns,
-            "bus_errors": report.bus_errors, "stop_reason": report.stop_reason, "reality": profile.name,
-            "trace": str(trace_path) if trace_path else None, "simulated_s": float(physics.data.time),
-            **{k: v for k, v in report.summary().items() if k.startswith(("compute", "jitter"))}}
+    profile = load_reality(reality)  # every input checked before anything starts
+    parse_faults(faults, robot)
+    args = ["--robot", robot_arg, "--seed", str(seed), "--fault-delay", str(ramp_s),
+            *(["--reality", reality] if reality else []), *(["--faults", faults] if faults else []),
+            *(simbus_realtime if simbus_realtime is not None else ["--no-realtime"])]
+    with SimulatedBusProcess(args, log) as simbus:
+        report = drive(DynamixelBus(simbus.port, robot.bus.baud, robot), robot, data, duration_s=duration_s,
+                       trace_path=trace_path, log=log, ramp_s=ramp_s, disabled_modules=disabled_modules,
+                       realtime=realtime)
+    truth = simbus.ground_truth
+    if "distance_m" not in truth:
+        raise BipedError("the simulated bus ended without its report (it crashed?)")
+    summary = report.summary()
+    return {"distance_m": truth["distance_m"], "fell": truth["fell"], "ticks": report.ticks,
+            "overruns": report.overruns, "bus_errors": report.bus_errors, "retries": report.retries,
+            "missed_ticks": report.missed_ticks, "corrupt_replies": report.corrupt_replies,
+            "stop_reason": report.stop_reason, "stop_notes": report.stop_notes, "torque_off": summary["torque_off"],
+            "reality": profile.name, "trace": str(trace_path) if trace_path else None,
+            "simulated_s": truth["simulated_s"],
+            **{k: v for k, v in summary.items() if k.startswith(("compute", "jitter"))},
+            "realtime": summary["realtime"], "simbus_realtime": truth.get("realtime")}

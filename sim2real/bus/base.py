@@ -20,10 +20,13 @@ HARDWARE_ERRORS = {0: "input voltage", 2: "overheating", 3: "motor encoder", 4: 
 
 
 class CommunicationError(BipedError):
-    """A servo did not answer (after retries), or its answer was corrupt."""
+    """A servo did not answer (after retries), or its answer was corrupt (``corrupt``: a
+    reply came but failed its CRC or checksum - noise or a baud mismatch, not a silent servo)."""
 
-    def __init__(self, ids: Iterable[int], what: str):
+    def __init__(self, ids: Iterable[int], what: str, corrupt: bool = False):
         self.ids = tuple(ids)
+        self.what = what
+        self.corrupt = corrupt
         who = ", ".join(str(i) for i in self.ids)
         super().__init__(f"servo{'s' if len(self.ids) > 1 else ''} {who}: {what}")
 

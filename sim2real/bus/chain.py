@@ -36,34 +36,46 @@ def encode(reg: Register, value: int) -> int:
 
 
 class ServoChain:
+    """``attempts`` is how often a read or write is tried before its
+    :class:`CommunicationError` goes up (default ``1 + retries``); ``retries_used`` counts the
+    repeats that were needed."""
+
     def __init__(self, bus: Bus, robot: RobotSpec, retries: int = 2):
         self.bus, self.robot, self.retries = bus, robot, retries
+        self.retries_used = 0
         self.servo_ids = [j.servo.id for j in robot.joints if j.servo is not None]
         self.devices: dict[int, DeviceProfile] = {j.servo.id: j.servo.profile for j in robot.joints if j.servo}
         self.board_id = robot.sensor_board.id if robot.sensor_board else None
         if robot.sensor_board:
             self.devices[self.board_id] = robot.sensor_board.profile
 
-    def _retry(self, call: Callable[[], T]) -> T:
-        for attempt in range(self.retries + 1):
+    def with_retries(self, call: Callable[[], T], attempts: int | None = None) -> T:
+        """``call()``, repeated on :class:`CommunicationError` up to ``attempts`` times in all."""
+        attempts = self.retries + 1 if attempts is None else attempts
+        for attempt in range(attempts):
             try:
                 return call()
             except CommunicationError:
-                if attempt == self.retries:
+                if attempt == attempts - 1:
                     raise
+                self.retries_used += 1
         raise AssertionError("unreachable")
 
     def register(self, dxl_id: int, name: str) -> Register:
         return self.devices[dxl_id].register(name)
 
-    def read(self, dxl_id: int, name: str) -> int:
-        reg = self.register(dxl_id, name)
-        return decode(reg, self._retry(lambda: self.bus.read(dxl_id, reg.address, reg.size)))
+    def ping(self, dxl_id: int, attempts: int | None = None) -> int:
+        """The device's model number."""
+        return self.with_retries(lambda: self.bus.ping(dxl_id), attempts)
 
-    def write(self, dxl_id: int, name: str, value: int) -> None:
+    def read(self, dxl_id: int, name: str, attempts: int | None = None) -> int:
+        reg = self.register(dxl_id, name)
+        return decode(reg, self.with_retries(lambda: self.bus.read(dxl_id, reg.address, reg.size), attempts))
+
+    def write(self, dxl_id: int, name: str, value: int, attempts: int | None = None) -> None:
         reg = self.register(dxl_id, name)
         raw = encode(reg, value)
-        self._retry(lambda: self.bus.write(dxl_id, reg.address, reg.size, raw))
+        self.with_retries(lambda: self.bus.write(dxl_id, reg.address, reg.size, raw), attempts)
 
     def _common(self, ids: list[int], name: str) -> Register:
         regs = {(r.address, r.size) for r in (self.register(i, name) for i in ids)}
@@ -71,11 +83,11 @@ class ServoChain:
             raise ValueError(f"{name} differs in address or size between servos {ids}: no sync access")
         return self.register(ids[0], name)
 
-    def sync_read(self, name: str, ids: list[int] | None = None) -> np.ndarray:
+    def sync_read(self, name: str, ids: list[int] | None = None, attempts: int | None = None) -> np.ndarray:
         """Decoded values in ``ids`` order (default: every servo in joint order)."""
         ids = self.servo_ids if ids is None else ids
         reg = self._common(ids, name)
-        raw = self._retry(lambda: self.bus.sync_read(ids, reg.address, reg.size))
+        raw = self.with_retries(lambda: self.bus.sync_read(ids, reg.address, reg.size), attempts)
         return np.array([decode(reg, raw[i]) for i in ids], dtype=np.int64)
 
     def sync_write(self, name: str, values: np.ndarray, ids: list[int] | None = None) -> None:
@@ -83,11 +95,11 @@ class ServoChain:
         reg = self._common(ids, name)
         self.bus.sync_write(reg.address, reg.size, {i: encode(reg, v) for i, v in zip(ids, values)})
 
-    def torque(self, on: bool, ids: list[int] | None = None) -> None:
+    def torque(self, on: bool, ids: list[int] | None = None, attempts: int | None = None) -> None:
         for dxl_id in self.servo_ids if ids is None else ids:
-            self.write(dxl_id, "torque_enable", int(on))
+            self.write(dxl_id, "torque_enable", int(on), attempts)
 
-    def read_board(self) -> tuple[np.ndarray, np.ndarray]:
+    def read_board(self, attempts: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Foot switches (left, right: True touching) and the torso up-vector (unit, torso frame)."""
         if self.board_id is None:
             raise ValueError(f"robot {self.robot.name} has no sensor board")
@@ -95,7 +107,7 @@ class ServoChain:
         first = profile.register("foot_switch_left")
         last = profile.register("up_vector_z")
         size = last.address + last.size - first.address
-        raw = self._retry(lambda: self.bus.read(self.board_id, first.address, size))
+        raw = self.with_retries(lambda: self.bus.read(self.board_id, first.address, size), attempts)
         block = raw.to_bytes(size, "little")
 
         def field(name: str) -> int:

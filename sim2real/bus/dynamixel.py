@@ -75,6 +75,8 @@ class DynamixelBus(Bus):
             self.port.closePort()
 
     def _check(self, ids, result: int, error: int, what: str, value: int | None = None) -> None:
+        if result == sdk.COMM_RX_CORRUPT:
+            raise CommunicationError(ids, f"{what}: corrupt reply (CRC error)", corrupt=True)
         if result != sdk.COMM_SUCCESS:
             raise CommunicationError(ids, f"{what}: {self.packets.getTxRxResult(result)}")
         if error:
@@ -104,9 +106,12 @@ class DynamixelBus(Bus):
             raise CommunicationError(ids, f"sync read: {self.packets.getTxRxResult(result)}")
         # One status packet per servo, in any order; the SDK's readRx would swallow the
         # packets of the servos after a silent one while it waits for that one.
-        values, errors, pending = {}, [], set(ids)
+        values, errors, pending, corrupt = {}, [], set(ids), 0
         while pending:
             packet, result = self.packets.rxPacket(self.port, False)
+            if result == sdk.COMM_RX_CORRUPT:  # one bad packet; the others may still come
+                corrupt += 1
+                continue
             if result != sdk.COMM_SUCCESS:
                 break
             dxl_id = packet[sdk.protocol2_packet_handler.PKT_ID]
@@ -121,6 +126,9 @@ class DynamixelBus(Bus):
         missing = [i for i in ids if i in pending]
         self.port.is_using = False
         if missing:
+            if corrupt:
+                raise CommunicationError(missing, f"sync read: {corrupt} corrupt repl{'ies' if corrupt > 1 else 'y'} "
+                                         "(CRC error)", corrupt=True)
             raise CommunicationError(missing, "no status packet in sync read")
         if errors:
             dxl_id, error = errors[0]

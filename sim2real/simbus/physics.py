@@ -35,6 +35,8 @@ from sim2real.timing import control_timing
 OVERLOAD_BIT = 1 << 5
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
 CONTACT_SHARE = 0.05  # a foot switch closes at this share of the body weight
+FALL_HEIGHT = 0.7  # as in evolution: pelvis below 70 % of its start height
+FALL_TILT_DEG = 60.0
 
 
 class PhysicsChain:
@@ -69,6 +71,7 @@ class PhysicsChain:
         self.lock = threading.Lock()
         self._started = clock()
         self._publish()
+        self._start_soles, self._start_height = self.sole_x(), self.pelvis_height()
         for k, dxl_id in enumerate(self.ids):
             self.devices[dxl_id].set_named("goal_position", int(self.devices[dxl_id].get_named("present_position")))
 
@@ -110,6 +113,8 @@ class PhysicsChain:
     def _check_overload(self, on: np.ndarray) -> None:
         force = np.abs(self.data.actuator_force)
         self.saturated = np.where(on & (force >= 0.99 * self.torque_limit), self.saturated + self.model.opt.timestep, 0.0)
+        if not self.overload_at and not np.any(self.saturated >= self.overload_s):
+            return  # the common case, without a Python loop over the servos every step
         for k, dxl_id in enumerate(self.ids):
             due = self.overload_at.get(dxl_id)
             if self.saturated[k] >= self.overload_s or (due is not None and self.data.time >= due):
@@ -158,3 +163,12 @@ class PhysicsChain:
 
     def upright(self) -> float:
         return float(self.data.sensordata[self.up + 2])
+
+    def ground_truth(self) -> dict[str, float | bool]:
+        """Distance of the hindmost sole since the start [m] and whether the robot fell (as in
+        evolution: pelvis below 70 % of its start height, or torso tilted past 60 deg)."""
+        with self.lock:
+            fell = (self.pelvis_height() < FALL_HEIGHT * self._start_height
+                    or self.upright() < math.cos(math.radians(FALL_TILT_DEG)))
+            return {"distance_m": float(np.min(self.sole_x() - self._start_soles)), "fell": bool(fell),
+                    "simulated_s": float(self.data.time)}

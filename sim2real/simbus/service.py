@@ -1,0 +1,173 @@
+"""The simulated bus as a process: ``biped simbus`` and ``python -m sim2real.simbus``.
+
+    python -m sim2real.simbus --robot xl430_biped --reality default --exit-on-stdin-eof --report
+
+prints the pseudo-terminal's path as its first line, then serves until SIGTERM, Ctrl-C or
+(with ``--exit-on-stdin-eof``) its standard input closing - which is how a dry run stops it,
+and how it ends by itself if the dry run dies.  With ``--report`` its last line is one JSON
+object: the simulator's ground truth (distance, fell, simulated seconds) and what real-time
+treatment it got.
+
+It runs in its own process so that its physics never competes with the runtime it serves for
+one Python interpreter: in one process the runtime's busy-wait before each deadline held the
+interpreter lock while replies were due, and replies came late.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import sys
+import threading
+from typing import TYPE_CHECKING
+
+from sim2real.dry_run import parse_faults
+from sim2real.realtime import DEFAULT_PRIORITY, RealtimeRequest
+from sim2real.robot import RobotSpec
+
+if TYPE_CHECKING:
+    from sim2real.simbus.physics import PhysicsChain
+    from sim2real.simbus.server import EmulatedChain
+
+SIMBUS_PRIORITY = DEFAULT_PRIORITY  # the servos answer as promptly as the runtime asks
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from sim2real.robot import DEFAULT_ROBOT
+
+    parser.add_argument("--robot", default=DEFAULT_ROBOT,
+                        help="robot name from configs/robots/ or a path to a robot YAML (default: xl430_biped)")
+    parser.add_argument("--baud", type=int, help="pace replies like the wire at this baud (default: the robot's)")
+    parser.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start),"
+                        "drop:RATE,corrupt:RATE or a YAML file of them")
+    parser.add_argument("--reality", metavar="PROFILE",
+                        help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the reality profile's random parts")
+    add_realtime_arguments(parser)
+    parser.add_argument("--fault-delay", type=float, default=0.0, help=argparse.SUPPRESS)  # dry runs: the ramp
+    parser.add_argument("--exit-on-stdin-eof", action="store_true",
+                        help="also stop when standard input closes (for a parent process)")
+    parser.add_argument("--report", action="store_true",
+                        help="print the simulator's ground truth as one JSON line at the end")
+
+
+def add_realtime_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--no-realtime``, ``--rt-priority``, ``--cpu``, ``--no-mlock``: shared by every command
+    that runs something in real time."""
+    group = parser.add_argument_group("real-time treatment (Linux; each refusal is reported, never fatal)")
+    group.add_argument("--no-realtime", action="store_true",
+                       help="do not ask for a real-time scheduling class, locked memory or a CPU")
+    group.add_argument("--rt-priority", type=_priority, default=DEFAULT_PRIORITY, metavar="P",
+                       help=f"SCHED_FIFO priority 1-99 (default {DEFAULT_PRIORITY})")
+    group.add_argument("--cpu", type=_cpu, metavar="N", help="pin to this CPU (default: any)")
+    group.add_argument("--no-mlock", action="store_true", help="do not lock memory")
+
+
+def realtime_request(args: argparse.Namespace) -> RealtimeRequest:
+    if args.no_realtime:
+        return RealtimeRequest.off()
+    return RealtimeRequest(priority=args.rt_priority, cpu=args.cpu, lock_memory=not args.no_mlock)
+
+
+def realtime_flags(args: argparse.Namespace) -> list[str]:
+    """The same choices as command-line flags, for a child process."""
+    if args.no_realtime:
+        return ["--no-realtime"]
+    flags = ["--rt-priority", str(args.rt_priority)] + (["--cpu", str(args.cpu)] if args.cpu is not None else [])
+    return flags + (["--no-mlock"] if args.no_mlock else [])
+
+
+def _priority(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if not 1 <= value <= 99:
+        raise argparse.ArgumentTypeError(f"{text!r}: a SCHED_FIFO priority is an integer 1-99")
+    return value
+
+
+def _cpu(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value not in os.sched_getaffinity(0):
+        raise argparse.ArgumentTypeError(f"{text!r}: not a CPU this process may use "
+                                         f"({sorted(os.sched_getaffinity(0))})")
+    return value
+
+
+def serve(args: argparse.Namespace) -> int:
+    """Serve until told to stop; see the module docstring."""
+    from sim2real.reality import load_reality
+    from sim2real.robot import load_robot
+    from sim2real.simbus.physics import PhysicsChain
+    from sim2real.simbus.server import EmulatedChain, PtyServer
+
+    robot = load_robot(args.robot)
+    physics = PhysicsChain(robot, reality=load_reality(args.reality), seed=args.seed)
+    chain = EmulatedChain(physics.devices, advance=physics.advance)
+    timers, rates = arm_faults(args.faults, chain, physics, delay_s=args.fault_delay, robot=robot)
+    done = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *a: done.set())
+    if args.exit_on_stdin_eof:
+        threading.Thread(target=_set_on_eof, args=(done,), daemon=True).start()
+    baud = args.baud or (robot.bus.baud if robot.bus else None)
+    with PtyServer(chain, baud=baud, realtime=realtime_request(args), **rates) as server:
+        print(server.port, flush=True)
+        grant = server.realtime_grant
+        if grant is not None and grant.refused:
+            print(f"simbus: {grant.describe()}", file=sys.stderr, flush=True)
+        for timer in timers:
+            timer.start()
+        try:
+            while not done.wait(0.2):
+                pass
+        except KeyboardInterrupt:
+            pass
+        for timer in timers:
+            timer.cancel()
+    if args.report:
+        print(json.dumps({**physics.ground_truth(), "realtime": grant.summary() if grant else None}), flush=True)
+    return 0
+
+
+def arm_faults(spec: str | None, chain: "EmulatedChain", physics: "PhysicsChain",
+               delay_s: float = 0.0, robot: RobotSpec | None = None) -> tuple[list[threading.Timer], dict[str, float]]:
+    """Timers for silent servos and overload times (``delay_s`` after start), and the wire's
+    drop/corrupt rates as :class:`PtyServer` keyword arguments."""
+    timers, rates = [], {}
+    for kind, dxl_id, at in parse_faults(spec, robot):
+        if kind == "silent":
+            timers.append(threading.Timer(delay_s + at, chain.silent.add, (dxl_id,)))
+        elif kind == "overload":
+            physics.overload_at[dxl_id] = delay_s + at
+        else:
+            rates[f"{kind}_rate"] = at
+    return timers, rates
+
+
+
+def _set_on_eof(done: threading.Event) -> None:
+    try:
+        while sys.stdin.buffer.read(4096):
+            pass
+    except (OSError, ValueError):
+        pass
+    done.set()
+
+
+def main(argv: list[str] | None = None) -> int:
+    from sim2real.errors import BipedError
+
+    parser = argparse.ArgumentParser(prog="python -m sim2real.simbus", description=__doc__.splitlines()[0])
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    try:
+        return serve(args)
+    except BipedError as exc:
+        print(f"simbus: error: {exc}", file=sys.stderr)
+        return 2
