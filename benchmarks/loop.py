@@ -1,21 +1,41 @@
-"""The real-time loop on the mock bus: compute time, jitter and overruns.
+"""The real-time loop on an idle and on a busy computer: jitter, overruns, retries and stops.
 
-    python -m benchmarks.loop --json
+    python -m benchmarks.loop --json                      # everything (about 10 minutes)
+    python -m benchmarks.loop --parts mock --ticks 2000   # a quick look
 
-10,000 ticks of a 300-connection controller at a 10 ms tick on the default robot.
-``compute_us`` is the policy alone (inputs, both networks, mapping), without the bus;
-``jitter_ms`` is each tick's start against its deadline.  Goals: compute p99 <= 100 us,
-jitter p99 <= 1 ms, no overruns.
+It loads the machine on purpose: run nothing else meanwhile.  Parts:
+
+* ``mock``: 10,000 ticks of a 300-connection controller at a 10 ms tick on the mock bus, with
+  the real-time request (SCHED_FIFO, locked memory) and without it (the baseline), each on
+  an idle machine and with a CPU-bound process on every core ("hogs");
+* ``sim``: ``biped run --port <biped simbus's pty>`` for 60 s, idle and with the hogs: the
+  runtime and the simulated bus as two processes, through the official SDK, no faults;
+* ``dry``: the same dry run (``biped dry-run``) idle and with the hogs: the verdict (stop
+  reason, fell) must not depend on the load.
+
+Goals: with the hogs, jitter p99 <= 1 ms and overruns <= 0.1 % on the mock bus; no stop in
+60 s on the simulated bus; the same dry-run verdict.  ``compute_us`` is the policy alone;
+``jitter_ms`` is each tick's start against its deadline.
 """
 
 from __future__ import annotations
+
+import contextlib
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
 from benchmarks.common import parser, progress, report
 from sim2real.bus import MockBus
-from sim2real.controller import joint_map_hash
+from sim2real.controller import joint_map_hash, save_controller
 from sim2real.deploy import drive
+from sim2real.realtime import RealtimeRequest
 from sim2real.robot import load_robot
 from sim2real.symmetry import symmetric_layout
 
@@ -43,25 +63,117 @@ def random_controller(robot, connections: int, hidden: int, seed: int) -> dict:
     }
 
 
+def standing_controller(robot) -> dict:
+    """No connections: every output 0.5, each driven joint at the centre of its range."""
+    controller = random_controller(robot, 0, hidden=0, seed=0)
+    controller["tick_s"] = 0.034
+    return controller
+
+
+@contextlib.contextmanager
+def hogs(enabled: bool) -> Iterator[int]:
+    """A CPU-bound process on every core while the block runs."""
+    procs = []
+    if enabled:
+        procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 1)]
+    try:
+        yield len(procs)
+    finally:
+        for proc in procs:
+            proc.kill()
+            proc.wait()
+
+
+def mock_part(robot, ticks: int, tick_ms: float, connections: int, realtime: bool, busy: bool) -> dict:
+    controller = random_controller(robot, connections, hidden=40, seed=0)
+    controller["tick_s"] = tick_ms / 1000.0
+    request = RealtimeRequest() if realtime else None
+    with hogs(busy) as n_hogs:
+        result = drive(MockBus(robot), robot, controller, duration_s=ticks * controller["tick_s"],
+                       log=lambda s: None, ramp_s=0.1, realtime=request)
+    s = result.summary()
+    return {"realtime": realtime, "hogs": n_hogs, "ticks": s["ticks"], "compute_us_p50": s["compute_us_p50"],
+            "compute_us_p99": s["compute_us_p99"], "jitter_ms_p99": s["jitter_ms_p99"],
+            "jitter_ms_max": float(np.max(result.jitter_s) * 1e3), "overruns": s["overruns"],
+            "overrun_share": s["overruns"] / max(1, s["ticks"]), "stop_reason": s["stop_reason"],
+            "granted": s["realtime"]}
+
+
+def sim_part(controller_path: Path, seconds: float, busy: bool) -> dict:
+    """``biped run --port`` against ``biped simbus``, two processes, as a user would."""
+    simbus = subprocess.Popen([sys.executable, "-m", "sim2real.simbus", "--exit-on-stdin-eof"],
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        port = simbus.stdout.readline().strip()
+        with hogs(busy) as n_hogs:
+            out = subprocess.run([sys.executable, "-m", "evolve.cli", "run", str(controller_path), "--port", port,
+                                  "--duration", str(seconds), "--json"], capture_output=True, text=True,
+                                 timeout=seconds + 120)
+    finally:
+        simbus.stdin.close()
+        simbus.wait(timeout=30)
+    s = json.loads(out.stdout.splitlines()[-1])
+    return {"hogs": n_hogs, "seconds": seconds, "exit_code": out.returncode, "ticks": s["ticks"],
+            "stop_reason": s["stop_reason"], "overruns": s["overruns"], "jitter_ms_p99": s["jitter_ms_p99"],
+            "retries": s["retries"], "missed_ticks": s["missed_ticks"], "corrupt_replies": s["corrupt_replies"],
+            "torque_off": s["torque_off"], "granted": s["realtime"]}
+
+
+def dry_part(controller_path: Path, seconds: float, busy: bool) -> dict:
+    with hogs(busy) as n_hogs:
+        out = subprocess.run([sys.executable, "-m", "evolve.cli", "dry-run", str(controller_path), "--duration",
+                              str(seconds), "--json"], capture_output=True, text=True, timeout=seconds + 120)
+    s = json.loads(out.stdout.splitlines()[-1])
+    return {"hogs": n_hogs, "exit_code": out.returncode, "stop_reason": s["stop_reason"], "fell": s["fell"],
+            "distance_m": s["distance_m"], "overruns": s["overruns"], "retries": s["retries"],
+            "missed_ticks": s["missed_ticks"], "jitter_ms_p99": s["jitter_ms_p99"]}
+
+
 def main(argv=None) -> None:
     p = parser(__doc__.splitlines()[0])
-    p.add_argument("--ticks", type=int, default=10_000)
+    p.add_argument("--parts", default="mock,sim,dry", help="comma-separated: mock, sim, dry (default: all)")
+    p.add_argument("--ticks", type=int, default=10_000, help="mock-bus ticks per row (default 10,000)")
     p.add_argument("--tick-ms", type=float, default=10.0)
     p.add_argument("--connections", type=int, default=300)
+    p.add_argument("--sim-seconds", type=float, default=60.0, help="length of the simulated-bus runs (default 60)")
+    p.add_argument("--dry-seconds", type=float, default=10.0)
+    p.add_argument("--controller", type=Path, help="controller for the sim and dry parts (default: a standing one)")
     args = p.parse_args(argv)
+    parts = set(args.parts.split(","))
     robot = load_robot()
-    controller = random_controller(robot, args.connections, hidden=40, seed=0)
-    controller["tick_s"] = args.tick_ms / 1000.0
-    progress(f"{args.ticks} ticks at {args.tick_ms} ms on the mock bus...", args.json)
-    result = drive(MockBus(robot), robot, controller, duration_s=args.ticks * controller["tick_s"],
-                   log=lambda s: None, ramp_s=0.1)
-    summary = result.summary()
-    report({
-        "ticks": summary["ticks"], "tick_ms": args.tick_ms, "connections": args.connections,
-        "compute_us_p50": summary["compute_us_p50"], "compute_us_p99": summary["compute_us_p99"],
-        "jitter_ms_p99": summary["jitter_ms_p99"], "overruns": summary["overruns"],
-        "stop_reason": summary["stop_reason"],
-    }, args.json)
+    result: dict = {"tick_ms": args.tick_ms, "connections": args.connections}
+    with tempfile.TemporaryDirectory() as tmp:
+        controller = args.controller
+        if controller is None:
+            controller = Path(tmp) / "stand.json"
+            save_controller(controller, standing_controller(robot))
+        if "mock" in parts:
+            rows = {}
+            for busy in (False, True):
+                for realtime in (True, False):
+                    name = f"{'realtime' if realtime else 'baseline'}_{'hogs' if busy else 'idle'}"
+                    progress(f"mock bus, {name}: {args.ticks} ticks at {args.tick_ms} ms...", args.json)
+                    rows[name] = mock_part(robot, args.ticks, args.tick_ms, args.connections, realtime, busy)
+            result["mock"] = rows
+            base, rt = rows["baseline_hogs"], rows["realtime_hogs"]
+            result["hogs_jitter_p99_ratio_baseline_over_realtime"] = base["jitter_ms_p99"] / max(rt["jitter_ms_p99"], 1e-9)
+        if "sim" in parts:
+            rows = {}
+            for busy in (False, True):
+                name = "hogs" if busy else "idle"
+                progress(f"biped run --port <simbus> for {args.sim_seconds:.0f} s, {name}...", args.json)
+                rows[name] = sim_part(controller, args.sim_seconds, busy)
+            result["sim"] = rows
+        if "dry" in parts:
+            rows = {}
+            for busy in (False, True):
+                name = "hogs" if busy else "idle"
+                progress(f"biped dry-run for {args.dry_seconds:.0f} s, {name}...", args.json)
+                rows[name] = dry_part(controller, args.dry_seconds, busy)
+            result["dry"] = rows
+            result["dry_same_verdict"] = (rows["idle"]["stop_reason"] == rows["hogs"]["stop_reason"]
+                                          and rows["idle"]["fell"] == rows["hogs"]["fell"])
+    report(result, args.json)
 
 
 if __name__ == "__main__":

@@ -393,6 +393,7 @@ def _stop_safely(chain: ServoChain, mapping: ServoMapping, policy: Policy, repor
     """Ramp to the rest pose unless a servo is in hardware error, the bus is silent or a
     signal cuts it short; then torque off on every servo, read back."""
     if ramp_to_rest and "hardware" not in report.stop_reason and not signals.cut_short:
+        log(f"stopping ({report.stop_reason}): ramp to rest over {ramp_s:.1f} s, then torque off")
         try:
             present = mapping.angles(chain.sync_read("present_position"))
             if not ramp(chain, mapping, present, policy.hold, ramp_s, sleep, lambda: signals.cut_short):
@@ -400,7 +401,9 @@ def _stop_safely(chain: ServoChain, mapping: ServoMapping, policy: Policy, repor
         except (BipedError, ValueError):
             log("warning: could not ramp to the rest pose; turning torque off")
     report.torque_off = torque_off(chain)
-    if report.torque_off.unconfirmed:
+    if not report.torque_off.unconfirmed:
+        log(f"torque off, read back from all {len(report.torque_off.confirmed)} servos")
+    else:
         log(f"DANGER: torque off not confirmed on servo(s) {', '.join(map(str, report.torque_off.unconfirmed))}: "
             "cut the power to the robot")
 
