@@ -20,7 +20,6 @@ from sim2real.controller import load_controller
 from sim2real.deploy import drive
 from sim2real.errors import BipedError, ConfigError
 from sim2real.realtime import RealtimeRequest
-from sim2real.reality import load_reality
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.validation import Node, load_yaml
 
@@ -134,6 +133,8 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     The simulated bus runs in its own process.  ``realtime`` is the runtime's real-time
     request (None: none); ``simbus_realtime`` the simulated bus's as its flags (None: none).
     """
+    from sim2real.reality import load_reality  # MuJoCo: only a dry run needs it, not `biped run`
+
     data = load_controller(controller_path)
     robot_arg = robot_name or data["robot"]["name"]
     robot = load_robot(robot_arg)

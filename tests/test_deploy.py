@@ -207,7 +207,8 @@ def test_the_deploy_path_imports_without_mujoco():
     import subprocess
     import sys
 
-    code = ("import sys; import sim2real.deploy, sim2real.bus.dynamixel, sim2real.policy, sim2real.controller; "
+    code = ("import sys; import sim2real.deploy, sim2real.bus.dynamixel, sim2real.policy, sim2real.controller, "
+            "sim2real.cli_deploy, sim2real.simbus.service; "
             "print('mujoco' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
