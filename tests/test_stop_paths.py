@@ -253,3 +253,47 @@ def test_a_silent_servo_makes_the_run_fail_naming_it_and_asking_to_cut_power(con
     assert result["torque_off"]["unconfirmed"] == [4]
     assert result["stop_reason"].startswith("lost communication: servo 4")
     assert "servo 4" in out.stderr and "cut the power" in out.stderr
+
+
+# -- a noisy bus ---------------------------------------------------------------------------------
+
+
+def test_missed_replies_hold_the_goals_and_only_a_long_silence_stops_the_run(served, controller):
+    """Servo 5 misses a few replies: retried, some ticks held, the run goes on; silent for
+    good, the run stops once no read has succeeded for lost_after_s, not at the first miss."""
+    chain, port = served
+    misses = {"n": 0, "on": False}
+    real_read = chain._read
+
+    def flaky_read(dxl_id, address, size):
+        if dxl_id == 5 and misses["on"] and misses["n"] < 6:  # about 1.5 ticks of silence
+            misses["n"] += 1
+            return b""
+        return real_read(dxl_id, address, size)
+
+    chain._read = flaky_read
+    report = run(port, controller, Hooks(in_loop=lambda: misses.update(on=True)), duration_s=1.0)
+    assert report.stop_reason == "duration reached"
+    assert report.retries >= 5 and report.missed_ticks >= 1
+    assert_all_off(chain, report)
+
+
+def test_lost_communication_waits_for_lost_after_s(served, controller):
+    chain, port = served
+    stopped = {}
+    hooks = Hooks(in_loop=lambda: (chain.silent.add(3), stopped.setdefault("silent_at", time.monotonic())), n=5)
+    report = run(port, controller, hooks, duration_s=5, lost_after_s=0.3)
+    assert report.stop_reason.startswith("lost communication: servo 3")
+    assert "no good reply for" in report.stop_reason
+    ticks_while_silent = report.ticks - 5
+    assert ticks_while_silent * controller["tick_s"] >= 0.3 - controller["tick_s"]
+    assert report.missed_ticks == ticks_while_silent
+
+
+def test_a_device_that_answers_only_corrupt_packets_is_named_as_such(controller):
+    from sim2real.deploy import StartupError
+
+    chain = EmulatedChain(MockBus(ROBOT).devices)
+    with PtyServer(chain, baud=1_000_000, corrupt_rate=1.0) as server:
+        with pytest.raises(StartupError, match="answers only with corrupt packets"):
+            run(server.port, controller)
