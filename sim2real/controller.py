@@ -420,8 +420,11 @@ def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str],
     if "center_output" in sym:
         c.string(sym["center_output"], "symmetry.center_output")
     wired = right + left + center
-    if len(set(wired)) != len(wired) or set(wired) != set(driven):
-        raise c.error("symmetry", f"its joints {_show(sorted(wired))} are not joints.driven {_show(sorted(driven))}")
+    if len(set(wired)) != len(wired):
+        raise c.error("symmetry", f"{_show(next(n for i, n in enumerate(wired) if n in wired[:i]))} is wired twice")
+    if set(wired) != set(driven):
+        raise c.error("symmetry", _difference("joints.driven", sorted(set(wired) - set(driven)),
+                                              sorted(set(driven) - set(wired))))
     k = len(right)
     own = outputs[:k]
     for i, name in enumerate(own):
@@ -431,6 +434,11 @@ def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str],
     c.same_names("outputs", outputs, own + center, why)
     c.same_names("inputs", inputs, own + ["other_" + n[4:] for n in own] + center + SENSOR_INPUTS,
                  why[:-1] + ", then 4 sensors)")
+
+
+def _difference(what: str, extra: list[str], lacking: list[str]) -> str:
+    parts = [f"has {_show(extra)} beyond {what}"] if extra else []
+    return "; ".join(parts + ([f"lacks {_show(lacking)} of {what}"] if lacking else []))
 
 
 def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
@@ -445,10 +453,10 @@ def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
             raise c.error("task.control_set", f"robot {robot.name} has no control set {_show(control_set)} "
                           f"(has {', '.join(robot.control_sets)})")
         members = set(robot.control_sets[control_set])
-        extra, lacking = sorted(set(driven) - members), sorted(members - set(driven))
-        if extra or lacking:
-            raise c.error("joints.driven", f"not robot {robot.name}'s {control_set!r} control set (task.control_set): "
-                          f"drives {_show(extra)} beyond it, lacks {_show(lacking)}")
+        if set(driven) != members:
+            raise c.error("joints.driven", _difference(f"robot {robot.name}'s {control_set!r} control set "
+                                                       "(task.control_set)", sorted(set(driven) - members),
+                                                       sorted(members - set(driven))))
     try:
         layout = symmetric_layout(robot, tuple(driven))
     except (ValueError, KeyError) as exc:

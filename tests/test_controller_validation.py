@@ -191,7 +191,9 @@ CASES = [  # (name, mutation, the message's start: "FIELD: problem")
      "symmetry.center_mirror_for_left[0]: must be -1 or 1, got True"),
     ("symmetry unknown key", _set(["symmetry", "axis"], "sagittal"), "symmetry.axis: unknown key"),
     ("symmetry joints not driven", _set(["symmetry", "leg_joints", "right", 0], "right_ankle_roll"),
-     "symmetry: its joints"),
+     "symmetry: has ['right_ankle_roll'] beyond joints.driven; lacks ['right_hip_roll'] of joints.driven"),
+    ("symmetry joint twice", lambda d: d["symmetry"].update(center_joints=["right_knee"]),
+     "symmetry: 'right_knee' is wired twice"),
     ("modules empty", _set(["modules"], []), "modules: must be a non-empty list"),
     ("modules a string", _set(["modules"], "main"), "modules: must be a non-empty list"),
     ("module enabled missing", _set(["modules", 0, "enabled"], DELETE), "modules[0].enabled: missing"),
@@ -244,7 +246,7 @@ CASES = [  # (name, mutation, the message's start: "FIELD: problem")
     ("driven empty", _set(["joints", "driven"], []), "joints.driven: must have at least 1 entry"),
     ("driven extra", _set(["joints", "driven"], lambda v: v + ["right_ankle_roll"]),
      "joints.hold_rad.right_ankle_roll: is a driven joint"),
-    ("driven fewer", _set(["joints", "driven"], lambda v: v[1:]), "symmetry: its joints"),
+    ("driven fewer", _set(["joints", "driven"], lambda v: v[1:]), "symmetry: has ['waist_yaw'] beyond joints.driven"),
     ("driven twice", _set(["joints", "driven"], lambda v: v + v[:1]), "joints.driven: 'waist_yaw' appears twice"),
     ("range missing", _set(["joints", "range_rad", "right_knee"], DELETE), "joints.range_rad.right_knee: missing"),
     ("range reversed", _set(["joints", "range_rad", "right_knee"], lambda v: v[::-1]),
@@ -269,7 +271,8 @@ CASES = [  # (name, mutation, the message's start: "FIELD: problem")
 # robot-dependent: the file is consistent in itself, but not with the robot it is run on
 ROBOT_CASES = [
     ("control set of another robot", _set(["task", "control_set"], "fly"), "task.control_set: robot xl430_biped has no control set 'fly'"),
-    ("not the task's control set", _set(["task", "control_set"], "all"), "joints.driven: not robot xl430_biped's 'all' control set"),
+    ("not the task's control set", _set(["task", "control_set"], "all"), "joints.driven: lacks ['left_ankle_pitch', "
+     "'left_ankle_roll', 'right_ankle_pitch', 'right_ankle_roll'] of robot xl430_biped's 'all' control set (task.control_set)"),
     ("leg outputs reordered with their inputs",
      (lambda d: [d["outputs"].__setitem__(slice(0, 2), d["outputs"][1::-1]),
                       d["inputs"].__setitem__(slice(0, 2), d["inputs"][1::-1]),
