@@ -19,6 +19,7 @@ from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import genome_from_controller
 from evolve.locomotion.task import TaskConfig
 from sim2real.controller import load_controller
+from sim2real.errors import ConfigError
 from sim2real.reality import NOMINAL, Reality, load_reality
 from sim2real.robot import RobotSpec, load_robot
 
@@ -35,7 +36,8 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
     task = dataclasses.replace(task, **changes)
     evaluator = LocomotionEvaluator(spec, task, max(1, episodes), threads=1, reality=reality)
     if list(evaluator.layout.input_names) != data["inputs"] or list(evaluator.layout.output_names) != data["outputs"]:
-        raise ValueError(f"{path}: its inputs/outputs do not match robot {spec.name}'s {task.control_set} joints")
+        raise ConfigError(str(path), "joints.driven", f"the inputs/outputs do not match robot {spec.name}'s "
+                          f"{task.control_set!r} control set (the task's, default 'walk')")
     genome = genome_from_controller(data)
     return data, spec, evaluator, genome
 

@@ -18,6 +18,7 @@ leg lengths, so that early generations, which neither step nor fall, are not all
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
@@ -51,6 +52,8 @@ class TaskConfig:
         config = dataclass_from_mapping(cls, values, source, prefix, "task")
         for f in dataclasses.fields(config):
             v = getattr(config, f.name)
+            if isinstance(v, float) and not math.isfinite(v):  # a controller file holds the task
+                raise ConfigError(source, prefix + f.name, f"must be finite, got {v}")
             if isinstance(v, (int, float)) and not isinstance(v, bool) and v < 0:
                 raise ConfigError(source, prefix + f.name, f"must not be negative, got {v}")
         if config.episode_s <= 0:

@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from sim2real.controller import MAX_STEEPNESS, MAX_WEIGHT
 from sim2real.errors import ConfigError
 from sim2real.validation import dataclass_from_mapping
 
@@ -86,10 +87,18 @@ class NeatConfig:
             value = getattr(self, f.name)
             if f.name.endswith(("_prob", "_rate", "_fraction", "survival_threshold")) and not 0 <= value <= 1:
                 raise bad(f.name, f"must be within [0, 1], got {value}")
+            if isinstance(value, float) and not math.isfinite(value):
+                raise bad(f.name, f"must be finite, got {value}")
             if isinstance(value, (int, float)) and not isinstance(value, bool) and value < 0:
                 raise bad(f.name, f"must not be negative, got {value}")
         if self.sigmoid_steepness <= 0:
             raise bad("sigmoid_steepness", "must be > 0")
+        # what a controller file may hold (sim2real.controller), so that every champion saves
+        if self.sigmoid_steepness > MAX_STEEPNESS:
+            raise bad("sigmoid_steepness", f"must be <= {MAX_STEEPNESS:g} (the controller format's bound)")
+        for name in ("weight_limit", "initial_weight_range", "new_link_weight_range", "weight_replace_range"):
+            if getattr(self, name) > MAX_WEIGHT:
+                raise bad(name, f"must be <= {MAX_WEIGHT:g} (the controller format's weight bound)")
 
     def replace(self, **changes: Any) -> "NeatConfig":
         config = dataclasses.replace(self, **changes)
