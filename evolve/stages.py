@@ -88,6 +88,9 @@ def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
             if item.has("weights"):
                 weights = dataclass_from_mapping(PoseWeights, item["weights"].value, source,
                                                  f"stages[{i}].weights.", "weight")
+                for key, value in dataclasses.asdict(weights).items():
+                    if value < 0:
+                        raise item["weights"].error(f"must not be negative, got {value}", key=key)
         elif item.has("weights") or threshold:
             raise item.error("a walk stage has no weights or threshold (eq. 3 has no maximum)")
         target = {}
