@@ -147,6 +147,9 @@ def cmd_evolve(args: argparse.Namespace) -> int:
     else:
         path = resolve_config(args.config or DEFAULT_CONFIG)
         config = load_evolve_config(path)
+        if args.generations is not None and config.stages:
+            raise UsageError(f"--generations: {path} is a staged config; each stage has its own budget "
+                             "(stages[].generations)")
         changes = {k: getattr(args, k) for k in ("seed", "generations", "threads") if getattr(args, k) is not None}
         if args.population is not None:
             neat = config.neat.replace(population_size=args.population,

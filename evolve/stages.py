@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -76,6 +77,8 @@ def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
         item.mapping(required=("name", "objective", "generations"),
                      optional=("threshold", "weights", "target_pose_deg"))
         name = item["name"].string()
+        if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_-]*", name):
+            raise item["name"].error(f"must be letters, digits, _ or - (it names a module and a folder), got {name!r}")
         if name in names:
             raise item["name"].error(f"stage name {name!r} is used twice")
         names.add(name)

@@ -74,6 +74,8 @@ def read_trace(path: Path | str) -> tuple[dict[str, Any], dict[str, np.ndarray],
     """
     path = Path(path)
     source = str(path)
+    if path.suffix.lower() == ".json":
+        raise ConfigError(source, "", "a trace is the CSV file; a .json beside it is its sidecar")
     try:
         raw = path.read_bytes()
     except OSError as exc:

@@ -22,6 +22,8 @@ def load_yaml(path: Path) -> Any:
         text = Path(path).read_text()
     except OSError as exc:
         raise ConfigError(str(path), "", f"cannot read file: {exc.strerror}") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(str(path), "", "not a YAML file: binary, not UTF-8 text") from exc
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as exc:
