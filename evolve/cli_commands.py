@@ -10,7 +10,7 @@ from pathlib import Path
 
 from sim2real.cli import print_result
 from sim2real.cli_args import (int_at_least, non_negative_int, output_dir, output_file, positive_finite_float,
-                               positive_int, require_module, seed)
+                               positive_int, reality_name, require_module, robot_name, seed)
 from sim2real.errors import UsageError
 
 DEFAULT_CONFIG = "walk"
@@ -46,13 +46,13 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         description="Run a controller on its robot in MuJoCo (no harness) and report "
                         "distance walked, time upright and whether it fell.")
     ea.add_argument("controller", type=Path)
-    ea.add_argument("--robot", help="robot (default: the one the controller was made for)")
+    ea.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
     ea.add_argument("--seconds", type=positive_finite_float, help="episode length (default: the controller's task)")
     ea.add_argument("--episodes", type=positive_int, help="episodes (each its own draw when randomized; default 1, "
                     "3 with --ablate)")
-    ea.add_argument("--randomize", nargs="?", const="randomize", metavar="RANGES",
+    ea.add_argument("--randomize", type=reality_name, nargs="?", const="randomize", metavar="RANGES",
                     help="randomize every episode with these ranges (default configs/reality/randomize.yaml)")
-    ea.add_argument("--reality", metavar="PROFILE", help="a fixed reality profile (configs/reality/ name or path)")
+    ea.add_argument("--reality", type=reality_name, metavar="PROFILE", help="a fixed reality profile (configs/reality/ name or path)")
     ea.add_argument("--seed", type=seed, default=0, help="seed of the randomized draws")
     ea.add_argument("--ablate", action="store_true",
                     help="with --reality/--randomize: measure each perturbation alone too, to see which "

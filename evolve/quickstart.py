@@ -13,7 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
-from sim2real.cli_args import int_at_least, output_dir, positive_int, require_module, run_failed, seed
+from sim2real.cli_args import int_at_least, output_dir, positive_int, reality_name, require_module, run_failed, seed
 
 
 def add_command(sub: argparse._SubParsersAction) -> None:
@@ -23,18 +23,15 @@ def add_command(sub: argparse._SubParsersAction) -> None:
                    help="folder for everything (default: runs/quickstart)")
     q.add_argument("--generations", type=positive_int, default=12, help="generations of the short evolution (default 12)")
     q.add_argument("--population", type=int_at_least(2), default=48, help="population size (default 48)")
-    q.add_argument("--reality", default="default", help="reality profile of the dry run (default: default)")
+    q.add_argument("--reality", type=reality_name, default="default", help="reality profile of the dry run (default: default)")
     q.add_argument("--seed", type=seed, default=1)
     q.add_argument("--no-video", action="store_true", help="skip the video (no offscreen GL here)")
     q.set_defaults(func=cmd_quickstart, check=check_quickstart)
 
 
 def check_quickstart(args: argparse.Namespace) -> None:
-    """What would fail only minutes in - the reality profile, the packages for the video and
-    the plot - is checked before the evolution starts."""
-    from sim2real.reality import load_reality
-
-    load_reality(args.reality)
+    """What would fail only minutes in - the packages for the video and the plot - is
+    checked before the evolution starts (the reality profile, by its converter)."""
     require_module("matplotlib", "the comparison plot")
     if not args.no_video:
         require_module("imageio", "the video (or give --no-video)")

@@ -119,6 +119,35 @@ def check_duration(seconds: float | None, tick_s: float, flag: str = "--duration
         raise UsageError(f"{flag} {seconds:g}: shorter than one control tick ({tick_s:g} s)")
 
 
+# -- names of data files ---------------------------------------------------------------------
+def _loads(load: Callable[[str], object], text: str) -> str:
+    """``text`` if ``load(text)`` reads and validates it, else the loader's error as the flag's."""
+    from sim2real.errors import BipedError
+
+    try:
+        load(text)
+    except (BipedError, FileNotFoundError, KeyError) as exc:
+        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+        raise argparse.ArgumentTypeError(message) from None
+    return text
+
+
+def robot_name(text: str) -> str:
+    """A robot: a name from ``configs/robots/`` (presets as ``human:male_95``) or a YAML path,
+    read and validated now."""
+    from sim2real.robot import load_robot
+
+    return _loads(load_robot, text)
+
+
+def reality_name(text: str) -> str:
+    """A reality profile: ``nominal``, a name from ``configs/reality/`` or a YAML path, read
+    and validated now (this imports MuJoCo: only for commands that simulate)."""
+    from sim2real.reality import load_reality
+
+    return _loads(load_reality, text)
+
+
 # -- output paths ----------------------------------------------------------------------------
 def _unwritable(folder: Path) -> str | None:
     """Why no file can be created in ``folder`` (an existing directory), or None."""

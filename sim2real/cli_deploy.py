@@ -10,7 +10,7 @@ from pathlib import Path
 
 from sim2real.cli import print_result
 from sim2real.cli_args import (baud_rate, check_baud, check_duration, output_file, positive_finite_float,
-                               require_module, run_failed, seed)
+                               reality_name, require_module, robot_name, run_failed, seed)
 from sim2real.errors import UsageError
 from sim2real.robot import DEFAULT_ROBOT, load_robot
 
@@ -23,7 +23,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                          description="Drive the robot with a controller: start-up checks, a slow ramp, "
                          "the real-time loop, and a safe stop (ramp to rest, torque off) however it ends.")
     run.add_argument("controller", type=Path)
-    run.add_argument("--robot", help="robot (default: the one the controller was made for)")
+    run.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
     where = run.add_mutually_exclusive_group()
     where.add_argument("--port", help="serial port of the real bus, e.g. /dev/ttyUSB0")
     where.add_argument("--bus", choices=["mock", "sim"],
@@ -46,11 +46,11 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
                          "and run the same runtime as `biped run` on it, through the official SDK.  Distance and "
                          "falls come from the simulator's ground truth.")
     dry.add_argument("controller", type=Path)
-    dry.add_argument("--robot", help="robot (default: the one the controller was made for)")
+    dry.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
     dry.add_argument("--duration", type=positive_finite_float, default=10.0, help="seconds of the loop (default 10)")
     dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE "
                      "or a YAML file of them")
-    dry.add_argument("--reality", metavar="PROFILE",
+    dry.add_argument("--reality", type=reality_name, metavar="PROFILE",
                      help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
     dry.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts")
     dry.add_argument("--trace", type=TRACE_FILE, help="trace CSV (+ JSON sidecar)")
@@ -63,11 +63,11 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
                             description="Serve the robot's servos and sensor board, simulated by MuJoCo in real "
                             "time, on a pseudo-terminal.  Prints the port path as the first line, then serves "
                             "until Ctrl-C or SIGTERM; any Dynamixel tool can connect to it.")
-    simbus.add_argument("--robot", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    simbus.add_argument("--robot", type=robot_name, default=DEFAULT_ROBOT, help=ROBOT_HELP)
     simbus.add_argument("--baud", type=baud_rate, help="pace replies like the wire at this baud (default: the robot's)")
     simbus.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start),"
                         "drop:RATE,corrupt:RATE or a YAML file of them")
-    simbus.add_argument("--reality", metavar="PROFILE",
+    simbus.add_argument("--reality", type=reality_name, metavar="PROFILE",
                         help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
     simbus.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts")
     simbus.set_defaults(func=cmd_simbus, check=check_simbus)
@@ -81,7 +81,7 @@ def add_compare_command(sub: argparse._SubParsersAction) -> None:
                           "agreement.")
     cmp_.add_argument("trace", type=Path)
     cmp_.add_argument("--controller", type=Path, help="simulate this controller closed-loop instead")
-    cmp_.add_argument("--robot", help="robot (default: the trace's)")
+    cmp_.add_argument("--robot", type=robot_name, help="robot (default: the trace's)")
     cmp_.add_argument("--json", action="store_true")
     cmp_.add_argument("--plot", type=output_file(".png", ".pdf", ".svg"),
                       help="PNG overlaying real and simulated angles per joint")
@@ -125,27 +125,22 @@ def check_run(args: argparse.Namespace) -> None:
 
 def check_dry_run(args: argparse.Namespace) -> None:
     from sim2real.dry_run import check_fault_times, parse_faults
-    from sim2real.reality import load_reality
-
     from sim2real.network_runtime import check_disabled_modules
 
     data, robot = _servo_robot(args.robot, args.controller)
     check_duration(args.duration, float(data["tick_s"]))
     check_disabled_modules(data, args.disable_module)
     check_fault_times(parse_faults(args.faults, robot), args.duration)
-    load_reality(args.reality)
     _check_trace(args.trace, args.controller)
 
 
 def check_simbus(args: argparse.Namespace) -> None:
     from sim2real.dry_run import parse_faults
-    from sim2real.reality import load_reality
 
     _, robot = _servo_robot(args.robot)
     if args.baud is not None:
         check_baud(robot, args.baud)
     parse_faults(args.faults, robot)
-    load_reality(args.reality)
 
 
 def check_compare(args: argparse.Namespace) -> None:
@@ -242,6 +237,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         log("no --port: running on the simulated bus (MuJoCo behind a pseudo-terminal)")
         result = dry_run(args.controller, robot.name if args.robot else None, args.duration or 10.0,
                          args.trace, log=log, disabled_modules=tuple(args.disable_module))
+        if args.trace is not None and not Path(args.trace).exists():
+            result["trace"] = None  # it stopped before the trace was opened
         print_result(result, args.json)
         if result["stop_reason"] != "duration reached":
             return run_failed(f"the run stopped early: {result['stop_reason']}")
