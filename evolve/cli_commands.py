@@ -175,6 +175,8 @@ def cmd_evolve(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     from sim2real.controller import load_controller, save_controller
 
+    if not args.run_dir.is_dir():
+        raise FileNotFoundError(f"{args.run_dir}: no such run folder")
     source = args.run_dir / "controller.json"
     if args.stage:
         source = args.run_dir / "stages" / args.stage / "controller.json"

@@ -22,9 +22,12 @@ import math
 import sys
 import tempfile
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
-from sim2real.errors import UsageError
+from sim2real.errors import BipedError, UsageError
+
+if TYPE_CHECKING:
+    from sim2real.robot import RobotSpec
 
 MAX_SEED = 2**32 - 1  # numpy seeds are non-negative; keys are stored as 64-bit integers
 
@@ -61,7 +64,9 @@ def int_at_least(low: int) -> Callable[[str], int]:
 
 
 positive_int = int_at_least(1)
+positive_int.__name__ = "positive_int"
 non_negative_int = int_at_least(0)
+non_negative_int.__name__ = "non_negative_int"
 
 
 def seed(text: str) -> int:
@@ -105,7 +110,7 @@ def baud_rate(text: str) -> int:
     return value
 
 
-def check_baud(robot, baud: int, flag: str = "--baud") -> None:
+def check_baud(robot: RobotSpec, baud: int, flag: str = "--baud") -> None:
     """Refuse a baud rate that not every device on ``robot``'s bus can be set to."""
     rates = robot.baud_rates
     if rates is not None and baud not in rates:
@@ -122,8 +127,6 @@ def check_duration(seconds: float | None, tick_s: float, flag: str = "--duration
 # -- names of data files ---------------------------------------------------------------------
 def _loads(load: Callable[[str], object], text: str) -> str:
     """``text`` if ``load(text)`` reads and validates it, else the loader's error as the flag's."""
-    from sim2real.errors import BipedError
-
     try:
         load(text)
     except (BipedError, FileNotFoundError, KeyError) as exc:
