@@ -35,8 +35,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``biped``; returns the exit status: 0 done as asked, 2 bad input (one line
+    ``biped: error: ...`` on stderr; argparse's usage errors exit 2 too), 1 a run that
+    started but did not end as asked, 130 Ctrl-C."""
     args = build_parser().parse_args(argv)
     try:
+        if getattr(args, "check", None) is not None:
+            args.check(args)  # the checks that need more than one flag, before anything runs
         return int(args.func(args) or 0)
     except (BipedError, FileNotFoundError, FileExistsError, KeyError) as exc:
         message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
@@ -48,6 +53,15 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("biped: interrupted", file=sys.stderr)
         return 130
+    except OSError as exc:  # the disk or the system refused mid-run (full, read-only, gone)
+        print(f"biped: error: {exc}", file=sys.stderr)
+        return 1
+    except Exception as exc:  # a bug: still one line, unless asked for the traceback
+        if os.environ.get("BIPED_TRACEBACK"):
+            raise
+        print(f"biped: error: unexpected {type(exc).__name__}: {exc} "
+              "(a bug; BIPED_TRACEBACK=1 shows where)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -9,6 +9,9 @@ import sys
 from pathlib import Path
 
 from sim2real.cli import print_result
+from sim2real.cli_args import (int_at_least, non_negative_int, output_dir, output_file, positive_finite_float,
+                               positive_int, reality_name, require_module, robot_name, seed)
+from sim2real.errors import UsageError
 
 DEFAULT_CONFIG = "walk"
 
@@ -17,24 +20,25 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ev = sub.add_parser("evolve", help="evolve walking controllers in MuJoCo",
                         description="Evolve controllers with NEAT on the locomotion task of seed 000. "
                         "Writes a run folder: config.yaml, checkpoints, stats.csv, fitness.png, controller.json.")
-    ev.add_argument("config", nargs="?", default=DEFAULT_CONFIG,
+    ev.add_argument("config", nargs="?", default=None,
                     help="evolution config: a name from configs/evolve/ or a YAML path (default: walk)")
-    ev.add_argument("--out", type=Path, help="run folder (default: runs/<config>-seed<S>)")
-    ev.add_argument("--seed", type=int, help="random seed (overrides the config)")
-    ev.add_argument("--generations", type=int, help="generations to run (overrides the config)")
-    ev.add_argument("--population", type=int, help="population size (overrides the config)")
-    ev.add_argument("--threads", type=int, help="simulation threads, 0 = all cores (overrides the config)")
+    ev.add_argument("--out", type=output_dir, help="run folder (default: runs/<config>-seed<S>)")
+    ev.add_argument("--seed", type=seed, help="random seed (overrides the config)")
+    ev.add_argument("--generations", type=positive_int, help="generations to run (overrides the config)")
+    ev.add_argument("--population", type=int_at_least(2), help="population size (overrides the config)")
+    ev.add_argument("--threads", type=non_negative_int, help="simulation threads, 0 = all cores (overrides the config)")
     ev.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     ev.add_argument("--backend", choices=("local", "ray"), default="local",
                     help="where simulations run: this machine, or a Ray cluster (pip install '.[cluster]')")
     ev.add_argument("--address", help="Ray cluster address, e.g. 10.0.0.1:6379 (default: start a local Ray)")
     ev.add_argument("--quiet", action="store_true", help="no progress lines")
-    ev.set_defaults(func=cmd_evolve)
+    ev.set_defaults(func=cmd_evolve, check=check_evolve)
 
     ex = sub.add_parser("export", help="write a run's best controller as JSON",
                         description="Write the best controller of a run folder as controller JSON.")
     ex.add_argument("run_dir", type=Path)
-    ex.add_argument("-o", "--output", type=Path, default=Path("controller.json"))
+    ex.add_argument("-o", "--output", type=output_file(".json"), default="controller.json",
+                    help="controller file to write (default: controller.json)")
     ex.add_argument("--stage", help="a staged run's finished stage (default: the latest best)")
     ex.set_defaults(func=cmd_export)
 
@@ -42,21 +46,21 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         description="Run a controller on its robot in MuJoCo (no harness) and report "
                         "distance walked, time upright and whether it fell.")
     ea.add_argument("controller", type=Path)
-    ea.add_argument("--robot", help="robot (default: the one the controller was made for)")
-    ea.add_argument("--seconds", type=float, help="episode length (default: the controller's task)")
-    ea.add_argument("--episodes", type=int, help="episodes (each its own draw when randomized; default 1, "
+    ea.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
+    ea.add_argument("--seconds", type=positive_finite_float, help="episode length (default: the controller's task)")
+    ea.add_argument("--episodes", type=positive_int, help="episodes (each its own draw when randomized; default 1, "
                     "3 with --ablate)")
-    ea.add_argument("--randomize", nargs="?", const="randomize", metavar="RANGES",
+    ea.add_argument("--randomize", type=reality_name, nargs="?", const="randomize", metavar="RANGES",
                     help="randomize every episode with these ranges (default configs/reality/randomize.yaml)")
-    ea.add_argument("--reality", metavar="PROFILE", help="a fixed reality profile (configs/reality/ name or path)")
-    ea.add_argument("--seed", type=int, default=0, help="seed of the randomized draws")
+    ea.add_argument("--reality", type=reality_name, metavar="PROFILE", help="a fixed reality profile (configs/reality/ name or path)")
+    ea.add_argument("--seed", type=seed, default=0, help="seed of the randomized draws")
     ea.add_argument("--ablate", action="store_true",
                     help="with --reality/--randomize: measure each perturbation alone too, to see which "
                     "one breaks the controller (default 3 episodes)")
     ea.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                     help="switch a module off to get the lower behaviour back (repeatable)")
     ea.add_argument("--json", action="store_true", help="print one JSON object")
-    ea.set_defaults(func=cmd_eval)
+    ea.set_defaults(func=cmd_eval, check=check_eval)
 
 
 def register_replay(handlers: dict) -> None:
@@ -68,8 +72,6 @@ def cmd_render_controller(args: argparse.Namespace) -> int:
     from evolve.replay import frames
     from sim2real.rendering import save_video
 
-    if args.output.suffix.lower() not in (".mp4", ".gif"):
-        raise SystemExit(f"biped render: a controller replay is a video: use -o NAME.mp4 or NAME.gif, not {args.output}")
     images, frame_s = frames(Path(args.robot), args.width, args.height, seconds=args.seconds,
                              every=2 if args.output.suffix.lower() == ".gif" else 1,
                              disabled_modules=tuple(args.disable_module))
@@ -86,7 +88,8 @@ def cmd_view_controller(args: argparse.Namespace) -> int:
 
     from evolve.replay import _setup
 
-    data, _, evaluator, genome = _setup(Path(args.robot), None, None, keep_going=True)
+    data, _, evaluator, genome = _setup(Path(args.robot), None, None, keep_going=True,
+                                        disabled_modules=tuple(args.disable_module))
     shown = mujoco.MjData(evaluator.model)
     with mujoco.viewer.launch_passive(evaluator.model, shown) as viewer:
         while viewer.is_running():
@@ -117,22 +120,36 @@ def resolve_config(name: str) -> Path:
     raise FileNotFoundError(f"unknown evolution config {name!r} (known: {known}; or give a path)")
 
 
+def check_evolve(args: argparse.Namespace) -> None:
+    if args.resume:
+        if args.out is None:
+            raise UsageError("--resume needs --out RUN_DIR")
+        if args.seed is not None or args.population is not None:
+            raise UsageError("--seed and --population cannot change when resuming")
+        if args.config is not None:
+            raise UsageError(f"--resume continues the run in --out with its own config.yaml; do not give a "
+                             f"config ({args.config})")
+    if args.address is not None and args.backend != "ray":
+        raise UsageError("--address is the Ray cluster's: it needs --backend ray")
+    if args.backend == "ray":
+        require_module("ray", "--backend ray", extra="cluster")
+
+
 def cmd_evolve(args: argparse.Namespace) -> int:
     from evolve.config import load_evolve_config
     from evolve.run import Run
 
     log = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
     if args.resume:
-        if args.out is None:
-            raise SystemExit("biped evolve: --resume needs --out RUN_DIR")
-        if args.seed is not None or args.population is not None:
-            raise SystemExit("biped evolve: --seed and --population cannot change when resuming")
         run = Run.resume(args.out, generations=args.generations, threads=args.threads, log=log,
                          backend=args.backend, address=args.address)
         log(f"resuming {args.out} at generation {run.population.generation}")
     else:
-        path = resolve_config(args.config)
+        path = resolve_config(args.config or DEFAULT_CONFIG)
         config = load_evolve_config(path)
+        if args.generations is not None and config.stages:
+            raise UsageError(f"--generations: {path} is a staged config; each stage has its own budget "
+                             "(stages[].generations)")
         changes = {k: getattr(args, k) for k in ("seed", "generations", "threads") if getattr(args, k) is not None}
         if args.population is not None:
             neat = config.neat.replace(population_size=args.population,
@@ -158,6 +175,8 @@ def cmd_evolve(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     from sim2real.controller import load_controller, save_controller
 
+    if not args.run_dir.is_dir():
+        raise FileNotFoundError(f"{args.run_dir}: no such run folder")
     source = args.run_dir / "controller.json"
     if args.stage:
         source = args.run_dir / "stages" / args.stage / "controller.json"
@@ -172,23 +191,28 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def check_eval(args: argparse.Namespace) -> None:
+    if args.randomize and args.reality:
+        raise UsageError("eval: give --randomize RANGES or --reality PROFILE, not both")
+    if args.ablate and (args.randomize or args.reality or "nominal") == "nominal":
+        raise UsageError("eval --ablate: give the reality to take apart, --reality PROFILE or --randomize")
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
     from evolve.replay import ablate_controller, evaluate_controller
 
-    if args.randomize and args.reality:
-        raise SystemExit("biped eval: give --randomize RANGES or --reality PROFILE, not both")
     reality = args.randomize or args.reality
     options = {"robot": args.robot, "seconds": args.seconds, "disabled_modules": tuple(args.disable_module)}
     if not args.ablate:
         print_result(evaluate_controller(args.controller, episodes=args.episodes or 1, randomize=reality,
                                          seed=args.seed, **options), args.json)
         return 0
-    if not reality or reality == "nominal":
-        raise SystemExit("biped eval --ablate: give the reality to take apart, --reality PROFILE or --randomize")
     try:
         report = ablate_controller(args.controller, reality, episodes=args.episodes or 3, seed=args.seed, **options)
+    except UsageError:
+        raise
     except ValueError as exc:
-        raise SystemExit(f"biped eval --ablate: {exc}") from None
+        raise UsageError(f"eval --ablate: {exc}") from None
     if args.json:
         print(json.dumps(report))
         return 0

@@ -25,13 +25,14 @@ import yaml
 
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig
-from evolve.stages import Stage, parse_stages
+from evolve.stages import Stage, check_stage_joints, parse_stages
 from sim2real.errors import ConfigError
 from sim2real.reality import load_reality
-from sim2real.robot import DEFAULT_ROBOT
+from sim2real.robot import DEFAULT_ROBOT, load_robot
 from sim2real.validation import Node, load_yaml
 
 TOP_KEYS = ("robot", "seed", "generations", "threads", "checkpoint_every", "task", "neat", "randomize", "stages")
+INTEGER_KEYS = {"seed": (0, 2**32 - 1), "generations": (1, None), "threads": (0, None), "checkpoint_every": (0, None)}
 
 
 @dataclass(frozen=True)
@@ -109,21 +110,26 @@ def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
     for key in doc:
         if key not in TOP_KEYS:
             raise ConfigError(source, str(key), f"unknown key {key!r} (allowed: {', '.join(TOP_KEYS)})")
+    root = Node(doc, source)
     values: dict[str, Any] = {}
-    for key in ("seed", "generations", "threads", "checkpoint_every"):
+    for key, (lo, hi) in INTEGER_KEYS.items():
         if key in doc:
-            value = doc[key]
-            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                raise ConfigError(source, key, f"must be a non-negative integer, got {value!r}")
-            values[key] = value
+            values[key] = root[key].integer(lo, hi)
     if "robot" in doc:
-        if not isinstance(doc["robot"], str):
-            raise ConfigError(source, "robot", f"must be a robot name or path, got {doc['robot']!r}")
-        values["robot"] = doc["robot"]
+        values["robot"] = root["robot"].string()
+    try:
+        robot = load_robot(values.get("robot", DEFAULT_ROBOT))
+    except (FileNotFoundError, ConfigError) as exc:
+        raise ConfigError(source, "robot", str(exc)) from None
     values["task"] = TaskConfig.from_mapping(doc.get("task"), source, "task.")
+    control_set = values["task"].control_set
+    if control_set not in robot.control_sets:
+        raise ConfigError(source, "task.control_set", f"robot {robot.name} has no control set {control_set!r} "
+                          f"(it has: {', '.join(robot.control_sets)})")
     values["neat"] = NeatConfig.from_mapping(doc.get("neat"), source, "neat.")
     values["randomize"] = parse_randomize(doc.get("randomize"), source)
     values["stages"] = parse_stages(doc.get("stages"), source)
+    check_stage_joints(values["stages"], robot.control_sets[control_set], source)
     return EvolveConfig(**values)
 
 

@@ -13,17 +13,29 @@ import argparse
 import json
 from pathlib import Path
 
+from sim2real.cli_args import int_at_least, output_dir, positive_int, reality_name, require_module, run_failed, seed
+
 
 def add_command(sub: argparse._SubParsersAction) -> None:
     q = sub.add_parser("quickstart", help="evolve, export, film, dry-run and compare, once, in a few minutes",
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
-    q.add_argument("--out", type=Path, default=Path("runs/quickstart"), help="folder for everything (default: runs/quickstart)")
-    q.add_argument("--generations", type=int, default=12, help="generations of the short evolution (default 12)")
-    q.add_argument("--population", type=int, default=48, help="population size (default 48)")
-    q.add_argument("--reality", default="default", help="reality profile of the dry run (default: default)")
-    q.add_argument("--seed", type=int, default=1)
+    q.add_argument("--out", type=output_dir, default="runs/quickstart",
+                   help="folder for everything (default: runs/quickstart)")
+    q.add_argument("--generations", type=positive_int, default=12, help="generations of the short evolution (default 12)")
+    q.add_argument("--population", type=int_at_least(2), default=48, help="population size (default 48)")
+    q.add_argument("--reality", type=reality_name, default="default", help="reality profile of the dry run (default: default)")
+    q.add_argument("--seed", type=seed, default=1)
     q.add_argument("--no-video", action="store_true", help="skip the video (no offscreen GL here)")
-    q.set_defaults(func=cmd_quickstart)
+    q.set_defaults(func=cmd_quickstart, check=check_quickstart)
+
+
+def check_quickstart(args: argparse.Namespace) -> None:
+    """What would fail only minutes in - the packages for the video and the plot - is
+    checked before the evolution starts (the reality profile, by its converter)."""
+    require_module("matplotlib", "the comparison plot")
+    if not args.no_video:
+        require_module("imageio", "the video (or give --no-video)")
+        require_module("imageio_ffmpeg", "the .mp4 video (or give --no-video)")
 
 
 def cmd_quickstart(args: argparse.Namespace) -> int:
@@ -73,6 +85,8 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     result = dry_run(controller, duration_s=sim["seconds"], trace_path=trace, reality=args.reality,
                      log=lambda line: print("  " + line))
     print(json.dumps({k: result[k] for k in ("distance_m", "fell", "ticks", "overruns", "bus_errors", "stop_reason")}))
+    if result["stop_reason"] != "duration reached":
+        return run_failed(f"the dry run stopped early: {result['stop_reason']}")
 
     step(5, "comparing the dry-run trace with the nominal simulation")
     compared = compare(trace, controller_path=controller)

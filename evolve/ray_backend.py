@@ -14,6 +14,7 @@ import math
 
 from evolve.evaluation import EvaluatorSpec, Job, build_evaluator, concatenate, run_job
 from evolve.locomotion.objectives import Episodes
+from sim2real.errors import BipedError
 
 MAX_RETRIES = 5
 
@@ -27,7 +28,7 @@ class RayBackend:
         try:
             import ray
         except ImportError:
-            raise SystemExit("--backend ray needs Ray: pip install 'servo-biped-evolve[cluster]'") from None
+            raise BipedError("--backend ray needs Ray: pip install 'servo-biped-evolve[cluster]'") from None
         self.ray = ray
         if not ray.is_initialized():
             # without an address a local Ray starts, with as many CPUs as asked (default: all)

@@ -19,22 +19,27 @@ from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import genome_from_controller
 from evolve.locomotion.task import TaskConfig
 from sim2real.controller import load_controller
-from sim2real.errors import ConfigError
+from sim2real.errors import ConfigError, UsageError
+from sim2real.network_runtime import check_disabled_modules
 from sim2real.reality import NOMINAL, Reality, load_reality
 from sim2real.robot import RobotSpec, load_robot
 
 
 def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
-           keep_going: bool = False, reality: Reality = NOMINAL):
+           keep_going: bool = False, reality: Reality = NOMINAL, disabled_modules: tuple[str, ...] = ()):
     data = load_controller(path)
     spec: RobotSpec = load_robot(robot or data["robot"]["name"])
     data = load_controller(path, spec)  # now checked against the robot's joint map
+    check_disabled_modules(data, disabled_modules)
     task = TaskConfig.from_mapping(data["task"], str(path), "task.")
     changes = {"episode_s": float(seconds)} if seconds is not None else {}
     if keep_going:
         changes.update(fall_height=1e-6, fall_tilt_deg=180.0, stagnation_s=1e9)
     task = dataclasses.replace(task, **changes)
     evaluator = LocomotionEvaluator(spec, task, max(1, episodes), threads=1, reality=reality)
+    if evaluator.n_ticks < 1:
+        what = f"--seconds {seconds:g}" if seconds is not None else f"{path}: task.episode_s {task.episode_s:g}"
+        raise UsageError(f"{what}: shorter than one control tick ({evaluator.tick_s:g} s)")
     if list(evaluator.layout.input_names) != data["inputs"] or list(evaluator.layout.output_names) != data["outputs"]:
         raise ConfigError(str(path), "joints.driven", f"the inputs/outputs do not match robot {spec.name}'s "
                           f"{task.control_set!r} control set (the task's, default 'walk')")
@@ -48,7 +53,8 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
     """Measure a controller on ``episodes`` episodes, each drawn from ``randomize`` (a reality
     file's ranges or fixed profile; None: the nominal robot) with seed ``seed``."""
     reality = load_reality(randomize)
-    data, spec, evaluator, genome = _setup(path, robot, seconds, episodes, reality=reality)
+    data, spec, evaluator, genome = _setup(path, robot, seconds, episodes, reality=reality,
+                                           disabled_modules=disabled_modules)
     keys = np.array([[seed, e] for e in range(episodes)])
     perturbation = None if reality.is_nominal else evaluator.sample(keys)
     result = evaluator.evaluate([genome] * episodes, data["sigmoid_steepness"], harness=0.0,
@@ -104,7 +110,7 @@ def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | N
     import mujoco
 
     # the film goes on after a fall or a stall (the score would have stopped there)
-    data, spec, evaluator, genome = _setup(path, robot, seconds, keep_going=True)
+    data, spec, evaluator, genome = _setup(path, robot, seconds, keep_going=True, disabled_modules=disabled_modules)
     images: list[np.ndarray] = []
     count = [0]
     with open_renderer(evaluator.model, width, height) as renderer:

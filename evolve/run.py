@@ -38,6 +38,7 @@ from evolve.stages import Stage, check_stage_joints
 from evolve.neat import Genome, Population
 from sim2real.atomic_json import read_json, write_json_atomic
 from sim2real.controller import save_controller
+from sim2real.errors import UsageError
 from sim2real.robot import load_robot
 from sim2real.validation import load_yaml
 
@@ -126,11 +127,16 @@ class Run:
         if not (out / "checkpoint.json.gz").exists():
             raise FileNotFoundError(f"{out} has no checkpoint.json.gz to resume")
         config = parse_evolve_config(load_yaml(out / "config.yaml"), str(out / "config.yaml"))
+        population = Population.load(out / "checkpoint.json.gz")
+        if generations is not None and config.stages:
+            raise UsageError(f"--generations: {out} is a staged run; each stage has its own budget "
+                             "(stages[].generations in its config.yaml)")
+        if generations is not None and generations <= population.generation:
+            raise UsageError(f"--generations {generations}: {out} is already at generation {population.generation}")
         changes = {k: v for k, v in (("generations", generations), ("threads", threads)) if v is not None}
         if changes:
             config = config.replace(**changes)
             (out / "config.yaml").write_text(config.to_yaml())
-        population = Population.load(out / "checkpoint.json.gz")
         run = cls(config, out, population=population, log=log, **backend)
         if (out / "best.json").exists():
             data = read_json(out / "best.json")

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -76,6 +77,8 @@ def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
         item.mapping(required=("name", "objective", "generations"),
                      optional=("threshold", "weights", "target_pose_deg"))
         name = item["name"].string()
+        if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_-]*", name):
+            raise item["name"].error(f"must be letters, digits, _ or - (it names a module and a folder), got {name!r}")
         if name in names:
             raise item["name"].error(f"stage name {name!r} is used twice")
         names.add(name)
@@ -88,6 +91,9 @@ def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
             if item.has("weights"):
                 weights = dataclass_from_mapping(PoseWeights, item["weights"].value, source,
                                                  f"stages[{i}].weights.", "weight")
+                for key, value in dataclasses.asdict(weights).items():
+                    if value < 0:
+                        raise item["weights"].error(f"must not be negative, got {value}", key=key)
         elif item.has("weights") or threshold:
             raise item.error("a walk stage has no weights or threshold (eq. 3 has no maximum)")
         target = {}

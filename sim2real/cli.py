@@ -14,6 +14,9 @@ import os
 import sys
 from pathlib import Path
 
+from sim2real.cli_args import (check_output_file, non_negative_finite_float, output_file, positive_finite_float,
+                               positive_int, require_module)
+from sim2real.errors import UsageError
 from sim2real.robot import DEFAULT_ROBOT, RobotSpec, available_robots, load_robot
 
 ROBOT_HELP = (
@@ -56,7 +59,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                            description="Write self-contained MJCF: one position actuator per servo, "
                            "named after its joint, and a keyframe 'home' with the standing pose.")
     mjcf.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
-    mjcf.add_argument("-o", "--output", type=Path, help="output file (default: stdout)")
+    mjcf.add_argument("-o", "--output", type=output_file(), help="output file (default: stdout)")
     mjcf.set_defaults(func=cmd_robot_mjcf)
 
     view = sub.add_parser("view", help="open the MuJoCo viewer on a robot or a controller",
@@ -67,7 +70,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                       help=ROBOT_HELP + "; or a controller .json to replay")
     view.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                       help="replay a controller with this module switched off (repeatable)")
-    view.set_defaults(func=cmd_view)
+    view.set_defaults(func=cmd_view, check=check_view)
 
     render = sub.add_parser("render", help="render a robot (image) or a controller (video) offscreen",
                             description="Render the robot at its home pose to a PNG, or a controller.json's "
@@ -77,14 +80,15 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         help=ROBOT_HELP + "; or a controller .json to replay")
     render.add_argument("-o", "--output", type=Path, default=None,
                         help="output file (default: robot.png, or walk.mp4 for a controller)")
-    render.add_argument("--seconds", type=float, help="replay length for a controller (default: its episode)")
-    render.add_argument("--width", type=int, default=960)
-    render.add_argument("--height", type=int, default=720)
+    render.add_argument("--seconds", type=positive_finite_float,
+                        help="replay length for a controller (default: its episode)")
+    render.add_argument("--width", type=positive_int, default=960, help="pixels (default 960, at most 1280)")
+    render.add_argument("--height", type=positive_int, default=720, help="pixels (default 720, at most 720)")
     render.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                         help="replay a controller with this module switched off (repeatable)")
-    render.add_argument("--settle", type=float, default=1.0,
-                        help="simulated seconds to stand before the picture (default 1)")
-    render.set_defaults(func=cmd_render)
+    render.add_argument("--settle", type=non_negative_finite_float, default=None,
+                        help="simulated seconds to stand before the picture of a robot (default 1)")
+    render.set_defaults(func=cmd_render, check=check_render)
 
 
     from sim2real import cli_deploy  # run, dry-run, simbus, compare
@@ -217,7 +221,7 @@ def _standing(robot: RobotSpec, settle_s: float = 0.0):
 
 def cmd_view(args: argparse.Namespace) -> int:
     if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        raise SystemExit("biped view needs a display; on a headless machine use `biped render -o robot.png` "
+        raise UsageError("biped view needs a display; on a headless machine use `biped render -o robot.png` "
                          "(or -o walk.mp4 for a controller)")
     if _is_controller(args.robot):
         return CONTROLLER_HANDLERS["view"](args)
@@ -228,14 +232,46 @@ def cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
+VIDEO_SUFFIXES = (".mp4", ".gif")
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
+
+
+def check_view(args: argparse.Namespace) -> None:
+    if args.disable_module and not _is_controller(args.robot):
+        raise UsageError(f"--disable-module applies to a controller replay, not to robot {args.robot}")
+
+
+def check_render(args: argparse.Namespace) -> None:
+    """Flags that apply to the other kind of render, the output's kind and size, up front."""
+    from sim2real.model_builder import OFFSCREEN_SIZE
+
+    if _is_controller(args.robot):
+        if args.settle is not None:
+            raise UsageError("--settle applies to a picture of a robot, not to a controller replay")
+        args.output = args.output or Path("walk.mp4")
+        check_output_file(args.output, "-o/--output (a controller replay is a video)", VIDEO_SUFFIXES)
+        require_module("imageio", "writing a video")
+        if args.output.suffix.lower() == ".mp4":
+            require_module("imageio_ffmpeg", "writing an .mp4 video")
+    else:
+        for flag, given in (("--seconds", args.seconds is not None), ("--disable-module", args.disable_module)):
+            if given:
+                raise UsageError(f"{flag} applies to a controller replay, not to a picture of robot {args.robot}")
+        args.output = args.output or Path("robot.png")
+        check_output_file(args.output, "-o/--output (a picture of a robot)", IMAGE_SUFFIXES)
+        require_module("imageio", "writing a picture")
+    width, height = OFFSCREEN_SIZE
+    if args.width > width or args.height > height:
+        raise UsageError(f"--width {args.width} --height {args.height}: larger than the offscreen buffer "
+                         f"({width} x {height})")
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     if _is_controller(args.robot):
-        args.output = args.output or Path("walk.mp4")
         return CONTROLLER_HANDLERS["render"](args)
-    args.output = args.output or Path("robot.png")
     from sim2real.rendering import render_image, save_image
 
-    model, data = _standing(load_robot(args.robot), args.settle)
+    model, data = _standing(load_robot(args.robot), 1.0 if args.settle is None else args.settle)
     save_image(args.output, render_image(model, data, args.width, args.height))
     print(f"wrote {args.output}")
     return 0

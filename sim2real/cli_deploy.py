@@ -9,12 +9,16 @@ import sys
 from pathlib import Path
 
 from sim2real.cli import print_result
+from sim2real.cli_args import (baud_rate, check_baud, check_duration, output_file, positive_finite_float,
+                               reality_name, require_module, robot_name, run_failed, seed)
 from sim2real.deploy import LOST_AFTER_S
-from sim2real.robot import load_robot
+from sim2real.errors import UsageError
+from sim2real.robot import DEFAULT_ROBOT, load_robot
 from sim2real.simbus import service as simbus_service
 from sim2real.simbus.service import add_realtime_arguments
 
-ROBOT_HELP = "robot name from configs/robots/ or a path to a robot YAML (default: xl430_biped)"
+
+TRACE_FILE = output_file(exclude=(".json",))  # a trace's sidecar takes its name with .json
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -22,14 +26,15 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                          description="Drive the robot with a controller: start-up checks, a slow ramp, "
                          "the real-time loop, and a safe stop (ramp to rest, torque off) however it ends.")
     run.add_argument("controller", type=Path)
-    run.add_argument("--robot", help="robot (default: the one the controller was made for)")
+    run.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
     where = run.add_mutually_exclusive_group()
     where.add_argument("--port", help="serial port of the real bus, e.g. /dev/ttyUSB0")
     where.add_argument("--bus", choices=["mock", "sim"],
                        help="mock: an in-memory mock bus; sim (the default without --port): the simulated bus")
-    run.add_argument("--baud", type=int, help="baud rate (default: the robot config's)")
-    run.add_argument("--duration", type=float, help="seconds to run (default: until Ctrl-C; 10 on the simulated bus)")
-    run.add_argument("--trace", type=Path, help="write a trace CSV (+ JSON sidecar) here")
+    run.add_argument("--baud", type=baud_rate, help="baud rate of the real bus (default: the robot config's)")
+    run.add_argument("--duration", type=positive_finite_float,
+                     help="seconds to run (default: until Ctrl-C; 10 on the simulated bus)")
+    run.add_argument("--trace", type=TRACE_FILE, help="write a trace CSV (+ JSON sidecar) here")
     run.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                      help="switch a control module off (repeatable)")
     run.add_argument("--lost-after-ms", type=float, default=LOST_AFTER_S * 1e3, metavar="MS",
@@ -37,7 +42,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                      "missed replies are retried and their ticks hold the last goals)")
     run.add_argument("--json", action="store_true", help="print the report as one JSON object")
     add_realtime_arguments(run)
-    run.set_defaults(func=cmd_run)
+    run.set_defaults(func=cmd_run, check=check_run)
     add_simulated_bus_commands(sub)
     add_compare_command(sub)
 
@@ -48,24 +53,26 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
                          "and run the same runtime as `biped run` on it, through the official SDK.  Distance and "
                          "falls come from the simulator's ground truth.")
     dry.add_argument("controller", type=Path)
-    dry.add_argument("--robot", help="robot (default: the one the controller was made for)")
-    dry.add_argument("--duration", type=float, default=10.0, help="seconds of the loop (default 10)")
+    dry.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
+    dry.add_argument("--duration", type=positive_finite_float, default=10.0, help="seconds of the loop (default 10)")
     dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE "
                      "or a YAML file of them")
-    dry.add_argument("--reality", metavar="PROFILE",
+    dry.add_argument("--reality", type=reality_name, metavar="PROFILE",
                      help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
-    dry.add_argument("--seed", type=int, default=0, help="seed of the reality profile's random parts")
-    dry.add_argument("--trace", type=Path, help="trace CSV (+ JSON sidecar)")
+    dry.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts")
+    dry.add_argument("--trace", type=TRACE_FILE, help="trace CSV (+ JSON sidecar)")
+    dry.add_argument("--disable-module", action="append", default=[], metavar="NAME",
+                     help="switch a control module off (repeatable)")
     dry.add_argument("--json", action="store_true", help="print the report as one JSON object")
     add_realtime_arguments(dry)
-    dry.set_defaults(func=cmd_dry_run)
+    dry.set_defaults(func=cmd_dry_run, check=check_dry_run)
 
     simbus = sub.add_parser("simbus", help="serve a simulated Dynamixel bus on a pseudo-terminal",
                             description="Serve the robot's servos and sensor board, simulated by MuJoCo in real "
                             "time, on a pseudo-terminal.  Prints the port path as the first line, then serves "
                             "until Ctrl-C or SIGTERM; any Dynamixel tool can connect to it.")
     simbus_service.add_arguments(simbus)
-    simbus.set_defaults(func=simbus_service.serve)
+    simbus.set_defaults(func=simbus_service.serve, check=check_simbus)
 
 
 def add_compare_command(sub: argparse._SubParsersAction) -> None:
@@ -76,16 +83,83 @@ def add_compare_command(sub: argparse._SubParsersAction) -> None:
                           "agreement.")
     cmp_.add_argument("trace", type=Path)
     cmp_.add_argument("--controller", type=Path, help="simulate this controller closed-loop instead")
-    cmp_.add_argument("--robot", help="robot (default: the trace's)")
+    cmp_.add_argument("--robot", type=robot_name, help="robot (default: the trace's)")
     cmp_.add_argument("--json", action="store_true")
-    cmp_.add_argument("--plot", type=Path, help="PNG overlaying real and simulated angles per joint")
-    cmp_.set_defaults(func=cmd_compare)
+    cmp_.add_argument("--plot", type=output_file(".png", ".pdf", ".svg"),
+                      help="PNG overlaying real and simulated angles per joint")
+    cmp_.set_defaults(func=cmd_compare, check=check_compare)
+
+
+# -- checks before anything runs (evolve.cli calls args.check, then args.func) ---------------
+def _servo_robot(name: str | None, controller: Path | None = None):
+    """(controller data or None, robot): the robot named, else the controller's; it must have a bus."""
+    from sim2real.controller import load_controller
+
+    data = load_controller(controller) if controller is not None else None
+    robot = load_robot(name or (data["robot"]["name"] if data else DEFAULT_ROBOT))
+    if data is not None:
+        data = load_controller(controller, robot)
+    if robot.bus is None:
+        raise UsageError(f"robot {robot.name} has no Dynamixel bus (a simulation-only character): "
+                         "it cannot be driven through servos")
+    return data, robot
+
+
+def _check_trace(trace: Path | None, controller: Path) -> None:
+    if trace is not None and Path(trace).with_suffix(".json").resolve() == Path(controller).resolve():
+        raise UsageError(f"--trace {trace}: its sidecar {Path(trace).with_suffix('.json')} would overwrite the "
+                         "controller")
+
+
+def check_run(args: argparse.Namespace) -> None:
+    from sim2real.network_runtime import check_disabled_modules
+
+    data, robot = _servo_robot(args.robot, args.controller)
+    if args.baud is not None:
+        if not args.port:
+            raise UsageError("--baud applies to a real bus (--port); the mock and simulated buses take the "
+                             "robot's rate")
+        check_baud(robot, args.baud)
+    check_duration(args.duration, float(data["tick_s"]))
+    check_disabled_modules(data, args.disable_module)
+    _check_trace(args.trace, args.controller)
+
+
+def check_dry_run(args: argparse.Namespace) -> None:
+    from sim2real.dry_run import check_fault_times, parse_faults
+    from sim2real.network_runtime import check_disabled_modules
+
+    data, robot = _servo_robot(args.robot, args.controller)
+    check_duration(args.duration, float(data["tick_s"]))
+    check_disabled_modules(data, args.disable_module)
+    check_fault_times(parse_faults(args.faults, robot), args.duration)
+    _check_trace(args.trace, args.controller)
+
+
+def check_simbus(args: argparse.Namespace) -> None:
+    from sim2real.dry_run import parse_faults
+
+    _, robot = _servo_robot(args.robot)
+    if args.baud is not None:
+        check_baud(robot, args.baud)
+    parse_faults(args.faults, robot)
+
+
+def check_compare(args: argparse.Namespace) -> None:
+    if args.controller is not None:  # the file on its own first; against the robot once the trace names it
+        from sim2real.controller import load_controller
+
+        load_controller(args.controller)
+    if args.plot is not None:
+        require_module("matplotlib", "--plot")
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
     from sim2real.compare import compare, plot
 
     result = compare(args.trace, args.robot, args.controller)
+    for note in result["notes"]:
+        print(f"note: {note}", file=sys.stderr)
     if args.plot:
         plot(result, args.plot)
     result.pop("_series")
@@ -105,7 +179,8 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
 
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
     result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults, log=log,
-                     reality=args.reality, seed=args.seed, realtime=simbus_service.realtime_request(args),
+                     reality=args.reality, seed=args.seed, disabled_modules=tuple(args.disable_module),
+                     realtime=simbus_service.realtime_request(args),
                      simbus_realtime=simbus_service.realtime_flags(args))
     print_result(result, args.json)
     return run_exit_code(result["stop_reason"], result["torque_off"], log)
@@ -150,12 +225,13 @@ EXIT_TORQUE_UNCONFIRMED = 3
 def run_exit_code(stop_reason: str, torque_off: dict | None, log) -> int:
     """0: the run ended as asked; 1: it stopped on a fault; 3: torque off was not confirmed on
     every servo (the most important message, so it wins)."""
-    unconfirmed = (torque_off or {}).get("unconfirmed", [])
-    if torque_off is None or unconfirmed:
-        who = ", ".join(map(str, unconfirmed)) or "every servo"
-        log(f"biped: error: torque off NOT confirmed on servo {who}: cut the power to the robot")
+    if torque_off is None:
+        log("biped: error: torque off was never read back: cut the power to the robot")
+        return EXIT_TORQUE_UNCONFIRMED
+    if torque_off["unconfirmed"]:
+        log(f"biped: error: torque off NOT confirmed on servo {', '.join(map(str, torque_off['unconfirmed']))}: "
+            "cut the power to the robot")
         return EXIT_TORQUE_UNCONFIRMED
     if stop_reason not in ENDED_AS_ASKED:
-        log(f"biped: error: the run stopped early: {stop_reason}")
-        return 1
+        return run_failed(f"the run stopped early: {stop_reason}")
     return 0

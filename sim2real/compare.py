@@ -10,8 +10,6 @@ sensors).  A trace from ``biped run`` on hardware and one from a dry run are rea
 
 from __future__ import annotations
 
-import csv
-import json
 from pathlib import Path
 from typing import Any
 
@@ -19,26 +17,15 @@ import mujoco
 import numpy as np
 
 from sim2real.controller import load_controller
-from sim2real.errors import ConfigError
+from sim2real.errors import BipedError, ConfigError
 from sim2real.mapping import ServoMapping, quantize
 from sim2real.model_builder import build_model
 from sim2real.policy import Policy
 from sim2real.robot import RobotSpec, load_robot
+from sim2real.trace import read_trace, sidecar_path, trace_columns
 
 MAX_LAG_S = 0.5
 CONTACT_SHARE = 0.05
-
-
-def read_trace(path: Path | str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    path = Path(path)
-    sidecar = path.with_suffix(".json")
-    meta = json.loads(sidecar.read_text()) if sidecar.exists() else {}
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    if not rows:
-        raise ConfigError(str(path), "", "the trace has no rows")
-    columns = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
-    return meta, columns
 
 
 def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray | None, policy: Policy | None,
@@ -88,12 +75,17 @@ def lag_s(real: np.ndarray, sim: np.ndarray, dt: float) -> float | None:
 
 def compare(trace_path: Path | str, robot_name: str | None = None,
             controller_path: Path | str | None = None) -> dict[str, Any]:
-    meta, cols = read_trace(trace_path)
-    robot = load_robot(robot_name or meta.get("robot") or "xl430_biped")
+    meta, cols, notes = read_trace(trace_path)
+    if not (robot_name or meta.get("robot")):
+        raise ConfigError(str(trace_path), "", f"no robot: its sidecar {sidecar_path(trace_path).name} "
+                          "is missing or names none; give --robot")
+    robot = load_robot(robot_name or meta["robot"])
     names = list(robot.joint_names)
-    missing = [n for n in names if f"{n}_present_rad" not in cols]
+    needed = [c for c in trace_columns(names) if c not in ("compute_ms", "bus_ms", "overrun")]
+    missing = [c for c in needed if c not in cols]
     if missing:
-        raise ConfigError(str(trace_path), "columns", f"no present-angle columns for {missing} (robot {robot.name}?)")
+        raise ConfigError(str(trace_path), "header", f"lacks {len(missing)} column(s) of a {robot.name} trace: "
+                          f"{', '.join(missing[:4])}{', ...' if len(missing) > 4 else ''}")
     times = cols["time_s"]
     real = np.stack([cols[f"{n}_present_rad"] for n in names], axis=1)
     goals = np.stack([cols[f"{n}_goal_rad"] for n in names], axis=1)
@@ -111,7 +103,7 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
         joints[name] = {"rmse_deg": float(np.sqrt(np.mean(err ** 2))), "mae_deg": float(np.mean(np.abs(err))),
                         "lag_ms": None if lag is None else lag * 1e3}
     return {"robot": robot.name, "ticks": len(times), "mode": "closed-loop" if policy else "replayed goals",
-            "joints": joints, "contact_agreement": float(np.mean(feet_real == feet_sim)),
+            "joints": joints, "contact_agreement": float(np.mean(feet_real == feet_sim)), "notes": notes,
             "_series": {"times": times, "real": real, "sim": sim, "names": names}}
 
 
@@ -119,7 +111,7 @@ def plot(result: dict[str, Any], path: Path | str) -> None:
     try:
         import matplotlib
     except ImportError as exc:
-        raise SystemExit("plots need matplotlib: pip install 'servo-biped-evolve[plot]'") from exc
+        raise BipedError("plots need matplotlib: pip install 'servo-biped-evolve[plot]'") from exc
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

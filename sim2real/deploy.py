@@ -35,7 +35,7 @@ import numpy as np
 
 from sim2real.bus.base import Bus, CommunicationError, ServoError, decode_hardware_error
 from sim2real.bus.chain import ServoChain
-from sim2real.errors import BipedError
+from sim2real.errors import BipedError, UsageError
 from sim2real.mapping import ServoMapping
 from sim2real.policy import Policy
 from sim2real.realtime import RealtimeRequest, no_garbage_collection, ordinary_scheduling, request_realtime
@@ -308,6 +308,9 @@ def drive(bus: Bus, robot: RobotSpec, controller: dict[str, Any], duration_s: fl
     """Start up, ramp, run the loop, and always end with torque off, read back; returns what
     happened (``report.torque_off`` lists servos confirmed off and those that are not).
     ``realtime``: ask the OS for real-time treatment first (None: do not ask)."""
+    if duration_s is not None and not (math.isfinite(duration_s) and round(duration_s / controller["tick_s"]) >= 1):
+        raise UsageError(f"duration {duration_s!r} s: not a finite time of at least one control tick "
+                         f"({controller['tick_s']} s)")  # before any servo moves
     report = RunReport()
     chain = ServoChain(bus, robot)
     mapping = ServoMapping(robot)

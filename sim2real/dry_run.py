@@ -9,6 +9,7 @@ hardware: retried, or a safe stop with torque off.  The simulated bus is a child
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 import tempfile
@@ -23,63 +24,88 @@ from sim2real.realtime import RealtimeRequest
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.validation import Node, load_yaml
 
+FAULT_KINDS = ("silent", "overload", "drop", "corrupt")
+
 
 def parse_faults(spec: str | None, robot: RobotSpec | None = None) -> list[tuple[str, int, float]]:
     """``silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE``, or a YAML file of the
     same (``silent: [{id: 4, at_s: 3}]``, ``overload: [...]``, ``drop: 0.02``, ``corrupt: 0.01``)
-    -> [(kind, id, value)] (id 0 for the wire-wide rates).  With ``robot``, every ID must be
-    one of its devices (overload: one of its servos)."""
-    faults = _parse_faults(spec)
-    if robot is not None:
-        servos = [j.servo.id for j in robot.joints if j.servo]
-        devices = servos + ([robot.sensor_board.id] if robot.sensor_board else [])
-        for kind, dxl_id, _ in faults:
-            allowed = servos if kind == "overload" else devices if kind == "silent" else None
-            if allowed is not None and dxl_id not in allowed:
-                raise ConfigError("--faults", f"{kind}:{dxl_id}", f"ID {dxl_id} is not a "
-                                  f"{'servo' if kind == 'overload' else 'device'} of robot {robot.name} "
-                                  f"(IDs: {', '.join(map(str, sorted(allowed)))})")
-    return faults
-
-
-def _parse_faults(spec: str | None) -> list[tuple[str, int, float]]:
+    -> [(kind, id, value)] (id 0 for the wire-wide rates).  With ``robot``, every ID must be a
+    device on its bus (an overload, a servo's)."""
     if spec and spec.endswith((".yaml", ".yml")):
-        return _faults_file(Path(spec))
+        return _faults_file(Path(spec), robot)
     faults = []
-    for item in filter(None, (spec or "").split(",")):
-        if item.startswith(("drop:", "corrupt:")):
-            kind, rate = item.split(":", 1)
-            try:
-                value = float(rate)
-            except ValueError:
-                value = -1.0
+    for item in (part.strip() for part in (spec or "").split(",")):
+        if not item:
+            continue
+        kind, _, rest = item.partition(":")
+        kind = kind.strip()
+        if not rest:
+            raise ConfigError("--faults", item, "expected KIND:ID@SECONDS (silent:5@3.0, overload:7@2) "
+                              "or KIND:RATE (drop:0.02, corrupt:0.01)")
+        if kind not in FAULT_KINDS:
+            raise ConfigError("--faults", item, "kind must be silent or overload (KIND:ID@SECONDS), "
+                              "or drop or corrupt (KIND:RATE)")
+        if kind in ("drop", "corrupt"):
+            value = _number(rest)
             if not 0.0 <= value <= 1.0:
                 raise ConfigError("--faults", item, "a rate must be a number within [0, 1]")
+            if any(f[0] == kind for f in faults):
+                raise ConfigError("--faults", item, f"{kind} is given twice")
             faults.append((kind, 0, value))
             continue
-        try:
-            kind, rest = item.split(":")
-            dxl_id, at = rest.split("@")
-            faults.append((kind.strip(), int(dxl_id), float(at)))
-        except ValueError:
-            raise ConfigError("--faults", item, "expected KIND:ID@SECONDS (silent:5@3.0, overload:7@2) "
-                              "or KIND:RATE (drop:0.02, corrupt:0.01)") from None
-        if faults[-1][0] not in ("silent", "overload"):
-            raise ConfigError("--faults", item, "kind must be silent or overload")
+        ident, at, when = rest.partition("@")
+        if not at or not ident.strip().isdigit():
+            raise ConfigError("--faults", item, f"expected {kind}:ID@SECONDS, e.g. {kind}:5@3.0")
+        at_s = _number(when)
+        if not (math.isfinite(at_s) and at_s >= 0.0):
+            raise ConfigError("--faults", item, "the time must be a finite number of seconds >= 0")
+        _check_device(int(ident), kind, robot, "--faults", item)
+        faults.append((kind, int(ident), at_s))
     return faults
 
 
-def _faults_file(path: Path) -> list[tuple[str, int, float]]:
-    node = Node(load_yaml(path) or {}, str(path)).mapping(optional=("silent", "overload", "drop", "corrupt"))
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        return float("nan")
+
+
+def _check_device(dxl_id: int, kind: str, robot: RobotSpec | None, source: str, key: str) -> None:
+    if robot is None:
+        return
+    devices = robot.devices
+    if kind == "overload" and robot.sensor_board is not None:
+        devices.pop(robot.sensor_board.id, None)  # only a servo overloads
+    if dxl_id not in devices:
+        board = f"; sensor board {robot.sensor_board.id}" if robot.sensor_board and kind != "overload" else ""
+        servos = sorted(j.servo.id for j in robot.joints if j.servo)
+        raise ConfigError(source, key, f"ID {dxl_id} is not a {'servo' if kind == 'overload' else 'device'} "
+                          f"of {robot.name} (servos {', '.join(map(str, servos))}{board})")
+
+
+def _faults_file(path: Path, robot: RobotSpec | None = None) -> list[tuple[str, int, float]]:
+    node = Node(load_yaml(path) or {}, str(path)).mapping(optional=FAULT_KINDS)
     faults = []
     for kind in ("silent", "overload"):
         for item in node[kind].list() if node.has(kind) else []:
             item.mapping(required=("id", "at_s"))
-            faults.append((kind, item["id"].integer(0, 252), item["at_s"].number(lo=0.0)))
+            dxl_id = item["id"].integer(0, 252)
+            _check_device(dxl_id, kind, robot, str(path), item["id"].path)
+            faults.append((kind, dxl_id, item["at_s"].number(lo=0.0)))
     for kind in ("drop", "corrupt"):
         if node.has(kind):
             faults.append((kind, 0, node[kind].number(0.0, 1.0)))
     return faults
+
+
+def check_fault_times(faults: list[tuple[str, int, float]], duration_s: float) -> None:
+    """Refuse a silent servo or an overload timed after the run's end: it would never happen."""
+    for kind, dxl_id, at in faults:
+        if kind in ("silent", "overload") and at >= duration_s:
+            raise ConfigError("--faults", f"{kind}:{dxl_id}@{at:g}",
+                              f"at {at:g} s, after the run's end (--duration {duration_s:g})")
 
 
 class SimulatedBusProcess:
@@ -140,7 +166,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     robot = load_robot(robot_arg)
     data = load_controller(controller_path, robot)
     profile = load_reality(reality)  # every input checked before anything starts
-    parse_faults(faults, robot)
+    check_fault_times(parse_faults(faults, robot), duration_s)
     args = ["--robot", robot_arg, "--seed", str(seed), "--fault-delay", str(ramp_s),
             *(["--reality", reality] if reality else []), *(["--faults", faults] if faults else []),
             *(simbus_realtime if simbus_realtime is not None else ["--no-realtime"])]
@@ -156,7 +182,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
             "overruns": report.overruns, "bus_errors": report.bus_errors, "retries": report.retries,
             "missed_ticks": report.missed_ticks, "corrupt_replies": report.corrupt_replies,
             "stop_reason": report.stop_reason, "stop_notes": report.stop_notes, "torque_off": summary["torque_off"],
-            "reality": profile.name, "trace": str(trace_path) if trace_path else None,
+            "reality": profile.name, "trace": str(trace_path) if trace_path and Path(trace_path).exists() else None,
             "simulated_s": truth["simulated_s"],
             **{k: v for k, v in summary.items() if k.startswith(("compute", "jitter"))},
             "realtime": summary["realtime"], "simbus_realtime": truth.get("realtime")}

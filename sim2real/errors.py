@@ -1,8 +1,9 @@
 """The project's small set of exceptions.
 
 Each failure kind has one class, so callers can catch what they can handle:
-bad data from a file (``ConfigError``), a bus that did not answer
-(``CommunicationError``), and a servo that reported a fault (``ServoError``).
+bad data from a file (``ConfigError``), a bad command-line value (``UsageError``),
+a bus that did not answer (``CommunicationError``), and a servo that reported a fault
+(``ServoError``).
 """
 
 from __future__ import annotations
@@ -24,3 +25,11 @@ class ConfigError(BipedError, ValueError):
         self.problem = problem
         where = f"{self.source}: {key}" if key else self.source
         super().__init__(f"{where}: {problem}")
+
+
+class UsageError(BipedError, ValueError):
+    """A value given on the command line (or to a function standing in for it) is wrong.
+
+    The message names the flag and the problem, e.g. ``--disable-module: unknown module
+    'nope' (this controller has: main)``.
+    """

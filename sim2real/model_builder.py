@@ -51,6 +51,7 @@ _AXES = {
 }
 COLORS = {"left": (0.85, 0.45, 0.2, 1), "right": (0.2, 0.5, 0.85, 1), "center": (0.75, 0.75, 0.78, 1)}
 SOLE_CLEARANCE_M = 0.0005  # the home keyframe starts the soles this far above the floor
+OFFSCREEN_SIZE = (1280, 720)  # [px] the offscreen framebuffer: the largest picture `biped render` makes
 
 
 def joint_axis(joint: Joint) -> tuple[float, float, float]:
@@ -112,7 +113,7 @@ def build_spec(robot: RobotSpec) -> mujoco.MjSpec:
     spec.compiler.degree = False  # every angle here is in radians (MJCF's default is degrees)
     spec.option.timestep = timing.physics_dt_s
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.visual.global_.offwidth, spec.visual.global_.offheight = 1280, 720
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = OFFSCREEN_SIZE
 
     spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
                      builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, width=256, height=256,

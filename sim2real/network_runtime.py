@@ -14,7 +14,21 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from sim2real.errors import UsageError
+
 Z_LIMIT = 60.0  # the sigmoid's argument is clipped here, as in evolution
+
+
+def check_disabled_modules(controller: dict[str, Any], disabled_modules: Iterable[str]) -> tuple[str, ...]:
+    """The names to switch off, each one of the controller's modules, else :class:`UsageError`
+    naming them and the modules there are."""
+    names = [m["name"] for m in controller["modules"]]
+    off = tuple(disabled_modules)
+    unknown = sorted(set(off) - set(names))
+    if unknown:
+        raise UsageError(f"--disable-module: unknown module{'s' if len(unknown) > 1 else ''} "
+                         f"{', '.join(map(repr, unknown))} (this controller has: {', '.join(names)})")
+    return off
 
 
 class ControllerNetworks:
@@ -22,10 +36,7 @@ class ControllerNetworks:
 
     def __init__(self, controller: dict[str, Any], disabled_modules: Iterable[str] = ()):
         names = [m["name"] for m in controller["modules"]]
-        off = set(disabled_modules)
-        unknown = off - set(names)
-        if unknown:
-            raise ValueError(f"--disable-module: unknown module(s) {sorted(unknown)}; this controller has {names}")
+        off = set(check_disabled_modules(controller, disabled_modules))
         off_idx = {i for i, n in enumerate(names) if n in off}
         self.n_inputs = len(controller["inputs"])
         self.n_bias = len(controller["bias"][0])

@@ -109,6 +109,7 @@ class DeviceProfile:
     units: dict[str, float] = field(default_factory=dict)  # velocity_unit_rpm, ...
     variants: tuple[str, ...] = ()
     sensors: dict[str, Any] = field(default_factory=dict)
+    baud_rates: tuple[int, ...] = ()  # [bit/s] the rates it can be set to (empty: not listed)
 
     def register(self, name: str) -> Register:
         try:
@@ -163,9 +164,9 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     kind = root["kind"].string(("servo", "sensor_board"))
     common = ("model", "kind", "model_number", "protocol", "mass_kg", "source", "control_table")
     if kind == "servo":
-        root.mapping(required=common + _SERVO_KEYS, optional=_UNIT_KEYS + ("variants",))
+        root.mapping(required=common + _SERVO_KEYS, optional=_UNIT_KEYS + ("variants", "baud_rates"))
     else:
-        root.mapping(required=common + ("sensors",), optional=("variants",))
+        root.mapping(required=common + ("sensors",), optional=("variants", "baud_rates"))
 
     table: dict[str, Register] = {}
     for entry in root["control_table"].list(min_len=1):
@@ -190,6 +191,7 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
         path=Path(path),
         control_table=table,
         variants=tuple(v.string() for v in root.get("variants", []).list()),
+        baud_rates=tuple(sorted({b.integer(lo=1) for b in root.get("baud_rates", []).list()})),
     )
     if kind == "sensor_board":
         return DeviceProfile(**profile, sensors=dict(root["sensors"].free_mapping()))
@@ -250,6 +252,11 @@ def _profiles_in(folder: Path) -> dict[str, DeviceProfile]:
 def available_profiles(folder: Path | None = None) -> list[str]:
     """Model names of every profile in ``firmware_profiles/``."""
     return sorted({p.model for p in _profiles_in(folder or profiles_dir()).values()})
+
+
+def supported_baud_rates(folder: Path | None = None) -> tuple[int, ...]:
+    """Every baud rate some profile in ``firmware_profiles/`` can be set to [bit/s]."""
+    return tuple(sorted({b for p in _profiles_in(folder or profiles_dir()).values() for b in p.baud_rates}))
 
 
 def load_profile(name: str, folder: Path | None = None) -> DeviceProfile:

@@ -18,15 +18,18 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
 
 import mujoco  # noqa: E402
 
+from sim2real.errors import BipedError  # noqa: E402
+
 
 def open_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     """An offscreen renderer (close it, or use it in ``with``), with a clear error if no GL."""
-    width = min(width, model.vis.global_.offwidth)
-    height = min(height, model.vis.global_.offheight)
+    if width > model.vis.global_.offwidth or height > model.vis.global_.offheight:
+        raise ValueError(f"{width} x {height} pixels: larger than the model's offscreen buffer "
+                         f"({model.vis.global_.offwidth} x {model.vis.global_.offheight})")
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as exc:  # the GL backends raise a variety of errors
-        raise RuntimeError(
+        raise BipedError(
             f"cannot open an offscreen OpenGL context (MUJOCO_GL={os.environ.get('MUJOCO_GL')}): {exc}. "
             "Install Mesa's EGL (Debian: libegl1 libgl1-mesa-dri) or OSMesa (libosmesa6, then "
             "MUJOCO_GL=osmesa)."
@@ -46,7 +49,7 @@ def save_video(path: Path, frames: list[np.ndarray], frame_s: float) -> None:
     try:
         import imageio.v3 as iio
     except ImportError as exc:
-        raise SystemExit("writing videos needs imageio: pip install 'servo-biped-evolve[plot]'") from exc
+        raise BipedError("writing videos needs imageio: pip install 'servo-biped-evolve[plot]'") from exc
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix.lower() == ".gif":
@@ -59,6 +62,6 @@ def save_image(path: Path, image: np.ndarray) -> None:
     try:
         import imageio.v3 as iio
     except ImportError as exc:
-        raise SystemExit("writing images needs imageio: pip install 'servo-biped-evolve[plot]'") from exc
+        raise BipedError("writing images needs imageio: pip install 'servo-biped-evolve[plot]'") from exc
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     iio.imwrite(path, image)

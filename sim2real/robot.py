@@ -152,6 +152,20 @@ class RobotSpec:
     def is_servo_robot(self) -> bool:
         return self.pd is None
 
+    @property
+    def devices(self) -> dict[int, str]:
+        """Every device on the bus by ID: ``{4: "joint 'right_knee' (XL430-W250-T)", ...}``."""
+        out = {j.servo.id: f"joint {j.name!r} ({j.servo.profile.model})" for j in self.joints if j.servo}
+        if self.sensor_board is not None:
+            out[self.sensor_board.id] = f"the sensor board ({self.sensor_board.profile.model})"
+        return out
+
+    @property
+    def baud_rates(self) -> tuple[int, ...] | None:
+        """The baud rates every device on the bus can be set to [bit/s], from their profiles
+        (None when no profile lists its rates)."""
+        return _common_baud_rates(self.joints, self.sensor_board)
+
 
 _ROBOT_KEYS = dict(
     required=("name", "description", "body", "joints", "control_sets"),
@@ -219,6 +233,12 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
             if not root.has(key):
                 raise root.error(f"missing required key {key!r} for a servo robot", key=key)
         _check_ids(root, joints, board)
+    bus = _read_bus(root["bus"]) if root.has("bus") else None
+    if bus is not None:
+        rates = _common_baud_rates(joints, board)
+        if rates is not None and bus.baud not in rates:
+            raise root.error(f"{bus.baud} is not a baud rate every device on the bus supports "
+                             f"({', '.join(map(str, rates))})", key="bus.baud")
 
     names = {j.name for j in joints}
     control_sets = {}
@@ -237,7 +257,7 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         body=body,
         joints=joints,
         control_sets=control_sets,
-        bus=_read_bus(root["bus"]) if root.has("bus") else None,
+        bus=bus,
         sensor_board=board,
         pd=pd,
         control_tick_s=root["control_tick_s"].number(positive=True) if root.has("control_tick_s") else None,
@@ -359,6 +379,12 @@ def _read_bus(node: Node) -> Bus:
     node.mapping(required=("port", "baud"))
     baud = node["baud"].integer(9600, 10_500_000)
     return Bus(port=node["port"].string(), baud=baud)
+
+
+def _common_baud_rates(joints: tuple[Joint, ...], board: SensorBoard | None) -> tuple[int, ...] | None:
+    profiles = [j.servo.profile for j in joints if j.servo] + ([board.profile] if board else [])
+    listed = [set(p.baud_rates) for p in profiles if p.baud_rates]
+    return tuple(sorted(set.intersection(*listed))) if listed else None
 
 
 def _check_joints(root: Node, joints: tuple[Joint, ...]) -> None:

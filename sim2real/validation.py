@@ -7,6 +7,7 @@ dotted key path, so a problem deep in a file is reported as
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -21,6 +22,8 @@ def load_yaml(path: Path) -> Any:
         text = Path(path).read_text()
     except OSError as exc:
         raise ConfigError(str(path), "", f"cannot read file: {exc.strerror}") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(str(path), "", "not a YAML file: binary, not UTF-8 text") from exc
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -93,7 +96,7 @@ class Node:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise self.error(f"must be a number, got {v!r}")
         v = float(v)
-        if v != v or v in (float("inf"), float("-inf")):
+        if not math.isfinite(v):
             raise self.error(f"must be finite, got {v!r}")
         if positive and v <= 0:
             raise self.error(f"must be > 0, got {v!r}")
@@ -168,9 +171,13 @@ def dataclass_from_mapping(cls: type, values: Any, source: str, prefix: str, wha
         elif isinstance(default, float):
             ok = isinstance(value, (int, float)) and not isinstance(value, bool)
             value = float(value) if ok else value
+            if ok and not math.isfinite(value):
+                raise ConfigError(source, where, f"must be finite, got {value!r}")
         else:
-            ok = isinstance(value, str)
+            ok = isinstance(value, str) and bool(value)
         if not ok:
-            raise ConfigError(source, where, f"must be a {type(default).__name__}, got {value!r}")
+            kind = ("true or false" if isinstance(default, bool) else "an integer" if isinstance(default, int)
+                    else "a number" if isinstance(default, float) else "a non-empty string")
+            raise ConfigError(source, where, f"must be {kind}, got {value!r}")
         kwargs[key] = value
     return cls(**kwargs)

@@ -123,7 +123,7 @@ def test_config_from_yaml_rejects_unknown_keys_and_bad_types():
         NeatConfig.from_mapping({"populaton_size": 10}, "evolve.yaml", "neat.")
     with pytest.raises(ConfigError, match="neat.add_node_prob: must be within"):
         NeatConfig.from_mapping({"add_node_prob": 1.5}, "evolve.yaml", "neat.")
-    with pytest.raises(ConfigError, match="neat.population_size: must be a int"):
+    with pytest.raises(ConfigError, match="neat.population_size: must be an integer"):
         NeatConfig.from_mapping({"population_size": "many"}, "evolve.yaml", "neat.")
 
 

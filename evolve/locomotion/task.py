@@ -26,6 +26,11 @@ from sim2real.errors import ConfigError
 from sim2real.validation import dataclass_from_mapping
 
 
+# (key, low, high): the value must lie in (low, high]
+BOUNDED = (("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")), ("harness_height", 0.0, 1.0),
+           ("contact_threshold", 0.0, 1.0))
+
+
 @dataclass(frozen=True)
 class TaskConfig:
     control_set: str = "walk"  # which joints the controller drives (robot's control_sets)
@@ -58,6 +63,11 @@ class TaskConfig:
                 raise ConfigError(source, prefix + f.name, f"must not be negative, got {v}")
         if config.episode_s <= 0:
             raise ConfigError(source, prefix + "episode_s", "must be > 0")
+        for key, lo, hi in BOUNDED:
+            v = getattr(config, key)
+            if not lo < v <= hi:
+                bound = f"> {lo:g}" if hi == float("inf") else f"within ({lo:g}, {hi:g}]"
+                raise ConfigError(source, prefix + key, f"must be {bound}, got {v:g}")
         if not 0 < config.fall_height < 1:
             raise ConfigError(source, prefix + "fall_height", "must be within (0, 1)")
         return config

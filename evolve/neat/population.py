@@ -19,6 +19,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.errors import ConfigError
 from evolve.neat.config import NeatConfig
 from evolve.neat.genome import Genome, InnovationTracker, Layout
 from evolve.neat.reproduction import reproduce
@@ -171,11 +172,11 @@ class Population:
 
     @classmethod
     def from_dict(cls, data: dict, source: str = "<checkpoint>") -> "Population":
-        if data.get("format") != CHECKPOINT_FORMAT:
-            raise ValueError(f"{source}: not a NEAT checkpoint (format {data.get('format')!r})")
+        if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
+            raise ConfigError(source, "format", "not a NEAT checkpoint")
         if data.get("version") != CHECKPOINT_VERSION:
-            raise ValueError(f"{source}: checkpoint version {data.get('version')} is not supported "
-                             f"(this code reads version {CHECKPOINT_VERSION})")
+            raise ConfigError(source, "version", f"checkpoint version {data.get('version')} is not supported "
+                              f"(this code reads version {CHECKPOINT_VERSION})")
         config = NeatConfig.from_mapping(data["config"], source, "config.")
         layout = Layout(*data["layout"])
         pop = cls(config, layout, _restore=True)
@@ -197,5 +198,5 @@ class Population:
         try:
             data = read_json(path)
         except (OSError, ValueError, EOFError) as exc:
-            raise ValueError(f"{path}: cannot read checkpoint: {exc}") from exc
+            raise ConfigError(str(path), "", f"cannot read checkpoint: {exc}") from exc
         return cls.from_dict(data, str(path))

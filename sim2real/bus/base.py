@@ -28,7 +28,7 @@ class CommunicationError(BipedError):
         self.what = what
         self.corrupt = corrupt
         who = ", ".join(str(i) for i in self.ids)
-        super().__init__(f"servo{'s' if len(self.ids) > 1 else ''} {who}: {what}")
+        super().__init__(f"servo{'s' if len(self.ids) > 1 else ''} {who}: {what}" if self.ids else what)
 
 
 class ServoError(BipedError):

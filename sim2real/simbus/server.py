@@ -34,6 +34,8 @@ class EmulatedChain:
 
     def __init__(self, devices: dict[int, MockDevice], clock: Callable[[], float] = time.monotonic,
                  advance: Callable[[], None] | None = None):
+        if not devices:
+            raise ValueError("an emulated chain needs at least one device")
         self.devices = devices
         self._custom_advance = advance
         self.protocol = next(iter(devices.values())).profile.protocol

@@ -35,18 +35,19 @@ SIMBUS_PRIORITY = DEFAULT_PRIORITY  # the servos answer as promptly as the runti
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from sim2real.cli_args import baud_rate, non_negative_finite_float, reality_name, robot_name, seed
     from sim2real.robot import DEFAULT_ROBOT
 
-    parser.add_argument("--robot", default=DEFAULT_ROBOT,
+    parser.add_argument("--robot", type=robot_name, default=DEFAULT_ROBOT,
                         help="robot name from configs/robots/ or a path to a robot YAML (default: xl430_biped)")
-    parser.add_argument("--baud", type=int, help="pace replies like the wire at this baud (default: the robot's)")
+    parser.add_argument("--baud", type=baud_rate, help="pace replies like the wire at this baud (default: the robot's)")
     parser.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start),"
                         "drop:RATE,corrupt:RATE or a YAML file of them")
-    parser.add_argument("--reality", metavar="PROFILE",
+    parser.add_argument("--reality", type=reality_name, metavar="PROFILE",
                         help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the reality profile's random parts")
+    parser.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts")
     add_realtime_arguments(parser)
-    parser.add_argument("--fault-delay", type=float, default=0.0, help=argparse.SUPPRESS)  # dry runs: the ramp
+    parser.add_argument("--fault-delay", type=non_negative_finite_float, default=0.0, help=argparse.SUPPRESS)  # dry runs: the ramp
     parser.add_argument("--exit-on-stdin-eof", action="store_true",
                         help="also stop when standard input closes (for a parent process)")
     parser.add_argument("--report", action="store_true",

@@ -1,0 +1,249 @@
+"""Checked command-line values, shared by every ``biped`` subcommand.
+
+Flags get a typed converter (``type=positive_int``, ``type=output_file(".csv")``): it turns
+the text into the value or raises ``argparse.ArgumentTypeError``, so argparse prints the
+usage and ``biped <command>: error: argument --flag: <problem>`` and exits 2 before
+anything runs.  Checks that need more than one flag's text - a robot's baud rates, a
+controller's tick, a default path - raise :class:`UsageError`, which ``biped`` prints as
+one line, ``biped: error: <problem>``, exit 2.  A run that started but did not end as
+asked reports with :func:`run_failed`: one line, exit 1.
+
+    run.add_argument("--duration", type=positive_finite_float)
+    run.add_argument("--trace", type=output_file(".csv", exclude=(".json",)))
+
+Used by :mod:`sim2real.cli`, :mod:`sim2real.cli_deploy`, :mod:`evolve.cli_commands` and
+:mod:`evolve.quickstart`.  No MuJoCo here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable
+
+from sim2real.errors import BipedError, UsageError
+
+if TYPE_CHECKING:
+    from sim2real.robot import RobotSpec
+
+MAX_SEED = 2**32 - 1  # numpy seeds are non-negative; keys are stored as 64-bit integers
+
+
+# -- numbers ---------------------------------------------------------------------------------
+def _whole(text: str) -> int:
+    try:
+        return int(text)
+    except (TypeError, ValueError):
+        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
+def int_at_least(low: int) -> Callable[[str], int]:
+    """A converter for whole numbers >= ``low``."""
+
+    def convert(text: str) -> int:
+        value = _whole(text)
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be a whole number >= {low}, got {text!r}")
+        return value
+
+    convert.__name__ = f"int_at_least_{low}"
+    return convert
+
+
+positive_int = int_at_least(1)
+positive_int.__name__ = "positive_int"
+non_negative_int = int_at_least(0)
+non_negative_int.__name__ = "non_negative_int"
+
+
+def seed(text: str) -> int:
+    """A random seed: a whole number in [0, 2^32 - 1]."""
+    value = _whole(text)
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"a seed must be a whole number in [0, {MAX_SEED}], got {text!r}")
+    return value
+
+
+def positive_finite_float(text: str) -> float:
+    value = _finite(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
+
+
+def non_negative_finite_float(text: str) -> float:
+    value = _finite(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text!r}")
+    return value
+
+
+def rate_0_1(text: str) -> float:
+    value = _finite(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be a rate within [0, 1], got {text!r}")
+    return value
+
+
+def baud_rate(text: str) -> int:
+    """A Dynamixel baud rate [bit/s]: one that some profile in ``firmware_profiles/`` lists."""
+    from sim2real.profiles import supported_baud_rates
+
+    rates = supported_baud_rates()
+    value = _whole(text)
+    if value not in rates:
+        raise argparse.ArgumentTypeError(f"{text} is not a Dynamixel baud rate "
+                                         f"(firmware_profiles/ list: {', '.join(map(str, rates))})")
+    return value
+
+
+def check_baud(robot: RobotSpec, baud: int, flag: str = "--baud") -> None:
+    """Refuse a baud rate that not every device on ``robot``'s bus can be set to."""
+    rates = robot.baud_rates
+    if rates is not None and baud not in rates:
+        raise UsageError(f"{flag} {baud}: not a rate every device of {robot.name} supports "
+                         f"({', '.join(map(str, rates))})")
+
+
+def check_duration(seconds: float | None, tick_s: float, flag: str = "--duration") -> None:
+    """Refuse a run shorter than one control tick (it would end after no tick at all)."""
+    if seconds is not None and round(seconds / tick_s) < 1:
+        raise UsageError(f"{flag} {seconds:g}: shorter than one control tick ({tick_s:g} s)")
+
+
+# -- names of data files ---------------------------------------------------------------------
+def _loads(load: Callable[[str], object], text: str) -> str:
+    """``text`` if ``load(text)`` reads and validates it, else the loader's error as the flag's."""
+    try:
+        load(text)
+    except (BipedError, FileNotFoundError, KeyError) as exc:
+        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+        raise argparse.ArgumentTypeError(message) from None
+    return text
+
+
+def robot_name(text: str) -> str:
+    """A robot: a name from ``configs/robots/`` (presets as ``human:male_95``) or a YAML path,
+    read and validated now."""
+    from sim2real.robot import load_robot
+
+    return _loads(load_robot, text)
+
+
+def reality_name(text: str) -> str:
+    """A reality profile: ``nominal``, a name from ``configs/reality/`` or a YAML path, read
+    and validated now (this imports MuJoCo: only for commands that simulate)."""
+    from sim2real.reality import load_reality
+
+    return _loads(load_reality, text)
+
+
+# -- output paths ----------------------------------------------------------------------------
+def _unwritable(folder: Path) -> str | None:
+    """Why no file can be created in ``folder`` (an existing directory), or None."""
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        return f"cannot write in {folder}: {exc.strerror or exc}"
+    return None
+
+
+def output_file_problem(path: Path, suffixes: tuple[str, ...] = (), exclude: tuple[str, ...] = ()) -> str | None:
+    """Why ``path`` cannot be written as an output file, or None.  Its directory must exist
+    and be writable (checked now, so that nothing runs and then fails to write)."""
+    suffix = path.suffix.lower()
+    if suffixes and suffix not in suffixes:
+        ends = " or ".join([", ".join(suffixes[:-1]), suffixes[-1]] if len(suffixes) > 1 else suffixes)
+        return f"{path}: the name must end in {ends}"
+    if suffix in exclude:
+        return f"{path}: the name must not end in {suffix}"
+    if path.is_dir():
+        return f"{path} is a directory"
+    folder = path.parent
+    if not folder.exists():
+        return f"directory {folder} does not exist"
+    if not folder.is_dir():
+        return f"{folder} is not a directory"
+    if path.exists() and not _writable_file(path):
+        return f"{path} is not writable"
+    return _unwritable(folder)
+
+
+def _writable_file(path: Path) -> bool:
+    try:
+        with open(path, "ab"):
+            return True
+    except OSError:
+        return False
+
+
+def output_dir_problem(path: Path) -> str | None:
+    """Why ``path`` cannot be (created and) written as an output folder, or None."""
+    if path.exists():
+        return f"{path} is not a directory" if not path.is_dir() else _unwritable(path)
+    ancestor = path.parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        return f"cannot create {path}: {ancestor} is not a directory"
+    return _unwritable(ancestor)
+
+
+def output_file(*suffixes: str, exclude: tuple[str, ...] = ()) -> Callable[[str], Path]:
+    """A converter for a file to write, with one of ``suffixes`` (any if none), none of ``exclude``."""
+
+    def convert(text: str) -> Path:
+        path = Path(text)
+        problem = output_file_problem(path, tuple(s.lower() for s in suffixes), exclude)
+        if problem:
+            raise argparse.ArgumentTypeError(problem)
+        return path
+
+    convert.__name__ = "output_file"
+    return convert
+
+
+def output_dir(text: str) -> Path:
+    """A converter for a folder to write into (created if missing)."""
+    path = Path(text)
+    problem = output_dir_problem(path)
+    if problem:
+        raise argparse.ArgumentTypeError(problem)
+    return path
+
+
+def check_output_file(path: Path, flag: str, suffixes: tuple[str, ...] = ()) -> None:
+    """:func:`output_file`'s check for a path the command chose (a default, a suffix rule
+    that depends on another argument): raises :class:`UsageError` naming ``flag``."""
+    problem = output_file_problem(Path(path), tuple(s.lower() for s in suffixes))
+    if problem:
+        raise UsageError(f"{flag}: {problem}")
+
+
+# -- ends ------------------------------------------------------------------------------------
+def run_failed(problem: str) -> int:
+    """A run that started but did not end as asked: one line on stderr, exit status 1."""
+    print(f"biped: error: {problem}", file=sys.stderr)
+    return 1
+
+
+def require_module(module: str, what: str, extra: str = "plot") -> None:
+    """Refuse up front, before a run, what needs an optional package that is not installed."""
+    import importlib.util
+
+    if importlib.util.find_spec(module) is None:
+        raise UsageError(f"{what} needs {module.replace('_', '-')}: pip install 'servo-biped-evolve[{extra}]'")
