@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -122,6 +123,29 @@ def check_duration(seconds: float | None, tick_s: float, flag: str = "--duration
     """Refuse a run shorter than one control tick (it would end after no tick at all)."""
     if seconds is not None and round(seconds / tick_s) < 1:
         raise UsageError(f"{flag} {seconds:g}: shorter than one control tick ({tick_s:g} s)")
+
+
+def rt_priority(text: str) -> int:
+    """A SCHED_FIFO priority, 1-99."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if not 1 <= value <= 99:
+        raise argparse.ArgumentTypeError(f"{text!r}: a SCHED_FIFO priority is an integer 1-99")
+    return value
+
+
+def cpu_index(text: str) -> int:
+    """A CPU this process may run on."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value not in os.sched_getaffinity(0):
+        raise argparse.ArgumentTypeError(f"{text!r}: not a CPU this process may use "
+                                         f"({sorted(os.sched_getaffinity(0))})")
+    return value
 
 
 # -- names of data files ---------------------------------------------------------------------

@@ -37,7 +37,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--trace", type=TRACE_FILE, help="write a trace CSV (+ JSON sidecar) here")
     run.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                      help="switch a control module off (repeatable)")
-    run.add_argument("--lost-after-ms", type=float, default=LOST_AFTER_S * 1e3, metavar="MS",
+    run.add_argument("--lost-after-ms", type=positive_finite_float, default=LOST_AFTER_S * 1e3, metavar="MS",
                      help="stop when no read has succeeded for this long (default %(default).0f ms; single "
                      "missed replies are retried and their ticks hold the last goals)")
     run.add_argument("--json", action="store_true", help="print the report as one JSON object")

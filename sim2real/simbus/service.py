@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import signal
 import sys
 import threading
@@ -57,12 +56,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def add_realtime_arguments(parser: argparse.ArgumentParser) -> None:
     """``--no-realtime``, ``--rt-priority``, ``--cpu``, ``--no-mlock``: shared by every command
     that runs something in real time."""
+    from sim2real.cli_args import cpu_index, rt_priority
+
     group = parser.add_argument_group("real-time treatment (Linux; each refusal is reported, never fatal)")
     group.add_argument("--no-realtime", action="store_true",
                        help="do not ask for a real-time scheduling class, locked memory or a CPU")
-    group.add_argument("--rt-priority", type=_priority, default=DEFAULT_PRIORITY, metavar="P",
+    group.add_argument("--rt-priority", type=rt_priority, default=DEFAULT_PRIORITY, metavar="P",
                        help=f"SCHED_FIFO priority 1-99 (default {DEFAULT_PRIORITY})")
-    group.add_argument("--cpu", type=_cpu, metavar="N", help="pin to this CPU (default: any)")
+    group.add_argument("--cpu", type=cpu_index, metavar="N", help="pin to this CPU (default: any)")
     group.add_argument("--no-mlock", action="store_true", help="do not lock memory")
 
 
@@ -78,27 +79,6 @@ def realtime_flags(args: argparse.Namespace) -> list[str]:
         return ["--no-realtime"]
     flags = ["--rt-priority", str(args.rt_priority)] + (["--cpu", str(args.cpu)] if args.cpu is not None else [])
     return flags + (["--no-mlock"] if args.no_mlock else [])
-
-
-def _priority(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if not 1 <= value <= 99:
-        raise argparse.ArgumentTypeError(f"{text!r}: a SCHED_FIFO priority is an integer 1-99")
-    return value
-
-
-def _cpu(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value not in os.sched_getaffinity(0):
-        raise argparse.ArgumentTypeError(f"{text!r}: not a CPU this process may use "
-                                         f"({sorted(os.sched_getaffinity(0))})")
-    return value
 
 
 def serve(args: argparse.Namespace) -> int:
