@@ -33,7 +33,11 @@ import numpy as np
 
 from benchmarks.common import parser, progress, report
 from sim2real.bus import MockBus
-from sim2real.controller import joint_map_hash, save_controller
+from evolve.locomotion.evaluator import neat_layout
+from evolve.locomotion.export import controller_from_genome
+from evolve.locomotion.task import TaskConfig
+from evolve.neat import Genome
+from sim2real.controller import check_controller, save_controller
 from sim2real.deploy import drive
 from sim2real.realtime import RealtimeRequest
 from sim2real.robot import load_robot
@@ -41,33 +45,26 @@ from sim2real.symmetry import symmetric_layout
 
 
 def random_controller(robot, connections: int, hidden: int, seed: int) -> dict:
-    """A controller with the given size and random weights (recurrent, self-loops allowed)."""
+    """A controller of the given size with random weights (recurrent, self-loops allowed),
+    in an exported controller's frame (an unconnected genome's)."""
     rng = np.random.default_rng(seed)
     layout = symmetric_layout(robot, robot.control_sets["walk"])
-    n_in, n_out = layout.n_inputs, layout.n_outputs
-    interface = n_in + 2 + n_out
+    controller = controller_from_genome(Genome(0, neat_layout(layout)), robot, layout, TaskConfig(), 0.0,
+                                        {"seed": seed, "made_by": "benchmarks.loop.random_controller"})
+    interface = layout.n_inputs + 2 + layout.n_outputs
     nodes = list(range(interface)) + list(range(interface, interface + hidden))
-    targets = nodes[n_in + 2:]
+    targets = nodes[layout.n_inputs + 2:]
     pairs = set()
     while len(pairs) < connections:
         pairs.add((int(rng.choice(nodes)), int(rng.choice(targets))))
-    return {
-        "format": "biped-controller", "version": 1,
-        "robot": {"name": robot.name, "joint_map_hash": joint_map_hash(robot)},
-        "tick_s": 0.01, "inputs": list(layout.input_names), "outputs": list(layout.output_names),
-        "bias": [[1.0, 1.0], [1.0, -1.0]], "symmetry": {}, "sigmoid_steepness": 1.0,
-        "modules": [{"name": "main", "enabled": True}],
-        "hidden": [[n, 0] for n in range(interface, interface + hidden)],
-        "connections": [[s, d, float(rng.normal()), 0] for s, d in sorted(pairs)],
-        "joints": {"driven": list(layout.driven), "range_rad": {}}, "task": {}, "provenance": {"seed": seed},
-    }
+    controller["hidden"] = [[n, 0] for n in range(interface, interface + hidden)]
+    controller["connections"] = [[s, d, float(rng.normal()), 0] for s, d in sorted(pairs)]
+    return controller
 
 
 def standing_controller(robot) -> dict:
     """No connections: every output 0.5, each driven joint at the centre of its range."""
-    controller = random_controller(robot, 0, hidden=0, seed=0)
-    controller["tick_s"] = 0.034
-    return controller
+    return random_controller(robot, 0, hidden=0, seed=0)
 
 
 @contextlib.contextmanager
@@ -87,6 +84,7 @@ def hogs(enabled: bool) -> Iterator[int]:
 def mock_part(robot, ticks: int, tick_ms: float, connections: int, realtime: bool, busy: bool) -> dict:
     controller = random_controller(robot, connections, hidden=40, seed=0)
     controller["tick_s"] = tick_ms / 1000.0
+    check_controller(controller, "benchmarks.loop")
     request = RealtimeRequest() if realtime else None
     with hogs(busy) as n_hogs:
         result = drive(MockBus(robot), robot, controller, duration_s=ticks * controller["tick_s"],
