@@ -49,7 +49,7 @@ def random_controller(robot, connections: int, hidden: int, seed: int) -> dict:
     in an exported controller's frame (an unconnected genome's)."""
     rng = np.random.default_rng(seed)
     layout = symmetric_layout(robot, robot.control_sets["walk"])
-    controller = controller_from_genome(Genome(0, neat_layout(layout)), robot, layout, TaskConfig(), 0.0,
+    controller = controller_from_genome(Genome(0, neat_layout(layout)), robot, layout, TaskConfig(), 1.0,
                                         {"seed": seed, "made_by": "benchmarks.loop.random_controller"})
     interface = layout.n_inputs + 2 + layout.n_outputs
     nodes = list(range(interface)) + list(range(interface, interface + hidden))
