@@ -50,7 +50,11 @@ SPIN_S = 0.0005  # the loop spins this long before each deadline instead of slee
 LOST_AFTER_S = 0.1  # communication is lost after this long without one good read [s]
 READ_BUDGET = 0.6  # a tick's reads are retried until this share of the tick has passed
 TICK_ATTEMPTS = 4  # ... and at most this often each (a failing mock bus answers at once)
-PATIENT_ATTEMPTS = 10  # start-up and torque-off: nothing moves meanwhile, so keep asking
+# Start-up and torque-off keep asking a device at least this often and this long: nothing
+# moves meanwhile, and a host busy for a few tens of ms must not make a servo look silent
+# (or, at the end, make the tool tell the user to cut the power for nothing).
+PATIENT_ATTEMPTS = 3
+PATIENCE_S = 0.3
 
 
 class StartupError(BipedError):
@@ -110,7 +114,7 @@ def start_up(chain: ServoChain, mapping: ServoMapping, warn: Callable[[str], Non
     problems = []
     for dxl_id, profile in chain.devices.items():
         try:
-            model = chain.ping(dxl_id, PATIENT_ATTEMPTS)
+            model = chain.ping(dxl_id, PATIENT_ATTEMPTS, PATIENCE_S)
         except CommunicationError as exc:
             problems.append(f"ID {dxl_id} ({profile.model}) "
                             + ("answers only with corrupt packets (wrong baud rate, or noise on the wire?)"
@@ -125,7 +129,7 @@ def start_up(chain: ServoChain, mapping: ServoMapping, warn: Callable[[str], Non
     for dxl_id in chain.servo_ids:
         if "hardware_error_status" in chain.devices[dxl_id].control_table:
             try:
-                status = chain.read(dxl_id, "hardware_error_status", PATIENT_ATTEMPTS)
+                status = chain.read(dxl_id, "hardware_error_status", PATIENT_ATTEMPTS, PATIENCE_S)
             except ServoError as exc:  # the alert bit comes with the very value we asked for
                 if exc.value is None:
                     raise
@@ -134,7 +138,7 @@ def start_up(chain: ServoChain, mapping: ServoMapping, warn: Callable[[str], Non
                 errors.append(f"ID {dxl_id}: {decode_hardware_error(status)}")
     if errors:
         raise StartupError("hardware errors latched (power-cycle or REBOOT the servo): " + "; ".join(errors))
-    chain.torque(False, attempts=PATIENT_ATTEMPTS)  # EEPROM settings need torque off
+    chain.torque(False, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)  # EEPROM settings need torque off
     for k, dxl_id in enumerate(chain.servo_ids):
         profile = chain.devices[dxl_id]
         settings = [("return_delay_time", 0)]
@@ -146,7 +150,7 @@ def start_up(chain: ServoChain, mapping: ServoMapping, warn: Callable[[str], Non
         if "bus_watchdog" in profile.control_table:  # 0 first: clears a tripped watchdog
             settings += [("bus_watchdog", 0), ("bus_watchdog", WATCHDOG_MS // 20)]
         for name, value in settings:
-            chain.write(dxl_id, name, value, PATIENT_ATTEMPTS)
+            chain.write(dxl_id, name, value, PATIENT_ATTEMPTS, PATIENCE_S)
     latency = usb_latency_timer_ms(getattr(chain.bus, "port_name", None))
     if latency is not None and latency != 1:
         warn(f"warning: the USB adapter's latency timer is {latency} ms; set it to 1 ms "
@@ -330,8 +334,8 @@ def drive(bus: Bus, robot: RobotSpec, controller: dict[str, Any], duration_s: fl
                     "robot": robot.name, "controller_hash": controller["robot"]["joint_map_hash"],
                     "controller_provenance": controller.get("provenance", {}), "tick_s": policy.tick_s,
                     "software": "servo-biped-evolve"})
-            present = mapping.angles(chain.sync_read("present_position", attempts=PATIENT_ATTEMPTS))
-            chain.torque(True, attempts=PATIENT_ATTEMPTS)
+            present = mapping.angles(chain.sync_read("present_position", None, PATIENT_ATTEMPTS, PATIENCE_S))
+            chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)
             ramp(chain, mapping, present, policy.reset(), ramp_s, sleep)
             loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s)
             with no_garbage_collection():
@@ -411,11 +415,12 @@ def _stop_safely(chain: ServoChain, mapping: ServoMapping, policy: Policy, repor
             "cut the power to the robot")
 
 
-def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS) -> TorqueOff:
+def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS, patience_s: float = PATIENCE_S) -> TorqueOff:
     """Torque off on every servo, confirmed by reading Torque Enable back.
 
     One sync write first (a single packet, no reply to lose, reaches every servo at once),
-    then per servo: read back, and write again while it still reads 1.
+    then per servo: read back, and write again while it still reads 1 - for at least
+    ``attempts`` tries and ``patience_s`` seconds.
     """
     try:
         chain.sync_write("torque_enable", np.zeros(len(chain.servo_ids), dtype=np.int64))
@@ -423,7 +428,10 @@ def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS) -> TorqueOff
         pass
     result = TorqueOff()
     for dxl_id in chain.servo_ids:
-        for _ in range(attempts):
+        give_up_at = time.monotonic() + patience_s
+        attempt = 0
+        while attempt < attempts or time.monotonic() < give_up_at:
+            attempt += 1
             try:
                 if chain.read(dxl_id, "torque_enable", attempts=1) == 0:
                     result.confirmed.append(dxl_id)

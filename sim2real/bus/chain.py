@@ -8,6 +8,7 @@ the foot switches and up-vector from the sensor board.
 
 from __future__ import annotations
 
+import time
 from typing import Callable, TypeVar
 
 import numpy as np
@@ -49,33 +50,37 @@ class ServoChain:
         if robot.sensor_board:
             self.devices[self.board_id] = robot.sensor_board.profile
 
-    def with_retries(self, call: Callable[[], T], attempts: int | None = None) -> T:
-        """``call()``, repeated on :class:`CommunicationError` up to ``attempts`` times in all."""
+    def with_retries(self, call: Callable[[], T], attempts: int | None = None, patience_s: float = 0.0) -> T:
+        """``call()``, repeated on :class:`CommunicationError` until it has been tried
+        ``attempts`` times in all and ``patience_s`` seconds have passed."""
         attempts = self.retries + 1 if attempts is None else attempts
-        for attempt in range(attempts):
+        give_up_at = time.monotonic() + patience_s
+        attempt = 0
+        while True:
             try:
                 return call()
             except CommunicationError:
-                if attempt == attempts - 1:
+                attempt += 1
+                if attempt >= attempts and time.monotonic() >= give_up_at:
                     raise
                 self.retries_used += 1
-        raise AssertionError("unreachable")
 
     def register(self, dxl_id: int, name: str) -> Register:
         return self.devices[dxl_id].register(name)
 
-    def ping(self, dxl_id: int, attempts: int | None = None) -> int:
+    def ping(self, dxl_id: int, attempts: int | None = None, patience_s: float = 0.0) -> int:
         """The device's model number."""
-        return self.with_retries(lambda: self.bus.ping(dxl_id), attempts)
+        return self.with_retries(lambda: self.bus.ping(dxl_id), attempts, patience_s)
 
-    def read(self, dxl_id: int, name: str, attempts: int | None = None) -> int:
+    def read(self, dxl_id: int, name: str, attempts: int | None = None, patience_s: float = 0.0) -> int:
         reg = self.register(dxl_id, name)
-        return decode(reg, self.with_retries(lambda: self.bus.read(dxl_id, reg.address, reg.size), attempts))
+        return decode(reg, self.with_retries(lambda: self.bus.read(dxl_id, reg.address, reg.size), attempts,
+                                             patience_s))
 
-    def write(self, dxl_id: int, name: str, value: int, attempts: int | None = None) -> None:
+    def write(self, dxl_id: int, name: str, value: int, attempts: int | None = None, patience_s: float = 0.0) -> None:
         reg = self.register(dxl_id, name)
         raw = encode(reg, value)
-        self.with_retries(lambda: self.bus.write(dxl_id, reg.address, reg.size, raw), attempts)
+        self.with_retries(lambda: self.bus.write(dxl_id, reg.address, reg.size, raw), attempts, patience_s)
 
     def _common(self, ids: list[int], name: str) -> Register:
         regs = {(r.address, r.size) for r in (self.register(i, name) for i in ids)}
@@ -83,11 +88,12 @@ class ServoChain:
             raise ValueError(f"{name} differs in address or size between servos {ids}: no sync access")
         return self.register(ids[0], name)
 
-    def sync_read(self, name: str, ids: list[int] | None = None, attempts: int | None = None) -> np.ndarray:
+    def sync_read(self, name: str, ids: list[int] | None = None, attempts: int | None = None,
+                  patience_s: float = 0.0) -> np.ndarray:
         """Decoded values in ``ids`` order (default: every servo in joint order)."""
         ids = self.servo_ids if ids is None else ids
         reg = self._common(ids, name)
-        raw = self.with_retries(lambda: self.bus.sync_read(ids, reg.address, reg.size), attempts)
+        raw = self.with_retries(lambda: self.bus.sync_read(ids, reg.address, reg.size), attempts, patience_s)
         return np.array([decode(reg, raw[i]) for i in ids], dtype=np.int64)
 
     def sync_write(self, name: str, values: np.ndarray, ids: list[int] | None = None) -> None:
@@ -95,9 +101,10 @@ class ServoChain:
         reg = self._common(ids, name)
         self.bus.sync_write(reg.address, reg.size, {i: encode(reg, v) for i, v in zip(ids, values)})
 
-    def torque(self, on: bool, ids: list[int] | None = None, attempts: int | None = None) -> None:
+    def torque(self, on: bool, ids: list[int] | None = None, attempts: int | None = None,
+               patience_s: float = 0.0) -> None:
         for dxl_id in self.servo_ids if ids is None else ids:
-            self.write(dxl_id, "torque_enable", int(on), attempts)
+            self.write(dxl_id, "torque_enable", int(on), attempts, patience_s)
 
     def read_board(self, attempts: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Foot switches (left, right: True touching) and the torso up-vector (unit, torso frame)."""
