@@ -19,7 +19,13 @@ import time
 import numpy as np
 
 from benchmarks.common import parser, progress, report
-from evolve.neat import Layout, NeatConfig, Population, PopulationNetwork, RecurrentNetwork
+from evolve.neat import (
+    Layout,
+    NeatConfig,
+    Population,
+    PopulationNetwork,
+    RecurrentNetwork,
+)
 from evolve.neat.network import expressed
 
 LAYOUT = Layout(11, 2, 5)

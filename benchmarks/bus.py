@@ -11,16 +11,16 @@ sizes, and the CPU this process (the runtime's side) uses, most of it waiting fo
 from __future__ import annotations
 
 import resource
+import subprocess
+import sys
 import time
 
 import numpy as np
 
 from benchmarks.common import parser, progress, report
-from sim2real.bus import ServoChain
-from sim2real.bus.dynamixel import DynamixelBus
+from sim2real.hardware import ServoChain
+from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.robot import load_robot
-import subprocess
-import sys
 
 
 def main(argv=None) -> None:

@@ -32,16 +32,16 @@ from typing import Iterator
 import numpy as np
 
 from benchmarks.common import parser, progress, report
-from sim2real.bus import MockBus
 from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
-from sim2real.controller import check_controller, save_controller
-from sim2real.deploy import drive
-from sim2real.realtime import RealtimeRequest
+from sim2real.controller.file import check_controller, save_controller
+from sim2real.controller.symmetry import symmetric_layout
+from sim2real.hardware import MockBus
+from sim2real.hardware.deploy import drive
+from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import load_robot
-from sim2real.symmetry import symmetric_layout
 
 
 def random_controller(robot, connections: int, hidden: int, seed: int) -> dict:
@@ -99,7 +99,7 @@ def mock_part(robot, ticks: int, tick_ms: float, connections: int, realtime: boo
 
 def sim_part(controller_path: Path, seconds: float, busy: bool) -> dict:
     """``biped run --port`` against ``biped simbus``, two processes, as a user would."""
-    simbus = subprocess.Popen([sys.executable, "-m", "sim2real.simbus", "--exit-on-stdin-eof"],
+    simbus = subprocess.Popen([sys.executable, "-m", "sim2real.simulation.simbus", "--exit-on-stdin-eof"],
                               stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
         port = simbus.stdout.readline().strip()

@@ -21,7 +21,13 @@ import numpy as np
 
 from benchmarks import double_pole as dp
 from benchmarks.common import map_runs, parser, progress, report
-from evolve.neat import Layout, NeatConfig, Population, PopulationNetwork, RecurrentNetwork
+from evolve.neat import (
+    Layout,
+    NeatConfig,
+    Population,
+    PopulationNetwork,
+    RecurrentNetwork,
+)
 from evolve.neat.genome import Genome
 
 SUCCESS_STEPS = 100_000

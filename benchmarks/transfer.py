@@ -28,8 +28,8 @@ from evolve.evaluation import EvaluatorSpec, build_evaluator
 from evolve.neat import Population
 from evolve.replay import WALK_LEG_LENGTHS, evaluate_controller
 from evolve.run import Best, Run
-from sim2real.controller import save_controller
-from sim2real.dry_run import dry_run
+from sim2real.controller.file import save_controller
+from sim2real.simulation.dry_run import dry_run
 
 
 def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tuple[Path, dict]:

@@ -22,8 +22,7 @@ from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.replay import WALK_LEG_LENGTHS
 from evolve.run import Run
-from sim2real.controller import save_controller
-
+from sim2real.controller.file import save_controller
 
 
 def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: int | None = None,

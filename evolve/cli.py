@@ -1,7 +1,7 @@
 """``biped``: the project's one command line, its subcommands from both packages.
 
 Subcommands of the deployment side (robot, view, render) come from
-:mod:`sim2real.cli`; the evolution side's (evolve, eval, export) from
+:mod:`sim2real.cli.robot_commands`; the evolution side's (evolve, eval, export) from
 :mod:`evolve.cli_commands`, which also lets view and render replay a controller.
 """
 
@@ -16,7 +16,7 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
     os.environ.setdefault("MUJOCO_GL", "egl")
 
 from evolve import cli_commands, quickstart  # noqa: E402
-from sim2real import cli as sim2real_cli  # noqa: E402
+from sim2real.cli import deploy_commands, robot_commands  # noqa: E402
 from sim2real.errors import BipedError  # noqa: E402
 
 
@@ -27,10 +27,10 @@ def build_parser() -> argparse.ArgumentParser:
         "them to Dynamixel hardware.",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    sim2real_cli.add_commands(sub)
+    robot_commands.add_commands(sub, replay=cli_commands.REPLAY)  # robot, view, render
+    deploy_commands.add_commands(sub)  # run, dry-run, simbus, compare
     cli_commands.add_commands(sub)
     quickstart.add_command(sub)
-    cli_commands.register_replay(sim2real_cli.CONTROLLER_HANDLERS)
     return parser
 
 
@@ -46,6 +46,12 @@ def main(argv: list[str] | None = None) -> int:
     except (BipedError, FileNotFoundError, FileExistsError, KeyError) as exc:
         message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"biped: error: {message}", file=sys.stderr)
+        return 2
+    except ModuleNotFoundError as exc:
+        if exc.name != "mujoco":
+            raise
+        print(f"biped: error: biped {args.command} needs MuJoCo, which the robot's lean install leaves out: "
+              "pip install 'servo-biped-evolve[sim]' (biped run does not need it)", file=sys.stderr)
         return 2
     except BrokenPipeError:  # e.g. `biped robot show | head`
         sys.stdout = None

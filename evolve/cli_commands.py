@@ -8,9 +8,19 @@ import json
 import sys
 from pathlib import Path
 
-from sim2real.cli import print_result
-from sim2real.cli_args import (int_at_least, non_negative_int, output_dir, output_file, positive_finite_float,
-                               positive_int, reality_name, require_module, robot_name, seed)
+from sim2real.cli.args import (
+    int_at_least,
+    non_negative_int,
+    output_dir,
+    output_file,
+    positive_finite_float,
+    positive_int,
+    print_result,
+    reality_name,
+    require_module,
+    robot_name,
+    seed,
+)
 from sim2real.errors import UsageError
 
 DEFAULT_CONFIG = "walk"
@@ -63,14 +73,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ea.set_defaults(func=cmd_eval, check=check_eval)
 
 
-def register_replay(handlers: dict) -> None:
-    handlers["view"] = cmd_view_controller
-    handlers["render"] = cmd_render_controller
-
-
 def cmd_render_controller(args: argparse.Namespace) -> int:
     from evolve.replay import frames
-    from sim2real.rendering import save_video
+    from sim2real.simulation.rendering import save_video
 
     images, frame_s = frames(Path(args.robot), args.width, args.height, seconds=args.seconds,
                              every=2 if args.output.suffix.lower() == ".gif" else 1,
@@ -107,8 +112,12 @@ def cmd_view_controller(args: argparse.Namespace) -> int:
     return 0
 
 
+# ``biped view`` and ``biped render`` of a controller file (sim2real's commands call these)
+REPLAY = {"view": cmd_view_controller, "render": cmd_render_controller}
+
+
 def resolve_config(name: str) -> Path:
-    from sim2real.paths import data_root
+    from sim2real.robot.paths import data_root
 
     path = Path(name)
     if path.exists():
@@ -173,7 +182,7 @@ def cmd_evolve(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from sim2real.controller import load_controller, save_controller
+    from sim2real.controller.file import load_controller, save_controller
 
     if not args.run_dir.is_dir():
         raise FileNotFoundError(f"{args.run_dir}: no such run folder")

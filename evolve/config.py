@@ -27,9 +27,9 @@ from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig
 from evolve.stages import Stage, check_stage_joints, parse_stages
 from sim2real.errors import ConfigError
-from sim2real.reality import load_reality
 from sim2real.robot import DEFAULT_ROBOT, load_robot
-from sim2real.validation import Node, load_yaml
+from sim2real.robot.validation import Node, load_yaml
+from sim2real.simulation.reality import load_reality
 
 TOP_KEYS = ("robot", "seed", "generations", "threads", "checkpoint_every", "task", "neat", "randomize", "stages")
 INTEGER_KEYS = {"seed": (0, 2**32 - 1), "generations": (1, None), "threads": (0, None), "checkpoint_every": (0, None)}

@@ -21,8 +21,8 @@ from evolve.locomotion.objectives import Episodes
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from evolve.stages import Stage
-from sim2real.reality import load_reality
 from sim2real.robot import load_robot
+from sim2real.simulation.reality import load_reality
 
 
 @dataclass(frozen=True)

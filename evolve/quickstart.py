@@ -13,7 +13,15 @@ import argparse
 import json
 from pathlib import Path
 
-from sim2real.cli_args import int_at_least, output_dir, positive_int, reality_name, require_module, run_failed, seed
+from sim2real.cli.args import (
+    int_at_least,
+    output_dir,
+    positive_int,
+    reality_name,
+    require_module,
+    run_failed,
+    seed,
+)
 
 
 def add_command(sub: argparse._SubParsersAction) -> None:
@@ -43,9 +51,9 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     from evolve.config import load_evolve_config
     from evolve.replay import evaluate_controller
     from evolve.run import Run
-    from sim2real.compare import compare, plot
-    from sim2real.controller import load_controller, save_controller
-    from sim2real.dry_run import dry_run
+    from sim2real.controller.file import load_controller, save_controller
+    from sim2real.simulation.compare import compare, plot
+    from sim2real.simulation.dry_run import dry_run
 
     out: Path = args.out
     config = load_evolve_config(resolve_config("walk"))
@@ -75,7 +83,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     else:
         step(3, f"filming it -> {video}")
         from evolve.replay import frames
-        from sim2real.rendering import save_video
+        from sim2real.simulation.rendering import save_video
 
         images, frame_s = frames(controller, 640, 480)
         save_video(video, images, frame_s)

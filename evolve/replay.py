@@ -18,11 +18,11 @@ WALK_LEG_LENGTHS = 2.2
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import genome_from_controller
 from evolve.locomotion.task import TaskConfig
-from sim2real.controller import load_controller
+from sim2real.controller.activation import check_disabled_modules
+from sim2real.controller.file import load_controller
 from sim2real.errors import ConfigError, UsageError
-from sim2real.network_runtime import check_disabled_modules
-from sim2real.reality import NOMINAL, Reality, load_reality
 from sim2real.robot import RobotSpec, load_robot
+from sim2real.simulation.reality import NOMINAL, Reality, load_reality
 
 
 def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
@@ -105,9 +105,11 @@ def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | N
            seconds: float | None = None, every: int = 1,
            disabled_modules: tuple[str, ...] = ()) -> tuple[list[np.ndarray], float]:
     """Rendered frames of a replay from the tracking camera, and the time between frames [s]."""
-    from sim2real.rendering import open_renderer  # sets up offscreen GL before mujoco renders
-
     import mujoco
+
+    from sim2real.simulation.rendering import (
+        open_renderer,  # sets up offscreen GL before mujoco renders
+    )
 
     # the film goes on after a fall or a stall (the score would have stopped there)
     data, spec, evaluator, genome = _setup(path, robot, seconds, keep_going=True, disabled_modules=disabled_modules)

@@ -32,15 +32,21 @@ from typing import Callable
 import numpy as np
 
 from evolve.config import EvolveConfig, parse_evolve_config
-from evolve.evaluation import Backend, EvaluatorSpec, LocalBackend, build_evaluator, score_population
+from evolve.evaluation import (
+    Backend,
+    EvaluatorSpec,
+    LocalBackend,
+    build_evaluator,
+    score_population,
+)
 from evolve.locomotion.export import controller_from_genome
-from evolve.stages import Stage, check_stage_joints
 from evolve.neat import Genome, Population
+from evolve.stages import Stage, check_stage_joints
 from sim2real.atomic_json import read_json, write_json_atomic
-from sim2real.controller import save_controller
+from sim2real.controller.file import save_controller
 from sim2real.errors import UsageError
 from sim2real.robot import load_robot
-from sim2real.validation import load_yaml
+from sim2real.robot.validation import load_yaml
 
 STATS_COLUMNS = ("generation", "stage", "best_fitness", "mean_fitness", "best_distance_m", "best_upright_s",
                  "species", "mean_connections", "mean_hidden", "evaluations", "evaluations_per_s",

@@ -24,9 +24,14 @@ from typing import Any
 
 import numpy as np
 
-from evolve.locomotion.objectives import PoseLimits, PoseObjective, PoseWeights, WalkObjective
+from evolve.locomotion.objectives import (
+    PoseLimits,
+    PoseObjective,
+    PoseWeights,
+    WalkObjective,
+)
 from sim2real.errors import ConfigError
-from sim2real.validation import Node, dataclass_from_mapping
+from sim2real.robot.validation import Node, dataclass_from_mapping
 
 OBJECTIVES = ("pose", "stand", "walk")
 DEFAULT_WEIGHTS = {"pose": PoseWeights(3.0, 1.0, 0.0, 0.0), "stand": PoseWeights(1.0, 1.0, 1.0, 1.0)}

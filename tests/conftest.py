@@ -9,7 +9,7 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
     os.environ.setdefault("MUJOCO_GL", "egl")
 
 from sim2real.robot import available_robots  # noqa: E402
-from sim2real.validation import load_yaml  # noqa: E402
+from sim2real.robot.validation import load_yaml  # noqa: E402
 
 
 def all_robot_names() -> list[str]:

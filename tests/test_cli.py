@@ -73,9 +73,9 @@ def test_run_without_a_port_uses_the_simulated_bus(tmp_path):
     from evolve.locomotion.export import controller_from_genome
     from evolve.locomotion.task import TaskConfig
     from evolve.neat import Genome
-    from sim2real.controller import save_controller
+    from sim2real.controller.file import save_controller
+    from sim2real.controller.symmetry import symmetric_layout
     from sim2real.robot import load_robot
-    from sim2real.symmetry import symmetric_layout
 
     robot = load_robot()
     layout = symmetric_layout(robot, robot.control_sets["walk"])

@@ -17,10 +17,10 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
-from sim2real.controller import save_controller
+from sim2real.controller.file import save_controller
+from sim2real.controller.symmetry import symmetric_layout
+from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import load_robot
-from sim2real.symmetry import symmetric_layout
-from sim2real.trace import TraceWriter
 
 ROBOT = load_robot()
 
@@ -290,9 +290,9 @@ def failed_dry_run(*args, **kwargs):
 @pytest.mark.parametrize("argv", [["dry-run", "{c}", "--duration", "1"], ["run", "{c}", "--duration", "1"]],
                          ids=["dry-run", "run on the simulated bus"])
 def test_a_dry_run_that_stopped_on_an_error_exits_1(argv, controller, monkeypatch, capsys):
-    import sim2real.dry_run
+    import sim2real.simulation.dry_run
 
-    monkeypatch.setattr(sim2real.dry_run, "dry_run", failed_dry_run)
+    monkeypatch.setattr(sim2real.simulation.dry_run, "dry_run", failed_dry_run)
     result = biped([a.format(c=controller) for a in argv], capsys)
     assert result.code == 1, result.err
     assert result.err.strip().splitlines()[-1] == ("biped: error: the run stopped early: "
@@ -300,21 +300,21 @@ def test_a_dry_run_that_stopped_on_an_error_exits_1(argv, controller, monkeypatc
 
 
 def test_a_mock_run_that_stopped_on_an_error_exits_1(controller, monkeypatch, capsys):
-    import sim2real.deploy
+    import sim2real.hardware.deploy
 
-    monkeypatch.setattr(sim2real.deploy, "drive",
-                        lambda *a, **k: sim2real.deploy.RunReport(
+    monkeypatch.setattr(sim2real.hardware.deploy, "drive",
+                        lambda *a, **k: sim2real.hardware.deploy.RunReport(
                             ticks=2, stop_reason="lost communication: servo 4",
-                            torque_off=sim2real.deploy.TorqueOff(confirmed=list(range(1, 12)))))
+                            torque_off=sim2real.hardware.deploy.TorqueOff(confirmed=list(range(1, 12)))))
     result = biped(["run", controller, "--bus", "mock", "--duration", "1"], capsys)
     assert result.code == 1, result.err
     assert result.err.strip().splitlines()[-1] == "biped: error: the run stopped early: lost communication: servo 4"
 
 
 def test_a_dry_run_that_ended_as_asked_exits_0(controller, monkeypatch, capsys):
-    import sim2real.dry_run
+    import sim2real.simulation.dry_run
 
-    monkeypatch.setattr(sim2real.dry_run, "dry_run",
+    monkeypatch.setattr(sim2real.simulation.dry_run, "dry_run",
                         lambda *a, **k: {**failed_dry_run(), "stop_reason": "duration reached"})
     result = biped(["dry-run", controller, "--duration", "1"], capsys)
     assert (result.code, result.err) == (0, "")

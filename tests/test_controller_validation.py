@@ -20,16 +20,24 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome, genome_from_controller
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population, PopulationNetwork
-from sim2real.controller import (MAX_BYTES, MAX_DEPTH, MAX_STEEPNESS, MAX_WEIGHT, TICK_RANGE_S, load_controller,
-                                 nesting_depth, save_controller)
+from sim2real.controller.file import (
+    MAX_BYTES,
+    MAX_DEPTH,
+    MAX_STEEPNESS,
+    MAX_WEIGHT,
+    TICK_RANGE_S,
+    load_controller,
+    nesting_depth,
+    save_controller,
+)
+from sim2real.controller.policy import Policy
+from sim2real.controller.symmetry import bias_values, symmetric_layout
 from sim2real.errors import ConfigError
-from sim2real.policy import Policy
 from sim2real.robot import load_robot
-from sim2real.symmetry import bias_values, symmetric_layout
 
 ROBOT = load_robot()
 BAD_FILES = Path(__file__).parent / "data" / "bad_controllers"
-SCHEMA = json.loads((Path(sim2real.__file__).parent / "schemas" / "controller-v1.schema.json").read_text())
+SCHEMA = json.loads((Path(sim2real.__file__).parent / "controller" / "schemas" / "controller-v1.schema.json").read_text())
 FUZZ = settings(max_examples=200, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
@@ -438,12 +446,12 @@ def test_the_depth_scan_equals_a_plain_scan(value, ascii_only):
 @pytest.fixture
 def bus_watch(monkeypatch):
     """Every MockBus `biped run` makes, and every call of drive."""
-    import sim2real.bus
-    import sim2real.deploy
+    import sim2real.hardware
+    import sim2real.hardware.deploy
 
     watch = {"buses": [], "drives": 0}
 
-    class WatchedBus(sim2real.bus.MockBus):
+    class WatchedBus(sim2real.hardware.MockBus):
         def __init__(self, robot, *args, **kwargs):
             super().__init__(robot, *args, **kwargs)
             self.torque_address = robot.joints[0].servo.profile.register("torque_enable").address
@@ -452,14 +460,14 @@ def bus_watch(monkeypatch):
         def torque_was_on(self) -> bool:
             return any(addr == self.torque_address and value for _, addr, value in self.writes)
 
-    real_drive = sim2real.deploy.drive
+    real_drive = sim2real.hardware.deploy.drive
 
     def counted_drive(*args, **kwargs):
         watch["drives"] += 1
         return real_drive(*args, **{**kwargs, "ramp_s": 0.02})
 
-    monkeypatch.setattr(sim2real.bus, "MockBus", WatchedBus)
-    monkeypatch.setattr(sim2real.deploy, "drive", counted_drive)
+    monkeypatch.setattr(sim2real.hardware, "MockBus", WatchedBus)
+    monkeypatch.setattr(sim2real.hardware.deploy, "drive", counted_drive)
     return watch
 
 

@@ -7,16 +7,17 @@ import time
 import numpy as np
 import pytest
 
+from benchmarks.loop import random_controller
 from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population
-from sim2real.bus import MockBus
-from sim2real.deploy import StartupError, drive
-from sim2real.mapping import ServoMapping
+from sim2real.controller.mapping import ServoMapping
+from sim2real.controller.symmetry import symmetric_layout
+from sim2real.hardware import MockBus
+from sim2real.hardware.deploy import StartupError, drive
+from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import load_robot
-from sim2real.symmetry import symmetric_layout
-from sim2real.trace import TraceWriter
 
 ROBOT = load_robot()
 
@@ -145,7 +146,7 @@ def test_a_hardware_error_stops_with_the_servo_and_the_decoded_error(controller)
 
 
 def test_a_non_finite_output_holds_the_last_goals_and_stops(controller, monkeypatch):
-    from sim2real.policy import Policy
+    from sim2real.controller.policy import Policy
 
     bus = MockBus(ROBOT)
     real_step = Policy.step
@@ -184,8 +185,7 @@ from hypothesis import strategies as st  # noqa: E402
        readings=st.lists(st.floats(-1e9, 1e9, allow_nan=False), min_size=16, max_size=16),
        weight_scale=st.floats(0.01, 1e3))
 def test_no_goal_outside_the_limits_whatever_the_network_or_readings(seed, robot_name, readings, weight_scale):
-    from benchmarks.loop import random_controller
-    from sim2real.policy import Policy
+    from sim2real.controller.policy import Policy
 
     robot = load_robot(robot_name)
     controller = random_controller(robot, connections=60, hidden=8, seed=seed)
@@ -207,9 +207,34 @@ def test_the_deploy_path_imports_without_mujoco():
     import subprocess
     import sys
 
-    code = ("import sys; import sim2real.deploy, sim2real.bus.dynamixel, sim2real.policy, sim2real.controller, "
-            "sim2real.cli_deploy, sim2real.simbus.service; "
+    code = ("import sys; import sim2real.hardware.deploy, sim2real.hardware.dynamixel.sdk_bus, sim2real.controller.policy, sim2real.controller.file, "
+            "sim2real.cli.deploy_commands, sim2real.simulation.simbus.service; "
             "print('mujoco' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "False"
+
+
+def test_biped_run_works_where_mujoco_cannot_be_imported(tmp_path):
+    """The robot computer's lean install (no `sim` extra): `biped run` on the mock bus runs,
+    and a command that needs MuJoCo says so in one line."""
+    import json
+    import subprocess
+    import sys
+
+    from sim2real.controller import save_controller
+
+    blocker = tmp_path / "blocked"
+    blocker.mkdir()
+    (blocker / "mujoco.py").write_text("raise ModuleNotFoundError(\"No module named 'mujoco'\", name='mujoco')\n")
+    controller = tmp_path / "c.json"
+    save_controller(controller, random_controller(ROBOT, connections=20, hidden=2, seed=0))
+    env = {**os.environ, "PYTHONPATH": f"{blocker}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
+    out = subprocess.run([sys.executable, "-m", "evolve.cli", "run", str(controller), "--bus", "mock", "--duration",
+                          "0.3", "--json", "--no-realtime"], capture_output=True, text=True, timeout=120, env=env)
+    assert out.returncode == 0, out.stderr
+    result = json.loads(out.stdout.splitlines()[-1])
+    assert result["stop_reason"] == "duration reached" and result["torque_off"]["unconfirmed"] == []
+    out = subprocess.run([sys.executable, "-m", "evolve.cli", "robot", "mjcf"], capture_output=True, text=True,
+                         timeout=120, env=env)
+    assert out.returncode == 2 and "needs MuJoCo" in out.stderr and "[sim]" in out.stderr

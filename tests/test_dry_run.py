@@ -11,11 +11,11 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
-from sim2real.compare import compare, lag_s
-from sim2real.controller import save_controller
-from sim2real.dry_run import dry_run
+from sim2real.controller.file import save_controller
+from sim2real.controller.symmetry import symmetric_layout
 from sim2real.robot import load_robot
-from sim2real.symmetry import symmetric_layout
+from sim2real.simulation.compare import compare, lag_s
+from sim2real.simulation.dry_run import dry_run
 
 ROBOT = load_robot()
 
@@ -73,7 +73,7 @@ def test_cross_correlation_finds_a_known_lag():
 
 
 def test_simbus_prints_its_port_first_and_answers_the_sdk():
-    from sim2real.bus.dynamixel import DynamixelBus
+    from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 
     proc = subprocess.Popen([sys.executable, "-m", "evolve.cli", "simbus"], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
@@ -103,8 +103,8 @@ def test_a_noisy_bus_does_not_stop_the_robot(standing_controller, faults):
 
 
 def test_the_simulated_bus_takes_a_reality_profile():
-    from sim2real.reality import load_reality
-    from sim2real.simbus.physics import PhysicsChain
+    from sim2real.simulation.reality import load_reality
+    from sim2real.simulation.simbus.physics import PhysicsChain
 
     nominal, real = PhysicsChain(ROBOT), PhysicsChain(ROBOT, reality=load_reality("default"))
     assert real.model.body_mass[1:] == pytest.approx(nominal.model.body_mass[1:] * 1.08)
@@ -120,7 +120,7 @@ def test_a_dry_run_under_the_default_reality_profile(standing_controller):
 
 
 def test_current_sensing_servos_report_present_current():
-    from sim2real.simbus.physics import PhysicsChain
+    from sim2real.simulation.simbus.physics import PhysicsChain
 
     robot = load_robot("op3_legs")
     chain = PhysicsChain(robot)
@@ -136,8 +136,8 @@ def test_current_sensing_servos_report_present_current():
 
 
 def test_faults_from_a_flag_or_a_yaml_file(tmp_path):
-    from sim2real.dry_run import parse_faults
     from sim2real.errors import ConfigError
+    from sim2real.simulation.dry_run import parse_faults
 
     flag = parse_faults("silent:4@3,overload:7@5.5,drop:0.02")
     path = tmp_path / "faults.yaml"

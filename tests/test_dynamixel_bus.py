@@ -4,12 +4,12 @@
 import numpy as np
 import pytest
 
-from sim2real.bus import CommunicationError, MockBus, ServoChain, ServoError
-from sim2real.bus.dynamixel import DynamixelBus
+from sim2real.hardware import CommunicationError, MockBus, ServoChain, ServoError
+from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.robot import load_robot
-from sim2real.simbus import protocol1 as p1
-from sim2real.simbus.protocol2 import crc16
-from sim2real.simbus.server import EmulatedChain, PtyServer
+from sim2real.simulation.simbus import protocol1 as p1
+from sim2real.simulation.simbus.protocol2 import crc16
+from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
 
 ROBOT = load_robot()
 
@@ -112,8 +112,8 @@ def test_the_whole_run_over_the_real_sdk_and_a_pty(tmp_path):
     from evolve.locomotion.export import controller_from_genome
     from evolve.locomotion.task import TaskConfig
     from evolve.neat import NeatConfig, Population
-    from sim2real.deploy import drive
-    from sim2real.symmetry import symmetric_layout
+    from sim2real.controller.symmetry import symmetric_layout
+    from sim2real.hardware.deploy import drive
 
     layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
     pop = Population(NeatConfig(population_size=6, target_species=2), neat_layout(layout), seed=3)
@@ -131,7 +131,6 @@ def test_the_whole_run_over_the_real_sdk_and_a_pty(tmp_path):
 def test_protocol_1_ax12a_chain_through_the_sdk(tmp_path):
     """AX-12A: protocol 1.0, no sync read (servo by servo), 2-byte positions."""
     import yaml
-
     from conftest import ROOT
 
     doc = yaml.safe_load((ROOT / "configs" / "robots" / "xl430_biped.yaml").read_text())
@@ -222,7 +221,7 @@ def test_fast_sync_read_and_fast_bulk_read_through_the_sdk_groups(served):
 def test_error_statuses_as_the_servo_gives_them(served):
     import dynamixel_sdk as sdk
 
-    from sim2real.simbus import protocol2 as p2
+    from sim2real.simulation.simbus import protocol2 as p2
 
     bus, _, devices = served
     chain = ServoChain(bus, ROBOT)

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from evolve.cli import main
-from sim2real.controller import load_controller
+from sim2real.controller.file import load_controller
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot
 
@@ -125,8 +125,11 @@ def test_ctrl_c_leaves_a_checkpoint_that_resumes_exactly(config_file, tmp_path):
     long = tmp_path / "long.yaml"
     long.write_text(yaml.safe_dump({**SMALL, "generations": 100_000}))
     stopped, straight = tmp_path / "stopped", tmp_path / "straight"
-    proc = subprocess.Popen([sys.executable, "-m", "evolve.cli", "evolve", str(long), "--out", str(stopped)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # SIGINT back to its default in the child: a test runner started in the background (`&`,
+    # nohup) has it ignored, the child inherits that, and the interrupt would never land.
+    proc = subprocess.Popen([sys.executable, "-m", "evolve.cli", "evolve", str(long), "--out", str(stopped), "--quiet"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
         if (stopped / "stats.csv").exists() and len((stopped / "stats.csv").read_text().splitlines()) >= 3:
@@ -154,11 +157,11 @@ def test_controller_matches_its_json_schema_and_stays_small(config_file, tmp_pat
 
     out = tmp_path / "run"
     assert main(["evolve", str(config_file), "--out", str(out), "--quiet"]) == 0
-    schema = _json.loads((Path(sim2real.__file__).parent / "schemas" / "controller-v1.schema.json").read_text())
+    schema = _json.loads((Path(sim2real.__file__).parent / "controller" / "schemas" / "controller-v1.schema.json").read_text())
     data = _json.loads((out / "controller.json").read_text())
     jsonschema.validate(data, schema)
     data["connections"] = [[0, 13 + (i % 4), 0.123456789012345 * i, 0] for i in range(300)]
-    from sim2real.controller import save_controller
+    from sim2real.controller.file import save_controller
     save_controller(tmp_path / "big.json", data)
     assert (tmp_path / "big.json").stat().st_size < 20_000
 

@@ -6,9 +6,14 @@ import numpy as np
 import pytest
 
 from evolve.locomotion.evaluator import LocomotionEvaluator, neat_layout
-from sim2real.symmetry import bias_values, joint_outputs, network_inputs, symmetric_layout
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, NeatConfig, Population
+from sim2real.controller.symmetry import (
+    bias_values,
+    joint_outputs,
+    network_inputs,
+    symmetric_layout,
+)
 from sim2real.robot import load_robot
 
 ROBOT = load_robot()

@@ -1,9 +1,15 @@
-"""Output-to-goal mapping and what the robot reads (sim2real.mapping)."""
+"""Output-to-goal mapping and what the robot reads (sim2real.controller.mapping)."""
 
 import numpy as np
 import pytest
 
-from sim2real.mapping import angle_to_output, normalized_angle, output_to_angle, quantize, rate_limit
+from sim2real.controller.mapping import (
+    angle_to_output,
+    normalized_angle,
+    output_to_angle,
+    quantize,
+    rate_limit,
+)
 
 
 def test_central_0_8_of_the_output_spans_the_range_and_the_ends_clamp():
@@ -32,7 +38,7 @@ def test_normalized_angle_is_minus_one_to_one_over_the_range():
 from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from sim2real.mapping import ServoMapping  # noqa: E402
+from sim2real.controller.mapping import ServoMapping  # noqa: E402
 from sim2real.robot import load_robot  # noqa: E402
 
 XL430 = ServoMapping(load_robot("xl430_biped"))

@@ -3,11 +3,11 @@
 import mujoco
 import numpy as np
 import pytest
-
 from conftest import all_robot_names
-from sim2real.model_builder import build_model, hold_ctrl, to_mjcf
+
 from sim2real.robot import load_robot
-from sim2real.statics import holding_torques
+from sim2real.simulation.model_builder import build_model, hold_ctrl, to_mjcf
+from sim2real.simulation.statics import holding_torques
 
 
 @pytest.fixture(scope="module", params=all_robot_names())

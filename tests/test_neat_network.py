@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
+from neat_helpers import grown_population
 
 from evolve.neat import Layout, PopulationNetwork, RecurrentNetwork
 from evolve.neat.genome import ConnectionGene, Genome
 from evolve.neat.network import sigmoid
-from neat_helpers import grown_population
 
 
 def test_population_activation_equals_reference_over_1000_ticks():

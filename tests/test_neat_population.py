@@ -5,10 +5,10 @@ import json
 import numpy as np
 import pytest
 import yaml
+from neat_helpers import xor_evaluator
 
 from evolve.neat import Layout, NeatConfig, Population
 from evolve.neat.reproduction import offspring_counts
-from neat_helpers import xor_evaluator
 from sim2real.errors import ConfigError
 
 XOR_CONFIG = NeatConfig(population_size=150, target_species=15, compat_exponent=0.0, sigmoid_steepness=4.9,

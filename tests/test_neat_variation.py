@@ -2,11 +2,17 @@
 
 import numpy as np
 import pytest
+from neat_helpers import grown_population
 
 from evolve.neat import InnovationTracker, Layout, NeatConfig, Population
 from evolve.neat.genome import ConnectionGene, Genome, distance
-from evolve.neat.variation import crossover, initial_genome, mutate_add_link, mutate_add_node, mutate_weights
-from neat_helpers import grown_population
+from evolve.neat.variation import (
+    crossover,
+    initial_genome,
+    mutate_add_link,
+    mutate_add_node,
+    mutate_weights,
+)
 
 LAYOUT = Layout(2, 1, 1)
 

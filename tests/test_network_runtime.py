@@ -5,10 +5,10 @@ import pytest
 
 from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
-from sim2real.symmetry import bias_values, symmetric_layout
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population, PopulationNetwork
-from sim2real.network_runtime import ControllerNetworks
+from sim2real.controller.activation import ControllerNetworks
+from sim2real.controller.symmetry import bias_values, symmetric_layout
 from sim2real.robot import load_robot
 
 
@@ -52,9 +52,13 @@ def test_switching_a_module_off_by_name():
 
 
 def test_policy_fast_path_equals_the_evolution_wiring():
-    from sim2real.mapping import normalized_angle, output_to_angle, rate_limit
-    from sim2real.policy import Policy
-    from sim2real.symmetry import joint_outputs, network_inputs
+    from sim2real.controller.mapping import (
+        normalized_angle,
+        output_to_angle,
+        rate_limit,
+    )
+    from sim2real.controller.policy import Policy
+    from sim2real.controller.symmetry import joint_outputs, network_inputs
 
     genome, controller = _grown_controller(seed=6)
     robot = load_robot()

@@ -3,8 +3,8 @@
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim2real.simbus import protocol1 as p1
-from sim2real.simbus import protocol2 as p2
+from sim2real.simulation.simbus import protocol1 as p1
+from sim2real.simulation.simbus import protocol2 as p2
 
 
 def test_protocol2_round_trip_with_byte_stuffing():

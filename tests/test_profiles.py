@@ -7,9 +7,9 @@ import pytest
 import yaml
 
 from sim2real.errors import ConfigError
-from sim2real.paths import profiles_dir
-from sim2real.profiles import available_profiles, load_profile, parse_profile
-from sim2real.servo_model import position_gain, servo_physics
+from sim2real.robot.paths import profiles_dir
+from sim2real.robot.profiles import available_profiles, load_profile, parse_profile
+from sim2real.robot.servo_model import position_gain, servo_physics
 
 # (model number, protocol, stall torque [N m], no-load speed [rpm], nominal voltage [V]):
 # e-manual specification tables, as listed in DESIGN.md section 6.

@@ -6,10 +6,16 @@ import pytest
 from evolve.locomotion.evaluator import LocomotionEvaluator, neat_layout
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population
+from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError
-from sim2real.reality import NOMINAL, PERTURBATIONS, load_reality, parse_reality, play
 from sim2real.robot import load_robot
-from sim2real.symmetry import symmetric_layout
+from sim2real.simulation.reality import (
+    NOMINAL,
+    PERTURBATIONS,
+    load_reality,
+    parse_reality,
+    play,
+)
 
 ROBOT = load_robot()
 TASK = TaskConfig(episode_s=1.0)
@@ -145,7 +151,7 @@ def test_eval_reports_the_spread_over_randomized_episodes(tmp_path, capsys):
     from evolve.cli import main
     from evolve.locomotion.export import controller_from_genome
     from evolve.neat import Genome
-    from sim2real.controller import save_controller
+    from sim2real.controller.file import save_controller
 
     layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
     path = tmp_path / "stand.json"

@@ -5,8 +5,8 @@ import math
 
 import pytest
 import yaml
-
 from conftest import ROOT, all_robot_names
+
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot, parse_robot
 

@@ -6,9 +6,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim2real.model_builder import configure_servo_actuator, configure_servo_joint
-from sim2real.profiles import available_profiles, load_profile
-from sim2real.servo_model import servo_physics
+from sim2real.robot.profiles import available_profiles, load_profile
+from sim2real.robot.servo_model import servo_physics
+from sim2real.simulation.model_builder import (
+    configure_servo_actuator,
+    configure_servo_joint,
+)
 
 SERVOS = [m for m in available_profiles() if load_profile(m).is_servo]
 LOAD_INERTIA = 2e-4  # a light link on the horn [kg m^2]

@@ -11,7 +11,7 @@ from evolve.neat import Population
 from evolve.replay import evaluate_controller
 from evolve.run import Run
 from evolve.stages import parse_stages
-from sim2real.controller import load_controller
+from sim2real.controller.file import load_controller
 from sim2real.errors import ConfigError
 
 STAGED = {

@@ -22,14 +22,14 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population
-from sim2real.bus import MockBus
-from sim2real.bus.dynamixel import DynamixelBus
-from sim2real.controller import save_controller
-from sim2real.deploy import RAMP_TICK_S, drive
-from sim2real.policy import Policy
+from sim2real.controller.file import save_controller
+from sim2real.controller.policy import Policy
+from sim2real.controller.symmetry import symmetric_layout
+from sim2real.hardware import MockBus
+from sim2real.hardware.deploy import RAMP_TICK_S, drive
+from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.robot import load_robot
-from sim2real.simbus.server import EmulatedChain, PtyServer
-from sim2real.symmetry import symmetric_layout
+from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
 
 ROBOT = load_robot()
 SERVOS = [j.servo.id for j in ROBOT.joints]
@@ -221,7 +221,7 @@ def read_torque(port) -> dict[int, int]:
 def test_sigterm_during_the_final_ramp_of_biped_run_still_turns_torque_off(controller_file):
     """The reported failure: SIGTERM in the final ramp killed `biped run` with every servo
     powered (exit 143).  Now the ramp is cut short and torque goes off, read back here."""
-    simbus = subprocess.Popen([sys.executable, "-m", "sim2real.simbus", "--exit-on-stdin-eof", "--no-mlock"],
+    simbus = subprocess.Popen([sys.executable, "-m", "sim2real.simulation.simbus", "--exit-on-stdin-eof", "--no-mlock"],
                               stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
         port = simbus.stdout.readline().strip()
@@ -293,7 +293,7 @@ def test_lost_communication_waits_for_lost_after_s(served, controller):
 
 
 def test_a_device_that_answers_only_corrupt_packets_is_named_as_such(controller):
-    from sim2real.deploy import StartupError
+    from sim2real.hardware.deploy import StartupError
 
     chain = EmulatedChain(MockBus(ROBOT).devices)
     with PtyServer(chain, baud=1_000_000, corrupt_rate=1.0) as server:

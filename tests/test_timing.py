@@ -5,8 +5,14 @@ import math
 
 import pytest
 
-from sim2real.robot import Bus, load_robot
-from sim2real.timing import HUMAN_TICK_S, bus_cycle_bytes, bus_cycle_s, control_timing
+from sim2real.robot import load_robot
+from sim2real.robot.spec import BusSettings
+from sim2real.robot.timing import (
+    HUMAN_TICK_S,
+    bus_cycle_bytes,
+    bus_cycle_s,
+    control_timing,
+)
 
 
 def test_default_robot_tick_is_scaled_by_sqrt_of_leg_length():
@@ -32,7 +38,7 @@ def test_bus_bytes_match_the_wire_format():
 
 
 def test_tick_never_below_the_bus_cycle_at_a_slow_baud():
-    robot = dataclasses.replace(load_robot(), bus=Bus(port="/dev/null", baud=57600))
+    robot = dataclasses.replace(load_robot(), bus=BusSettings(port="/dev/null", baud=57600))
     timing = control_timing(robot)
     assert timing.bus_cycle_s == pytest.approx(bus_cycle_bytes(robot) * 10 / 57600)
     assert timing.bus_cycle_s > timing.scaled_tick_s  # 292 bytes take ~51 ms at 57600 baud

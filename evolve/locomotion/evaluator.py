@@ -10,7 +10,7 @@ leave the ids and their networks leave the population network, so nothing is spe
 them; there is no Python loop over individuals.  MuJoCo's batch is bit-identical at any
 thread count, and so are the results.
 
-A simulation may carry a perturbation (:mod:`sim2real.reality`): its own masses, friction,
+A simulation may carry a perturbation (:mod:`sim2real.simulation.reality`): its own masses, friction,
 gains and latency in the batch's per-simulation model fields, backlash and sensor noise on
 the control path.
 
@@ -28,13 +28,32 @@ from mujoco.batch import Batch, SimulationError
 from evolve.locomotion.objectives import Episodes, Objective, WalkObjective
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, Layout, PopulationNetwork
-from sim2real.mapping import normalized_angle, output_to_angle, quantize, rate_limit
-from sim2real.model_builder import build_model, hold_ctrl
-from sim2real.reality import (NOMINAL, PERTURBED_FIELDS, Perturbation, Reality, apply, latency_capacity_s,
-                              play, sample)
+from sim2real.controller.mapping import (
+    normalized_angle,
+    output_to_angle,
+    quantize,
+    rate_limit,
+)
+from sim2real.controller.symmetry import (
+    SymmetricLayout,
+    bias_values,
+    joint_outputs,
+    network_inputs,
+    symmetric_layout,
+)
 from sim2real.robot import RobotSpec
-from sim2real.symmetry import SymmetricLayout, bias_values, joint_outputs, network_inputs, symmetric_layout
-from sim2real.timing import control_timing
+from sim2real.robot.timing import control_timing
+from sim2real.simulation.model_builder import build_model, hold_ctrl
+from sim2real.simulation.reality import (
+    NOMINAL,
+    PERTURBED_FIELDS,
+    Perturbation,
+    Reality,
+    apply,
+    latency_capacity_s,
+    play,
+    sample,
+)
 
 GRAVITY = 9.81
 MAX_JOINT_SPEED = 1e3  # [rad/s] beyond this a simulation is numerically unstable

@@ -1,16 +1,16 @@
-"""Genomes to controller files and back (the format of :mod:`sim2real.controller`)."""
+"""Genomes to controller files and back (the format of :mod:`sim2real.controller.file`)."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from sim2real.symmetry import SymmetricLayout
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, Layout
 from evolve.neat.network import expressed
-from sim2real.controller import FORMAT, VERSION, joint_map_hash
+from sim2real.controller.file import FORMAT, VERSION, joint_map_hash
+from sim2real.controller.symmetry import SymmetricLayout
 from sim2real.robot import RobotSpec
-from sim2real.timing import control_timing
+from sim2real.robot.timing import control_timing
 
 
 def controller_from_genome(genome: Genome, robot: RobotSpec, layout: SymmetricLayout, task: TaskConfig,

@@ -23,8 +23,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from sim2real.errors import ConfigError
-from sim2real.validation import dataclass_from_mapping
-
+from sim2real.robot.validation import dataclass_from_mapping
 
 # (key, low, high): the value must lie in (low, high]
 BOUNDED = (("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")), ("harness_height", 0.0, 1.0),

@@ -18,13 +18,13 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from sim2real.atomic_json import read_json, write_json_atomic
-from sim2real.errors import ConfigError
 from evolve.neat.config import NeatConfig
 from evolve.neat.genome import Genome, InnovationTracker, Layout
 from evolve.neat.reproduction import reproduce
 from evolve.neat.species import SpeciesSet
 from evolve.neat.variation import initial_genome
+from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.errors import ConfigError
 
 CHECKPOINT_FORMAT = "biped-neat-checkpoint"
 CHECKPOINT_VERSION = 1

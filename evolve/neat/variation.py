@@ -10,7 +10,15 @@ from __future__ import annotations
 import numpy as np
 
 from evolve.neat.config import NeatConfig
-from evolve.neat.genome import HIDDEN, INPUT, BIAS, ConnectionGene, Genome, InnovationTracker, Layout
+from evolve.neat.genome import (
+    BIAS,
+    HIDDEN,
+    INPUT,
+    ConnectionGene,
+    Genome,
+    InnovationTracker,
+    Layout,
+)
 
 
 def initial_genome(key: int, layout: Layout, config: NeatConfig, tracker: InnovationTracker,

@@ -1,6 +1,6 @@
-"""The simulated bus as a process: ``biped simbus`` and ``python -m sim2real.simbus``.
+"""The simulated bus as a process: ``biped simbus`` and ``python -m sim2real.simulation.simbus``.
 
-    python -m sim2real.simbus --robot xl430_biped --reality default --exit-on-stdin-eof --report
+    python -m sim2real.simulation.simbus --robot xl430_biped --reality default --exit-on-stdin-eof --report
 
 prints the pseudo-terminal's path as its first line, then serves until SIGTERM, Ctrl-C or
 (with ``--exit-on-stdin-eof``) its standard input closing - which is how a dry run stops it,
@@ -22,19 +22,25 @@ import sys
 import threading
 from typing import TYPE_CHECKING
 
-from sim2real.dry_run import parse_faults
-from sim2real.realtime import DEFAULT_PRIORITY, RealtimeRequest
+from sim2real.hardware.realtime import DEFAULT_PRIORITY, RealtimeRequest
 from sim2real.robot import RobotSpec
+from sim2real.simulation.dry_run import parse_faults
 
 if TYPE_CHECKING:
-    from sim2real.simbus.physics import PhysicsChain
-    from sim2real.simbus.server import EmulatedChain
+    from sim2real.simulation.simbus.physics import PhysicsChain
+    from sim2real.simulation.simbus.server import EmulatedChain
 
 SIMBUS_PRIORITY = DEFAULT_PRIORITY  # the servos answer as promptly as the runtime asks
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from sim2real.cli_args import baud_rate, non_negative_finite_float, reality_name, robot_name, seed
+    from sim2real.cli.args import (
+        baud_rate,
+        non_negative_finite_float,
+        reality_name,
+        robot_name,
+        seed,
+    )
     from sim2real.robot import DEFAULT_ROBOT
 
     parser.add_argument("--robot", type=robot_name, default=DEFAULT_ROBOT,
@@ -56,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def add_realtime_arguments(parser: argparse.ArgumentParser) -> None:
     """``--no-realtime``, ``--rt-priority``, ``--cpu``, ``--no-mlock``: shared by every command
     that runs something in real time."""
-    from sim2real.cli_args import cpu_index, rt_priority
+    from sim2real.cli.args import cpu_index, rt_priority
 
     group = parser.add_argument_group("real-time treatment (Linux; each refusal is reported, never fatal)")
     group.add_argument("--no-realtime", action="store_true",
@@ -83,10 +89,10 @@ def realtime_flags(args: argparse.Namespace) -> list[str]:
 
 def serve(args: argparse.Namespace) -> int:
     """Serve until told to stop; see the module docstring."""
-    from sim2real.reality import load_reality
     from sim2real.robot import load_robot
-    from sim2real.simbus.physics import PhysicsChain
-    from sim2real.simbus.server import EmulatedChain, PtyServer
+    from sim2real.simulation.reality import load_reality
+    from sim2real.simulation.simbus.physics import PhysicsChain
+    from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
 
     robot = load_robot(args.robot)
     physics = PhysicsChain(robot, reality=load_reality(args.reality), seed=args.seed)
@@ -144,7 +150,7 @@ def _set_on_eof(done: threading.Event) -> None:
 def main(argv: list[str] | None = None) -> int:
     from sim2real.errors import BipedError
 
-    parser = argparse.ArgumentParser(prog="python -m sim2real.simbus", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m sim2real.simulation.simbus", description=__doc__.splitlines()[0])
     add_arguments(parser)
     args = parser.parse_args(argv)
     try:

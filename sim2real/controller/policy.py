@@ -1,6 +1,6 @@
 """A controller file as a policy: robot readings in, joint goals out (no MuJoCo).
 
-The same wiring as in evolution (:mod:`sim2real.symmetry`, :mod:`sim2real.mapping`, which
+The same wiring as in evolution (:mod:`sim2real.controller.symmetry`, :mod:`sim2real.controller.mapping`, which
 the tests use as the oracle of this faster, fused form):
 present joint angles, foot switches and the torso's up-vector become both networks'
 inputs; their outputs become joint goals by the central-0.8 rule, rate-limited to the
@@ -14,10 +14,10 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from sim2real.mapping import OUTPUT_MARGIN
-from sim2real.network_runtime import ControllerNetworks
+from sim2real.controller.activation import ControllerNetworks
+from sim2real.controller.mapping import OUTPUT_MARGIN
+from sim2real.controller.symmetry import network_inputs, symmetric_layout
 from sim2real.robot import RobotSpec
-from sim2real.symmetry import network_inputs, symmetric_layout
 
 
 class Policy:

@@ -8,15 +8,24 @@ import json
 import sys
 from pathlib import Path
 
-from sim2real.cli import print_result
-from sim2real.cli_args import (baud_rate, check_baud, check_duration, output_file, positive_finite_float,
-                               reality_name, require_module, robot_name, run_failed, seed)
-from sim2real.deploy import LOST_AFTER_S
+from sim2real.cli.args import (
+    baud_rate,
+    check_baud,
+    check_duration,
+    output_file,
+    positive_finite_float,
+    print_result,
+    reality_name,
+    require_module,
+    robot_name,
+    run_failed,
+    seed,
+)
 from sim2real.errors import UsageError
+from sim2real.hardware.deploy import LOST_AFTER_S
 from sim2real.robot import DEFAULT_ROBOT, load_robot
-from sim2real.simbus import service as simbus_service
-from sim2real.simbus.service import add_realtime_arguments
-
+from sim2real.simulation.simbus import service as simbus_service
+from sim2real.simulation.simbus.service import add_realtime_arguments
 
 TRACE_FILE = output_file(exclude=(".json",))  # a trace's sidecar takes its name with .json
 
@@ -93,7 +102,7 @@ def add_compare_command(sub: argparse._SubParsersAction) -> None:
 # -- checks before anything runs (evolve.cli calls args.check, then args.func) ---------------
 def _servo_robot(name: str | None, controller: Path | None = None):
     """(controller data or None, robot): the robot named, else the controller's; it must have a bus."""
-    from sim2real.controller import load_controller
+    from sim2real.controller.file import load_controller
 
     data = load_controller(controller) if controller is not None else None
     robot = load_robot(name or (data["robot"]["name"] if data else DEFAULT_ROBOT))
@@ -112,7 +121,7 @@ def _check_trace(trace: Path | None, controller: Path) -> None:
 
 
 def check_run(args: argparse.Namespace) -> None:
-    from sim2real.network_runtime import check_disabled_modules
+    from sim2real.controller.activation import check_disabled_modules
 
     data, robot = _servo_robot(args.robot, args.controller)
     if args.baud is not None:
@@ -126,8 +135,8 @@ def check_run(args: argparse.Namespace) -> None:
 
 
 def check_dry_run(args: argparse.Namespace) -> None:
-    from sim2real.dry_run import check_fault_times, parse_faults
-    from sim2real.network_runtime import check_disabled_modules
+    from sim2real.controller.activation import check_disabled_modules
+    from sim2real.simulation.dry_run import check_fault_times, parse_faults
 
     data, robot = _servo_robot(args.robot, args.controller)
     check_duration(args.duration, float(data["tick_s"]))
@@ -137,7 +146,7 @@ def check_dry_run(args: argparse.Namespace) -> None:
 
 
 def check_simbus(args: argparse.Namespace) -> None:
-    from sim2real.dry_run import parse_faults
+    from sim2real.simulation.dry_run import parse_faults
 
     _, robot = _servo_robot(args.robot)
     if args.baud is not None:
@@ -147,7 +156,7 @@ def check_simbus(args: argparse.Namespace) -> None:
 
 def check_compare(args: argparse.Namespace) -> None:
     if args.controller is not None:  # the file on its own first; against the robot once the trace names it
-        from sim2real.controller import load_controller
+        from sim2real.controller.file import load_controller
 
         load_controller(args.controller)
     if args.plot is not None:
@@ -155,7 +164,7 @@ def check_compare(args: argparse.Namespace) -> None:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from sim2real.compare import compare, plot
+    from sim2real.simulation.compare import compare, plot
 
     result = compare(args.trace, args.robot, args.controller)
     for note in result["notes"]:
@@ -175,7 +184,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_dry_run(args: argparse.Namespace) -> int:
-    from sim2real.dry_run import dry_run
+    from sim2real.simulation.dry_run import dry_run
 
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
     result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults, log=log,
@@ -187,9 +196,9 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from sim2real.bus import MockBus
-    from sim2real.controller import load_controller
-    from sim2real.deploy import drive
+    from sim2real.controller.file import load_controller
+    from sim2real.hardware import MockBus
+    from sim2real.hardware.deploy import drive
 
     data = load_controller(args.controller)
     robot = load_robot(args.robot or data["robot"]["name"])
@@ -198,7 +207,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     realtime = simbus_service.realtime_request(args)
     if args.port or args.bus == "mock":
         if args.port:
-            from sim2real.bus.dynamixel import DynamixelBus
+            from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 
             bus = DynamixelBus(args.port, args.baud or robot.bus.baud, robot)
         else:
@@ -208,7 +217,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                        realtime=realtime)
         result = report.summary()
     else:  # neither: the simulated bus, as in a dry run
-        from sim2real.dry_run import dry_run
+        from sim2real.simulation.dry_run import dry_run
 
         log("no --port: running on the simulated bus (MuJoCo behind a pseudo-terminal)")
         result = dry_run(args.controller, robot.name if args.robot else None, args.duration or 10.0,

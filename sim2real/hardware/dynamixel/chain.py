@@ -13,9 +13,9 @@ from typing import Callable, TypeVar
 
 import numpy as np
 
-from sim2real.bus.base import Bus, CommunicationError
-from sim2real.profiles import DeviceProfile, Register
+from sim2real.hardware.bus import Bus, CommunicationError
 from sim2real.robot import RobotSpec
+from sim2real.robot.profiles import DeviceProfile, Register
 
 T = TypeVar("T")
 

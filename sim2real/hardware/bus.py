@@ -1,7 +1,7 @@
 """The bus interface and its errors.
 
 Values cross this interface as unsigned integers of the register's size, exactly as on
-the wire; :class:`~sim2real.bus.chain.ServoChain` decodes signs and names.
+the wire; :class:`~sim2real.hardware.dynamixel.chain.ServoChain` decodes signs and names.
 """
 
 from __future__ import annotations

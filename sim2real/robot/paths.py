@@ -16,7 +16,7 @@ def data_root() -> Path:
     candidates = []
     if os.environ.get("BIPED_DATA_DIR"):
         candidates.append(Path(os.environ["BIPED_DATA_DIR"]))
-    candidates.append(Path(__file__).resolve().parent.parent)
+    candidates.append(Path(__file__).resolve().parents[2])  # sim2real/robot/paths.py -> the clone
     candidates.append(Path(sys.prefix) / "share" / "biped")
     for root in candidates:
         if (root / "firmware_profiles").is_dir():

@@ -26,7 +26,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from sim2real.validation import Node, load_yaml
+from sim2real.robot.validation import Node, load_yaml
 
 # name -> (nominal value, meaning with unit)
 PERTURBATIONS: dict[str, tuple[float, str]] = {
@@ -119,7 +119,7 @@ def parse_reality(doc: Any, source: str, name: str = "inline") -> Reality:
 
 
 def reality_dir() -> Path:
-    from sim2real.paths import data_root
+    from sim2real.robot.paths import data_root
 
     return data_root() / "configs" / "reality"
 

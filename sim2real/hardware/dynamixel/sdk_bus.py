@@ -19,7 +19,7 @@ import time
 
 import dynamixel_sdk as sdk
 
-from sim2real.bus.base import Bus, CommunicationError, ServoError
+from sim2real.hardware.bus import Bus, CommunicationError, ServoError
 from sim2real.robot import RobotSpec
 
 LATENCY_MS = 1.0  # the USB adapter's latency timer, once set to 1 ms (start-up warns otherwise)

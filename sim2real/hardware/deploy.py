@@ -33,14 +33,24 @@ from typing import Any, Callable
 
 import numpy as np
 
-from sim2real.bus.base import Bus, CommunicationError, ServoError, decode_hardware_error
-from sim2real.bus.chain import ServoChain
+from sim2real.controller.mapping import ServoMapping
+from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, UsageError
-from sim2real.mapping import ServoMapping
-from sim2real.policy import Policy
-from sim2real.realtime import RealtimeRequest, no_garbage_collection, ordinary_scheduling, request_realtime
+from sim2real.hardware.bus import (
+    Bus,
+    CommunicationError,
+    ServoError,
+    decode_hardware_error,
+)
+from sim2real.hardware.dynamixel.chain import ServoChain
+from sim2real.hardware.realtime import (
+    RealtimeRequest,
+    no_garbage_collection,
+    ordinary_scheduling,
+    request_realtime,
+)
+from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import RobotSpec
-from sim2real.trace import TraceWriter
 
 POSITION_MODE = 3
 WATCHDOG_MS = 100  # servos stop if the host is silent this long (X series: 20 ms units)

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sim2real.profiles import DeviceProfile
+from sim2real.robot.profiles import DeviceProfile
 
 
 @dataclass(frozen=True)

@@ -1,171 +1,35 @@
-"""Robot descriptions: ``configs/robots/*.yaml`` read into a frozen :class:`RobotSpec`.
-
-Every robot here is a biped of the same tree - trunk, pelvis (the root, seed 000's
-"waist"), and per leg thigh, shank and foot - with a configurable set of hinge joints
-at the waist, hips, knees and ankles.  A config gives the segment sizes [m] and masses
-[kg] (or, for the human character, anthropometric measures they are scaled from), the
-joints with their ranges, and for a servo robot each joint's Dynamixel (ID, model,
-direction, zero offset), the sensor board and the bus.
-
-Joint angles are anatomical and mirrored between the sides, so the same angle means the
-same motion on either leg (a symmetric controller relies on it): pitch is flexion
-(hip forward, knee bending, toes up), roll is abduction (leg outward; ankle the same
-sense), yaw is external rotation (toes outward).  At the waist, pitch bends the trunk
-forward, roll leans it right and yaw turns it left.
+"""Reading robot configs (``configs/robots/*.yaml``) into a :class:`~sim2real.robot.spec.RobotSpec`:
+every key checked, with the file, the key and the problem in each error.
 
     robot = load_robot("xl430_biped")          # or a path, or "human:female_50"
-    robot.joint("right_knee").range_rad
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
 
 from sim2real.errors import ConfigError
-from sim2real.paths import robots_dir
-from sim2real.profiles import DeviceProfile, load_profile
-from sim2real.validation import Node, load_yaml
-
-SIDES = ("left", "right", "center")
-LOCATIONS = ("waist", "hip", "knee", "ankle")
-AXES = ("yaw", "roll", "pitch")
-DEFAULT_ROBOT = "xl430_biped"
-
-
-@dataclass(frozen=True)
-class Box:
-    """A box-shaped segment: size along x (forward), y (left), z (up) [m] and mass [kg]."""
-
-    size: tuple[float, float, float]
-    mass: float
-
-
-@dataclass(frozen=True)
-class Foot:
-    length: float  # heel to toe [m]
-    width: float  # [m]
-    thickness: float  # sole plate [m]
-    ankle_height: float  # ankle axis above the sole [m]
-    heel: float  # ankle axis in front of the heel [m]
-    mass: float  # [kg]
-
-
-@dataclass(frozen=True)
-class Body:
-    trunk: Box
-    pelvis: Box
-    hip_spacing: float  # lateral distance between the hip joints [m]
-    thigh: Box  # size[2] is the hip-to-knee length
-    shank: Box  # size[2] is the knee-to-ankle length
-    foot: Foot
-
-    @property
-    def leg_length(self) -> float:
-        """Hip joint to sole with straight legs [m]."""
-        return self.thigh.size[2] + self.shank.size[2] + self.foot.ankle_height
-
-    @property
-    def height(self) -> float:
-        """Sole to top of the trunk, standing straight [m] (hips at the pelvis' bottom)."""
-        return self.leg_length + self.pelvis.size[2] + self.trunk.size[2]
-
-    @property
-    def mass(self) -> float:
-        """Total mass [kg]."""
-        legs = 2 * (self.thigh.mass + self.shank.mass + self.foot.mass)
-        return self.trunk.mass + self.pelvis.mass + legs
-
-
-@dataclass(frozen=True)
-class ServoMap:
-    """How a joint angle maps onto its servo: ``servo = direction * joint + zero_offset``."""
-
-    id: int
-    profile: DeviceProfile
-    direction: int  # +1 or -1
-    zero_offset_rad: float  # servo angle (from its centre tick) at joint angle 0 [rad]
-
-
-@dataclass(frozen=True)
-class Joint:
-    name: str
-    side: str  # left | right | center
-    location: str  # waist | hip | knee | ankle
-    axis: str  # yaw | roll | pitch
-    range_rad: tuple[float, float]
-    home_rad: float
-    servo: ServoMap | None = None
-
-    @property
-    def center_rad(self) -> float:
-        return 0.5 * (self.range_rad[0] + self.range_rad[1])
-
-
-@dataclass(frozen=True)
-class PDGains:
-    """Seed 000's eq. 2: torque = I (kp (target - q) - kd qdot), I the joint's inertia."""
-
-    kp: float  # [1/s^2]
-    kd: float  # [1/s]
-    max_torque_nm: float  # [N m]
-
-
-@dataclass(frozen=True)
-class SensorBoard:
-    id: int
-    profile: DeviceProfile
-
-
-@dataclass(frozen=True)
-class Bus:
-    port: str
-    baud: int  # [bit/s]
-
-
-@dataclass(frozen=True)
-class RobotSpec:
-    name: str
-    description: str
-    source: str  # file it was read from (and preset, if any)
-    body: Body
-    joints: tuple[Joint, ...]
-    control_sets: dict[str, tuple[str, ...]]
-    bus: Bus | None = None
-    sensor_board: SensorBoard | None = None
-    pd: PDGains | None = None  # set for seed 000's PD-actuated character, None for servos
-    control_tick_s: float | None = None  # overrides the derived tick when set
-    anthropometry: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def joint_names(self) -> tuple[str, ...]:
-        return tuple(j.name for j in self.joints)
-
-    def joint(self, name: str) -> Joint:
-        for j in self.joints:
-            if j.name == name:
-                return j
-        raise KeyError(f"robot {self.name} has no joint {name!r}")
-
-    @property
-    def is_servo_robot(self) -> bool:
-        return self.pd is None
-
-    @property
-    def devices(self) -> dict[int, str]:
-        """Every device on the bus by ID: ``{4: "joint 'right_knee' (XL430-W250-T)", ...}``."""
-        out = {j.servo.id: f"joint {j.name!r} ({j.servo.profile.model})" for j in self.joints if j.servo}
-        if self.sensor_board is not None:
-            out[self.sensor_board.id] = f"the sensor board ({self.sensor_board.profile.model})"
-        return out
-
-    @property
-    def baud_rates(self) -> tuple[int, ...] | None:
-        """The baud rates every device on the bus can be set to [bit/s], from their profiles
-        (None when no profile lists its rates)."""
-        return _common_baud_rates(self.joints, self.sensor_board)
-
+from sim2real.robot import anthropometry
+from sim2real.robot.paths import robots_dir
+from sim2real.robot.profiles import DeviceProfile, load_profile
+from sim2real.robot.spec import (
+    AXES,
+    DEFAULT_ROBOT,
+    LOCATIONS,
+    SIDES,
+    Body,
+    Box,
+    BusSettings,
+    Foot,
+    Joint,
+    PDGains,
+    RobotSpec,
+    SensorBoard,
+    ServoMap,
+    common_baud_rates,
+)
+from sim2real.robot.validation import Node, load_yaml
 
 _ROBOT_KEYS = dict(
     required=("name", "description", "body", "joints", "control_sets"),
@@ -205,7 +69,6 @@ def load_robot(name_or_path: str | Path = DEFAULT_ROBOT) -> RobotSpec:
 
 
 def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpec:
-    from sim2real import anthropometry  # the human character's body comes from measures
 
     root = Node(doc, source).mapping(**_ROBOT_KEYS)
     actuation = root.get("actuation", "servo").string(("servo", "pd"))
@@ -235,7 +98,7 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         _check_ids(root, joints, board)
     bus = _read_bus(root["bus"]) if root.has("bus") else None
     if bus is not None:
-        rates = _common_baud_rates(joints, board)
+        rates = common_baud_rates(joints, board)
         if rates is not None and bus.baud not in rates:
             raise root.error(f"{bus.baud} is not a baud rate every device on the bus supports "
                              f"({', '.join(map(str, rates))})", key="bus.baud")
@@ -375,16 +238,10 @@ def _read_sensor_board(node: Node) -> SensorBoard:
     return SensorBoard(id=node["id"].integer(0, 252), profile=profile)
 
 
-def _read_bus(node: Node) -> Bus:
+def _read_bus(node: Node) -> BusSettings:
     node.mapping(required=("port", "baud"))
     baud = node["baud"].integer(9600, 10_500_000)
-    return Bus(port=node["port"].string(), baud=baud)
-
-
-def _common_baud_rates(joints: tuple[Joint, ...], board: SensorBoard | None) -> tuple[int, ...] | None:
-    profiles = [j.servo.profile for j in joints if j.servo] + ([board.profile] if board else [])
-    listed = [set(p.baud_rates) for p in profiles if p.baud_rates]
-    return tuple(sorted(set.intersection(*listed))) if listed else None
+    return BusSettings(port=node["port"].string(), baud=baud)
 
 
 def _check_joints(root: Node, joints: tuple[Joint, ...]) -> None:

@@ -1,4 +1,4 @@
-"""Robot config -> MuJoCo model, with the servo model of :mod:`sim2real.servo_model`.
+"""Robot config -> MuJoCo model, with the servo model of :mod:`sim2real.robot.servo_model`.
 
 The tree is the one of :mod:`sim2real.robot`: the pelvis is the floating root, the trunk
 sits on it through the waist joints, and each leg hangs from a hip joint at the pelvis'
@@ -24,9 +24,9 @@ import mujoco
 import numpy as np
 
 from sim2real.robot import Joint, RobotSpec
-from sim2real.statics import axis_inertia
-from sim2real.servo_model import ServoPhysics, servo_physics
-from sim2real.timing import control_timing
+from sim2real.robot.servo_model import ServoPhysics, servo_physics
+from sim2real.robot.timing import control_timing
+from sim2real.simulation.statics import axis_inertia
 
 FLOOR, LEFT, RIGHT, TORSO = 1, 2, 4, 8  # contype / conaffinity bits
 COLLISION_BITS = {  # (contype, conaffinity)

@@ -14,9 +14,9 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
-from sim2real.bus.base import ALERT_BIT, Bus, CommunicationError, ServoError
-from sim2real.profiles import DeviceProfile
+from sim2real.hardware.bus import ALERT_BIT, Bus, CommunicationError, ServoError
 from sim2real.robot import RobotSpec
+from sim2real.robot.profiles import DeviceProfile
 
 # Protocol 2.0 status errors (e-manual, "Status Packet")
 DATA_RANGE_ERROR = 4

@@ -9,7 +9,7 @@ the sensor board its foot switches (from the soles' contact forces) and the tors
 up-vector (Q14).  A servo that holds its stall torque for ``overload_s`` latches an
 overload: alert bit, Hardware Error Status, torque off until REBOOT.
 
-A reality profile (:mod:`sim2real.reality`) perturbs the robot behind the bus: masses,
+A reality profile (:mod:`sim2real.simulation.reality`) perturbs the robot behind the bus: masses,
 friction and servo gains in the model, latency as actuator delay, backlash between the
 goal and the gears, noise on what the servos and the board report.
 """
@@ -25,12 +25,19 @@ from typing import Callable
 import mujoco
 import numpy as np
 
-from sim2real.bus.mock import MockBus
-from sim2real.mapping import ServoMapping
-from sim2real.model_builder import build_model
-from sim2real.reality import NOMINAL, Reality, apply_to_model, latency_capacity_s, play, sample
+from sim2real.controller.mapping import ServoMapping
+from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
-from sim2real.timing import control_timing
+from sim2real.robot.timing import control_timing
+from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.reality import (
+    NOMINAL,
+    Reality,
+    apply_to_model,
+    latency_capacity_s,
+    play,
+    sample,
+)
 
 OVERLOAD_BIT = 1 << 5
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)

@@ -11,13 +11,14 @@ asked reports with :func:`run_failed`: one line, exit 1.
     run.add_argument("--duration", type=positive_finite_float)
     run.add_argument("--trace", type=output_file(".csv", exclude=(".json",)))
 
-Used by :mod:`sim2real.cli`, :mod:`sim2real.cli_deploy`, :mod:`evolve.cli_commands` and
+Used by :mod:`sim2real.cli.robot_commands`, :mod:`sim2real.cli.deploy_commands`, :mod:`evolve.cli_commands` and
 :mod:`evolve.quickstart`.  No MuJoCo here.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import sys
@@ -101,7 +102,7 @@ def rate_0_1(text: str) -> float:
 
 def baud_rate(text: str) -> int:
     """A Dynamixel baud rate [bit/s]: one that some profile in ``firmware_profiles/`` lists."""
-    from sim2real.profiles import supported_baud_rates
+    from sim2real.robot.profiles import supported_baud_rates
 
     rates = supported_baud_rates()
     value = _whole(text)
@@ -170,7 +171,7 @@ def robot_name(text: str) -> str:
 def reality_name(text: str) -> str:
     """A reality profile: ``nominal``, a name from ``configs/reality/`` or a YAML path, read
     and validated now (this imports MuJoCo: only for commands that simulate)."""
-    from sim2real.reality import load_reality
+    from sim2real.simulation.reality import load_reality
 
     return _loads(load_reality, text)
 
@@ -259,6 +260,16 @@ def check_output_file(path: Path, flag: str, suffixes: tuple[str, ...] = ()) -> 
 
 
 # -- ends ------------------------------------------------------------------------------------
+def print_result(result: dict, as_json: bool) -> None:
+    """A command's result: one JSON line, or aligned ``key: value`` lines for people."""
+    if as_json:
+        print(json.dumps(result))
+    else:
+        width = max(map(len, result), default=0)
+        for key, value in result.items():
+            print(f"{key:>{width}}: {value}")
+
+
 def run_failed(problem: str) -> int:
     """A run that started but did not end as asked: one line on stderr, exit status 1."""
     print(f"biped: error: {problem}", file=sys.stderr)

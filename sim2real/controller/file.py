@@ -6,7 +6,7 @@ the bilateral-symmetry wiring, its modules, its nodes and enabled connections, h
 map onto joints, and where it came from (``schemas/controller-v1.schema.json``).
 
 ``load_controller`` checks a file whole before anything moves or simulates, so that
-whatever it returns runs (:class:`~sim2real.policy.Policy`) without an exception; every
+whatever it returns runs (:class:`~sim2real.controller.policy.Policy`) without an exception; every
 problem is one :class:`ConfigError` line, ``FILE: FIELD: problem``.  In order:
 
 * bytes: at most ``MAX_BYTES`` (4 MiB; a 300-connection controller is under 20 KB),
@@ -41,9 +41,9 @@ from typing import Any
 import numpy as np
 
 from sim2real.atomic_json import write_text_atomic
+from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError
 from sim2real.robot import RobotSpec
-from sim2real.symmetry import symmetric_layout
 
 FORMAT = "biped-controller"
 VERSION = 1
@@ -400,7 +400,7 @@ def _check_joints(c: _Checker, joints: Any) -> list[str]:
 
 def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str], outputs: list[str]) -> None:
     """The symmetry block against the driven joints, and the inputs and outputs it implies
-    (:func:`sim2real.symmetry.symmetric_layout` names them so)."""
+    (:func:`sim2real.controller.symmetry.symmetric_layout` names them so)."""
     c.obj(sym, "symmetry", ("networks", "leg_joints", "center_joints", "center_mirror_for_left"),
           ("center_output",))
     if sym["networks"] != NETWORKS:

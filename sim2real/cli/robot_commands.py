@@ -13,9 +13,16 @@ import math
 import os
 import sys
 from pathlib import Path
+from typing import Callable, Mapping
 
-from sim2real.cli_args import (check_output_file, non_negative_finite_float, output_file, positive_finite_float,
-                               positive_int, require_module)
+from sim2real.cli.args import (
+    check_output_file,
+    non_negative_finite_float,
+    output_file,
+    positive_finite_float,
+    positive_int,
+    require_module,
+)
 from sim2real.errors import UsageError
 from sim2real.robot import DEFAULT_ROBOT, RobotSpec, available_robots, load_robot
 
@@ -25,26 +32,25 @@ ROBOT_HELP = (
 )
 
 
-# Replaying a controller file belongs to the evolution side; it registers handlers here
-# (``view`` and ``render`` of a .json argument) so that this package never imports it.
-CONTROLLER_HANDLERS: dict[str, "callable"] = {}
-
-
-def print_result(result: dict, as_json: bool) -> None:
-    """A command's result: one JSON line, or aligned ``key: value`` lines for people."""
-    if as_json:
-        print(json.dumps(result))
-    else:
-        width = max(map(len, result), default=0)
-        for key, value in result.items():
-            print(f"{key:>{width}}: {value}")
+# Replaying a controller (``view`` and ``render`` of a .json argument) belongs to the
+# evolution side, which passes its handlers to :func:`add_commands`: this package never
+# imports it.
+Replay = Mapping[str, Callable[[argparse.Namespace], int]]
 
 
 def _is_controller(arg: str) -> bool:
     return str(arg).endswith(".json")
 
 
-def add_commands(sub: argparse._SubParsersAction) -> None:
+def _replay(args: argparse.Namespace, command: str) -> int:
+    if command not in args.replay:
+        raise UsageError(f"{command} of a controller file needs the evolve package's replay (use `biped`)")
+    return args.replay[command](args)
+
+
+def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) -> None:
+    """``robot``, ``view`` and ``render``; ``replay`` handles ``view`` and ``render`` of a
+    controller file (keys "view", "render"); without it those refuse one."""
     robot = sub.add_parser("robot", help="describe a robot or export its MuJoCo model",
                            description="Describe a robot config or export its MuJoCo model.")
     rsub = robot.add_subparsers(dest="robot_command", required=True, metavar="{show,mjcf}")
@@ -70,7 +76,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                       help=ROBOT_HELP + "; or a controller .json to replay")
     view.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                       help="replay a controller with this module switched off (repeatable)")
-    view.set_defaults(func=cmd_view, check=check_view)
+    view.set_defaults(func=cmd_view, check=check_view, replay=replay or {})
 
     render = sub.add_parser("render", help="render a robot (image) or a controller (video) offscreen",
                             description="Render the robot at its home pose to a PNG, or a controller.json's "
@@ -88,20 +94,17 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         help="replay a controller with this module switched off (repeatable)")
     render.add_argument("--settle", type=non_negative_finite_float, default=None,
                         help="simulated seconds to stand before the picture of a robot (default 1)")
-    render.set_defaults(func=cmd_render, check=check_render)
+    render.set_defaults(func=cmd_render, check=check_render, replay=replay or {})
 
 
-    from sim2real import cli_deploy  # run, dry-run, simbus, compare
-
-    cli_deploy.add_commands(sub)
 
 
 # -- robot show -------------------------------------------------------------------------------
 def describe(robot: RobotSpec) -> dict:
     """Everything ``biped robot show --json`` prints (SI units)."""
-    from sim2real.model_builder import build_model
-    from sim2real.statics import CROUCH_KNEE_DEG, holding_torques
-    from sim2real.timing import control_timing
+    from sim2real.robot.timing import control_timing
+    from sim2real.simulation.model_builder import build_model
+    from sim2real.simulation.statics import CROUCH_KNEE_DEG, holding_torques
 
     model = build_model(robot)
     timing = control_timing(robot)
@@ -193,7 +196,7 @@ def cmd_robot_show(args: argparse.Namespace) -> int:
 
 
 def cmd_robot_mjcf(args: argparse.Namespace) -> int:
-    from sim2real.model_builder import to_mjcf
+    from sim2real.simulation.model_builder import to_mjcf
 
     xml = to_mjcf(load_robot(args.robot))
     if args.output is None:
@@ -208,7 +211,7 @@ def cmd_robot_mjcf(args: argparse.Namespace) -> int:
 def _standing(robot: RobotSpec, settle_s: float = 0.0):
     import mujoco
 
-    from sim2real.model_builder import build_model
+    from sim2real.simulation.model_builder import build_model
 
     model = build_model(robot)
     data = mujoco.MjData(model)
@@ -224,7 +227,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         raise UsageError("biped view needs a display; on a headless machine use `biped render -o robot.png` "
                          "(or -o walk.mp4 for a controller)")
     if _is_controller(args.robot):
-        return CONTROLLER_HANDLERS["view"](args)
+        return _replay(args, "view")
     import mujoco.viewer
 
     model, data = _standing(load_robot(args.robot))
@@ -243,7 +246,7 @@ def check_view(args: argparse.Namespace) -> None:
 
 def check_render(args: argparse.Namespace) -> None:
     """Flags that apply to the other kind of render, the output's kind and size, up front."""
-    from sim2real.model_builder import OFFSCREEN_SIZE
+    from sim2real.simulation.model_builder import OFFSCREEN_SIZE
 
     if _is_controller(args.robot):
         if args.settle is not None:
@@ -268,8 +271,8 @@ def check_render(args: argparse.Namespace) -> None:
 
 def cmd_render(args: argparse.Namespace) -> int:
     if _is_controller(args.robot):
-        return CONTROLLER_HANDLERS["render"](args)
-    from sim2real.rendering import render_image, save_image
+        return _replay(args, "render")
+    from sim2real.simulation.rendering import render_image, save_image
 
     model, data = _standing(load_robot(args.robot), 1.0 if args.settle is None else args.settle)
     save_image(args.output, render_image(model, data, args.width, args.height))

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import math
 
-from sim2real.robot import Body, Box, Foot
-from sim2real.validation import Node
+from sim2real.robot.spec import Body, Box, Foot
+from sim2real.robot.validation import Node
 
 SEGMENTS = ("trunk", "waist", "thigh", "shank", "foot")
 SHAPE_KEYS = (

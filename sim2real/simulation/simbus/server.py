@@ -4,7 +4,7 @@
     with PtyServer(chain) as server:
         DynamixelBus(server.port, 1_000_000, robot) ...
 
-Each device is a :class:`~sim2real.bus.mock.MockDevice` (control table from its profile,
+Each device is a :class:`~sim2real.hardware.mock.MockDevice` (control table from its profile,
 firmware rules for EEPROM and torque, motion toward the goal).  Broadcast instructions get
 no status; a silent device never answers; a sync or bulk read is answered by each device in
 turn.  (Physics-backed servos and wire timing are the simulated bus's business.)
@@ -20,10 +20,10 @@ import time
 import tty
 from typing import Callable
 
-from sim2real.bus.mock import MockDevice
-from sim2real.realtime import RealtimeGrant, RealtimeRequest, request_realtime
-from sim2real.simbus import protocol1 as p1
-from sim2real.simbus import protocol2 as p2
+from sim2real.hardware.mock import MockDevice
+from sim2real.hardware.realtime import RealtimeGrant, RealtimeRequest, request_realtime
+from sim2real.simulation.simbus import protocol1 as p1
+from sim2real.simulation.simbus import protocol2 as p2
 
 INSTRUCTION_ERROR, DATA_LENGTH_ERROR = 0x02, 0x05
 

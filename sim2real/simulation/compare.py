@@ -16,13 +16,13 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from sim2real.controller import load_controller
+from sim2real.controller.file import load_controller
+from sim2real.controller.mapping import ServoMapping, quantize
+from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, ConfigError
-from sim2real.mapping import ServoMapping, quantize
-from sim2real.model_builder import build_model
-from sim2real.policy import Policy
+from sim2real.hardware.trace import read_trace, sidecar_path, trace_columns
 from sim2real.robot import RobotSpec, load_robot
-from sim2real.trace import read_trace, sidecar_path, trace_columns
+from sim2real.simulation.model_builder import build_model
 
 MAX_LAG_S = 0.5
 CONTACT_SHARE = 0.05

@@ -4,7 +4,7 @@ A profile is what the e-manual says about one Dynamixel model (or our foot-senso
 board): its model number and protocol, the control-table entries the project uses,
 its position resolution, its motor's stall torque and no-load speed, and its default
 gains with their conversion to physical units.  This module only reads and checks
-the data; :mod:`sim2real.servo_model` turns it into physics.
+the data; :mod:`sim2real.robot.servo_model` turns it into physics.
 
     profile = load_profile("XL430-W250-T")
     profile.register("goal_position").address      # 116
@@ -19,8 +19,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from sim2real.paths import profiles_dir
-from sim2real.validation import Node, load_yaml
+from sim2real.robot.paths import profiles_dir
+from sim2real.robot.validation import Node, load_yaml
 
 
 @dataclass(frozen=True)

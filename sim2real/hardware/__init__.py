@@ -4,8 +4,8 @@ Above the bus nothing knows which one it talks to; :class:`ServoChain` adds the 
 (names, signedness, retries) on top of any of them.
 """
 
-from sim2real.bus.base import Bus, CommunicationError, ServoError
-from sim2real.bus.chain import ServoChain
-from sim2real.bus.mock import MockBus
+from sim2real.hardware.bus import Bus, CommunicationError, ServoError
+from sim2real.hardware.dynamixel.chain import ServoChain
+from sim2real.hardware.mock import MockBus
 
 __all__ = ["Bus", "CommunicationError", "ServoError", "ServoChain", "MockBus"]

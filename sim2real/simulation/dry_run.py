@@ -3,7 +3,7 @@ the simulated bus on a pseudo-terminal, with ground truth from the simulator.
 
 Nothing in the loop knows it is not talking to hardware.  Faults end the way they would on
 hardware: retried, or a safe stop with torque off.  The simulated bus is a child process
-(:mod:`sim2real.simbus.service`), so this side imports no MuJoCo.
+(:mod:`sim2real.simulation.simbus.service`), so this side imports no MuJoCo.
 """
 
 from __future__ import annotations
@@ -16,13 +16,13 @@ import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
-from sim2real.bus.dynamixel import DynamixelBus
-from sim2real.controller import load_controller
-from sim2real.deploy import drive
+from sim2real.controller.file import load_controller
 from sim2real.errors import BipedError, ConfigError
-from sim2real.realtime import RealtimeRequest
+from sim2real.hardware.deploy import drive
+from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
+from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import RobotSpec, load_robot
-from sim2real.validation import Node, load_yaml
+from sim2real.robot.validation import Node, load_yaml
 
 FAULT_KINDS = ("silent", "overload", "drop", "corrupt")
 
@@ -109,7 +109,7 @@ def check_fault_times(faults: list[tuple[str, int, float]], duration_s: float) -
 
 
 class SimulatedBusProcess:
-    """``python -m sim2real.simbus`` as a child process: ``port`` once started; its ground
+    """``python -m sim2real.simulation.simbus`` as a child process: ``port`` once started; its ground
     truth once stopped (by closing its standard input)."""
 
     def __init__(self, args: list[str], log: Callable[[str], None] = print):
@@ -119,7 +119,7 @@ class SimulatedBusProcess:
 
     def __enter__(self) -> "SimulatedBusProcess":
         self._stderr = tempfile.TemporaryFile(mode="w+")
-        self.proc = subprocess.Popen([sys.executable, "-m", "sim2real.simbus", *self.args,
+        self.proc = subprocess.Popen([sys.executable, "-m", "sim2real.simulation.simbus", *self.args,
                                       "--exit-on-stdin-eof", "--report"],
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._stderr, text=True)
         self.port = self.proc.stdout.readline().strip()
@@ -159,7 +159,9 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     The simulated bus runs in its own process.  ``realtime`` is the runtime's real-time
     request (None: none); ``simbus_realtime`` the simulated bus's as its flags (None: none).
     """
-    from sim2real.reality import load_reality  # MuJoCo: only a dry run needs it, not `biped run`
+    from sim2real.simulation.reality import (
+        load_reality,  # MuJoCo: only a dry run needs it, not `biped run`
+    )
 
     data = load_controller(controller_path)
     robot_arg = robot_name or data["robot"]["name"]

@@ -1,0 +1,4 @@
+"""The deployment side's ``biped`` subcommands: ``robot``, ``view``, ``render``
+(:mod:`.robot_commands`); ``run``, ``dry-run``, ``simbus``, ``compare``
+(:mod:`.deploy_commands`); checked flag values and result printing (:mod:`.args`).
+:mod:`evolve.cli` assembles them with the evolution commands into one program."""
