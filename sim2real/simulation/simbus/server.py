@@ -21,7 +21,6 @@ import tty
 from typing import Callable
 
 from sim2real.hardware.mock import MockDevice
-from sim2real.hardware.realtime import RealtimeGrant, RealtimeRequest, request_realtime
 from sim2real.simulation.simbus import protocol1 as p1
 from sim2real.simulation.simbus import protocol2 as p2
 
@@ -193,19 +192,14 @@ class PtyServer:
     device's Return Delay Time and the time its bytes take at that baud (10 bits a byte);
     without it they leave at once.  Between instructions the chain is ticked every
     ``idle_s``.  One thread does all of it: a second thread stepping the physics would hold
-    Python's GIL for milliseconds and make replies late.  With ``realtime`` the serving thread
-    asks for real-time scheduling (``realtime_grant`` says what it got).
+    Python's GIL for milliseconds and make replies late.
     """
 
     def __init__(self, chain: EmulatedChain, baud: int | None = None, drop_rate: float = 0.0,
-                 corrupt_rate: float = 0.0, seed: int = 0, idle_s: float = 0.002,
-                 realtime: RealtimeRequest | None = None):
+                 corrupt_rate: float = 0.0, seed: int = 0, idle_s: float = 0.002):
         self.chain = chain
         self.baud = baud
         self.idle_s = idle_s
-        self.realtime = realtime
-        self.realtime_grant: RealtimeGrant | None = None
-        self._ready = threading.Event()
         # faults on the wire: a reply lost, or one of its bytes flipped (its CRC then fails)
         self.drop_rate, self.corrupt_rate = drop_rate, corrupt_rate
         self._rng = random.Random(seed)
@@ -218,7 +212,6 @@ class PtyServer:
 
     def __enter__(self) -> "PtyServer":
         self._thread.start()
-        self._ready.wait(5.0)  # the real-time request is made (or refused) before anyone connects
         return self
 
     def __exit__(self, *exc) -> None:
@@ -234,9 +227,6 @@ class PtyServer:
                 pass
 
     def _serve(self) -> None:
-        if self.realtime is not None:
-            self.realtime_grant = request_realtime(self.realtime)
-        self._ready.set()
         parser = self.chain.parser()
         while not self._stop.is_set():
             ready, _, _ = select.select([self.master], [], [], self.idle_s)

@@ -89,11 +89,16 @@ def realtime_flags(args: argparse.Namespace) -> list[str]:
 
 def serve(args: argparse.Namespace) -> int:
     """Serve until told to stop; see the module docstring."""
+    from sim2real.hardware.realtime import request_realtime
     from sim2real.robot import load_robot
     from sim2real.simulation.reality import load_reality
     from sim2real.simulation.simbus.physics import PhysicsChain
     from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
 
+    # The whole process, main thread first: every thread started later inherits the class.
+    # A main thread left to ordinary scheduling could be preempted by a busy neighbour
+    # while it holds Python's interpreter lock, and the serving thread would wait on it.
+    grant = request_realtime(realtime_request(args))
     robot = load_robot(args.robot)
     physics = PhysicsChain(robot, reality=load_reality(args.reality), seed=args.seed)
     chain = EmulatedChain(physics.devices, advance=physics.advance)
@@ -103,10 +108,9 @@ def serve(args: argparse.Namespace) -> int:
     if args.exit_on_stdin_eof:
         threading.Thread(target=_set_on_eof, args=(done,), daemon=True).start()
     baud = args.baud or (robot.bus.baud if robot.bus else None)
-    with PtyServer(chain, baud=baud, realtime=realtime_request(args), **rates) as server:
+    with PtyServer(chain, baud=baud, **rates) as server:
         print(server.port, flush=True)
-        grant = server.realtime_grant
-        if grant is not None and grant.refused:
+        if grant.refused:
             print(f"simbus: {grant.describe()}", file=sys.stderr, flush=True)
         for timer in timers:
             timer.start()
@@ -118,7 +122,7 @@ def serve(args: argparse.Namespace) -> int:
         for timer in timers:
             timer.cancel()
     if args.report:
-        print(json.dumps({**physics.ground_truth(), "realtime": grant.summary() if grant else None}), flush=True)
+        print(json.dumps({**physics.ground_truth(), "realtime": grant.summary()}), flush=True)
     return 0
 
 
