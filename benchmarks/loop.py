@@ -155,22 +155,20 @@ def main(argv=None) -> None:
             result["mock"] = rows
             base, rt = rows["baseline_hogs"], rows["realtime_hogs"]
             result["hogs_jitter_p99_ratio_baseline_over_realtime"] = base["jitter_ms_p99"] / max(rt["jitter_ms_p99"], 1e-9)
-        if "sim" in parts:
+        for part, what, run_part, seconds in (
+                ("sim", "biped run --port <simbus>", sim_part, args.sim_seconds),
+                ("dry", "biped dry-run", dry_part, args.dry_seconds)):
+            if part not in parts:
+                continue
             rows = {}
             for busy in (False, True):
                 name = "hogs" if busy else "idle"
-                progress(f"biped run --port <simbus> for {args.sim_seconds:.0f} s, {name}...", args.json)
-                rows[name] = sim_part(controller, args.sim_seconds, busy)
-            result["sim"] = rows
+                progress(f"{what} for {seconds:.0f} s, {name}...", args.json)
+                rows[name] = run_part(controller, seconds, busy)
+            result[part] = rows
         if "dry" in parts:
-            rows = {}
-            for busy in (False, True):
-                name = "hogs" if busy else "idle"
-                progress(f"biped dry-run for {args.dry_seconds:.0f} s, {name}...", args.json)
-                rows[name] = dry_part(controller, args.dry_seconds, busy)
-            result["dry"] = rows
-            result["dry_same_verdict"] = (rows["idle"]["stop_reason"] == rows["hogs"]["stop_reason"]
-                                          and rows["idle"]["fell"] == rows["hogs"]["fell"])
+            idle, busy = result["dry"]["idle"], result["dry"]["hogs"]
+            result["dry_same_verdict"] = (idle["stop_reason"], idle["fell"]) == (busy["stop_reason"], busy["fell"])
     report(result, args.json)
 
 

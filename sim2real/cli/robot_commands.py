@@ -38,6 +38,12 @@ ROBOT_HELP = (
 Replay = Mapping[str, Callable[[argparse.Namespace], int]]
 
 
+def _robot_or_controller(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP + "; or a controller .json to replay")
+    parser.add_argument("--disable-module", action="append", default=[], metavar="NAME",
+                        help="replay a controller with this module switched off (repeatable)")
+
+
 def _is_controller(arg: str) -> bool:
     return str(arg).endswith(".json")
 
@@ -72,26 +78,20 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
                           description="Open the interactive MuJoCo viewer on the robot standing at "
                           "its home pose, held by its servos, or replaying a controller.json "
                           "(needs a display).")
-    view.add_argument("robot", nargs="?", default=DEFAULT_ROBOT,
-                      help=ROBOT_HELP + "; or a controller .json to replay")
-    view.add_argument("--disable-module", action="append", default=[], metavar="NAME",
-                      help="replay a controller with this module switched off (repeatable)")
+    _robot_or_controller(view)
     view.set_defaults(func=cmd_view, check=check_view, replay=replay or {})
 
     render = sub.add_parser("render", help="render a robot (image) or a controller (video) offscreen",
                             description="Render the robot at its home pose to a PNG, or a controller.json's "
                             "replay to a video (.mp4 or .gif) with a camera that follows the robot "
                             "(offscreen: EGL by default, MUJOCO_GL=osmesa for software rendering).")
-    render.add_argument("robot", nargs="?", default=DEFAULT_ROBOT,
-                        help=ROBOT_HELP + "; or a controller .json to replay")
+    _robot_or_controller(render)
     render.add_argument("-o", "--output", type=Path, default=None,
                         help="output file (default: robot.png, or walk.mp4 for a controller)")
     render.add_argument("--seconds", type=positive_finite_float,
                         help="replay length for a controller (default: its episode)")
     render.add_argument("--width", type=positive_int, default=960, help="pixels (default 960, at most 1280)")
     render.add_argument("--height", type=positive_int, default=720, help="pixels (default 720, at most 720)")
-    render.add_argument("--disable-module", action="append", default=[], metavar="NAME",
-                        help="replay a controller with this module switched off (repeatable)")
     render.add_argument("--settle", type=non_negative_finite_float, default=None,
                         help="simulated seconds to stand before the picture of a robot (default 1)")
     render.set_defaults(func=cmd_render, check=check_render, replay=replay or {})
