@@ -198,6 +198,13 @@ def test_a_servo_that_ignores_the_first_torque_off_is_written_again(served, cont
     assert_all_off(chain, report)
 
 
+def test_a_port_that_does_not_open_stops_before_anything_is_sent(controller):
+    from sim2real.hardware import CommunicationError
+
+    with pytest.raises(CommunicationError, match="cannot open /dev/ttyNOPE"):
+        drive(DynamixelBus("/dev/ttyNOPE", 1_000_000, ROBOT), ROBOT, controller, duration_s=1, log=lambda s: None)
+
+
 # -- through the command line, with the simulated bus in its own process -----------------------
 
 

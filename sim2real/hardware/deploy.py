@@ -335,9 +335,9 @@ def drive(bus: Bus, robot: RobotSpec, controller: dict[str, Any], duration_s: fl
         grant = request_realtime(realtime)
         report.realtime = grant.summary()
         log(grant.describe())
+    bus.open()  # a port that does not open: nothing was sent, nothing to stop
     with StopSignals() as signals:
         try:
-            bus.open()
             start_up(chain, mapping, warn=log)
             if trace_path is not None:
                 trace = TraceWriter(trace_path, robot.joint_names, {

@@ -73,9 +73,10 @@ def add_realtime_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--no-mlock", action="store_true", help="do not lock memory")
 
 
-def realtime_request(args: argparse.Namespace) -> RealtimeRequest:
+def realtime_request(args: argparse.Namespace) -> RealtimeRequest | None:
+    """What the flags ask for (None: nothing, with ``--no-realtime``)."""
     if args.no_realtime:
-        return RealtimeRequest.off()
+        return None
     return RealtimeRequest(priority=args.rt_priority, cpu=args.cpu, lock_memory=not args.no_mlock)
 
 
@@ -98,7 +99,7 @@ def serve(args: argparse.Namespace) -> int:
     # The whole process, main thread first: every thread started later inherits the class.
     # A main thread left to ordinary scheduling could be preempted by a busy neighbour
     # while it holds Python's interpreter lock, and the serving thread would wait on it.
-    grant = request_realtime(realtime_request(args))
+    grant = request_realtime(realtime_request(args) or RealtimeRequest.off())
     robot = load_robot(args.robot)
     physics = PhysicsChain(robot, reality=load_reality(args.reality), seed=args.seed)
     chain = EmulatedChain(physics.devices, advance=physics.advance)
