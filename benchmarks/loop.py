@@ -27,7 +27,7 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
-from typing import Iterator
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -127,6 +127,16 @@ def dry_part(controller_path: Path, seconds: float, busy: bool) -> dict:
             "missed_ticks": s["missed_ticks"], "jitter_ms_p99": s["jitter_ms_p99"]}
 
 
+def idle_and_hogs(what: str, quiet: bool, part: Callable[[bool], dict]) -> dict[str, dict]:
+    """``part(busy)`` on the idle machine, then with the hogs: {"idle": ..., "hogs": ...}."""
+    rows = {}
+    for busy in (False, True):
+        name = "hogs" if busy else "idle"
+        progress(f"{what}, {name}...", quiet)
+        rows[name] = part(busy)
+    return rows
+
+
 def main(argv=None) -> None:
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--parts", default="mock,sim,dry", help="comma-separated: mock, sim, dry (default: all)")
@@ -156,19 +166,11 @@ def main(argv=None) -> None:
             base, rt = rows["baseline_hogs"], rows["realtime_hogs"]
             result["hogs_jitter_p99_ratio_baseline_over_realtime"] = base["jitter_ms_p99"] / max(rt["jitter_ms_p99"], 1e-9)
         if "sim" in parts:
-            rows = {}
-            for busy in (False, True):
-                name = "hogs" if busy else "idle"
-                progress(f"biped run --port <simbus> for {args.sim_seconds:.0f} s, {name}...", args.json)
-                rows[name] = sim_part(controller, args.sim_seconds, busy)
-            result["sim"] = rows
+            result["sim"] = idle_and_hogs(f"biped run --port <simbus> for {args.sim_seconds:.0f} s", args.json,
+                                          lambda busy: sim_part(controller, args.sim_seconds, busy))
         if "dry" in parts:
-            rows = {}
-            for busy in (False, True):
-                name = "hogs" if busy else "idle"
-                progress(f"biped dry-run for {args.dry_seconds:.0f} s, {name}...", args.json)
-                rows[name] = dry_part(controller, args.dry_seconds, busy)
-            result["dry"] = rows
+            result["dry"] = rows = idle_and_hogs(f"biped dry-run for {args.dry_seconds:.0f} s", args.json,
+                                                 lambda busy: dry_part(controller, args.dry_seconds, busy))
             result["dry_same_verdict"] = (rows["idle"]["stop_reason"] == rows["hogs"]["stop_reason"]
                                           and rows["idle"]["fell"] == rows["hogs"]["fell"])
     report(result, args.json)
