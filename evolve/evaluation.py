@@ -3,14 +3,12 @@
 A generation's genomes become simulations (``episodes`` each); each simulation is keyed
 ``(seed, stage, generation, genome, episode)``, and its randomization is drawn from that
 key alone, so a result never depends on how the simulations are split across threads,
-processes or machines.  :class:`LocalBackend` runs them in this process's
+processes or machines.  :class:`LocalBackend` runs them in its own evaluator's
 ``mujoco.batch``; :class:`evolve.ray_backend.RayBackend` splits them over Ray workers.
 """
 
 from __future__ import annotations
 
-import functools
-import json
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -35,20 +33,12 @@ class EvaluatorSpec:
     capacity: int  # simulations
     threads: int = 0
 
-    def key(self) -> str:
-        return json.dumps([self.robot, self.task, self.reality, self.capacity, self.threads], sort_keys=True)
-
-
-@functools.lru_cache(maxsize=4)
-def _cached(key: str) -> LocomotionEvaluator:
-    robot, task, reality, capacity, threads = json.loads(key)
-    return LocomotionEvaluator(load_robot(robot), TaskConfig.from_mapping(task), capacity, threads,
-                               load_reality(reality))
-
 
 def build_evaluator(spec: EvaluatorSpec) -> LocomotionEvaluator:
-    """The evaluator of ``spec``, built once per process (the model is compiled here)."""
-    return _cached(spec.key())
+    """A new evaluator of ``spec``: the model is compiled and its batch allocated here, so
+    its owner builds it once and keeps it."""
+    return LocomotionEvaluator(load_robot(spec.robot), TaskConfig.from_mapping(spec.task), spec.capacity,
+                               spec.threads, load_reality(spec.reality))
 
 
 @dataclass(frozen=True)
@@ -79,6 +69,8 @@ class Backend(Protocol):
 
 
 class LocalBackend:
+    """Runs every job in this process, on an evaluator it owns."""
+
     def __init__(self, spec: EvaluatorSpec):
         self.evaluator = build_evaluator(spec)
 
@@ -89,7 +81,8 @@ class LocalBackend:
 def concatenate(parts: list[Episodes]) -> Episodes:
     arrays = {name: np.concatenate([getattr(p, name) for p in parts])
               for name in ("fitness", "selection", "distance_m", "upright_s", "fell", "unstable")}
-    return Episodes(**arrays, steps=sum(p.steps for p in parts))
+    terms = {name: np.concatenate([p.terms[name] for p in parts]) for name in parts[0].terms}
+    return Episodes(**arrays, steps=sum(p.steps for p in parts), terms=terms)
 
 
 def score_population(backend: Backend, genomes: list[Genome], *, steepness: float, harness: float,
@@ -98,7 +91,9 @@ def score_population(backend: Backend, genomes: list[Genome], *, steepness: floa
     """Every genome on ``episodes`` episodes; the outcome per genome.
 
     Per genome, fitness and the other measures are the ``score`` (mean or worst) of its
-    episodes; it fell if it fell in any.  ``intensity`` scales the randomization (0: none).
+    episodes; it fell if it fell in any.  Its fitness terms are their mean over its episodes
+    (score mean) or its worst episode's (score worst: the one of lowest fitness).
+    ``intensity`` scales the randomization (0: none).
     """
     n = len(genomes)
     sims = [g for g in genomes for _ in range(episodes)]
@@ -108,11 +103,18 @@ def score_population(backend: Backend, genomes: list[Genome], *, steepness: floa
         return per_sim
     combine = np.mean if score == "mean" else np.min
 
+    worst = np.argmin(per_sim.fitness.reshape(n, episodes), axis=1)
+
     def by_genome(values):
         return combine(values.reshape(n, episodes), axis=1)
+
+    def terms_by_genome(values):
+        grid = values.reshape(n, episodes)
+        return grid.mean(axis=1) if score == "mean" else grid[np.arange(n), worst]
 
     return Episodes(
         fitness=by_genome(per_sim.fitness), selection=by_genome(per_sim.selection),
         distance_m=by_genome(per_sim.distance_m), upright_s=by_genome(per_sim.upright_s),
         fell=per_sim.fell.reshape(n, episodes).any(axis=1),
-        unstable=per_sim.unstable.reshape(n, episodes).any(axis=1), steps=per_sim.steps)
+        unstable=per_sim.unstable.reshape(n, episodes).any(axis=1), steps=per_sim.steps,
+        terms={name: terms_by_genome(values) for name, values in per_sim.terms.items()})

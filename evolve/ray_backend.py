@@ -13,14 +13,32 @@ from __future__ import annotations
 import math
 
 from evolve.evaluation import EvaluatorSpec, Job, build_evaluator, concatenate, run_job
+from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.objectives import Episodes
 from sim2real.errors import BipedError
 
 MAX_RETRIES = 5
 
 
+class WorkerEvaluator:
+    """The evaluator a Ray worker process keeps between the chunks it runs: built at the
+    first chunk of a spec, kept while chunks of that spec come, replaced for another."""
+
+    def __init__(self) -> None:
+        self.spec: EvaluatorSpec | None = None
+        self.evaluator: LocomotionEvaluator | None = None
+
+    def get(self, spec: EvaluatorSpec) -> LocomotionEvaluator:
+        if self.evaluator is None or spec != self.spec:
+            self.evaluator, self.spec = build_evaluator(spec), spec
+        return self.evaluator
+
+
+_WORKER = WorkerEvaluator()  # this process's, when it is a Ray worker
+
+
 def _evaluate_chunk(spec: EvaluatorSpec, job: Job) -> Episodes:
-    return run_job(build_evaluator(spec), job)
+    return run_job(_WORKER.get(spec), job)
 
 
 class RayBackend:

@@ -4,7 +4,7 @@
       config.yaml          the resolved configuration (every default written out)
       checkpoint.json.gz   the latest generation, resumable (atomic; written at every generation)
       checkpoints/         numbered snapshots every ``checkpoint_every`` generations
-      stats.csv            one row per generation, flushed as it goes
+      stats.csv            one row per generation, flushed as it goes (see STATS_COLUMNS)
       fitness.png          best / mean fitness and best distance over generations
       controller.json      the best controller so far (of the stage running)
       best.json            its genome and scores (what --resume needs to keep it)
@@ -14,7 +14,10 @@
 The best controller is the one with the highest fitness measured without the harness;
 harness-era champions stand in only until a generation runs without it.  In a staged run,
 ``generation`` in stats.csv counts across stages and the population's own count restarts
-with every stage.
+with every stage.  After the fixed columns, stats.csv has one column per fitness term of the
+run's objectives (:data:`evolve.locomotion.objectives.OBJECTIVES`), named for the term: the
+generation champion's value, unweighted (the genome of ``best_fitness``; empty in the rows
+of a stage whose objective has no such term).
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ from evolve.evaluation import (
     score_population,
 )
 from evolve.locomotion.export import controller_from_genome
+from evolve.locomotion.objectives import DEFAULT_OBJECTIVE, OBJECTIVES, ObjectiveType
 from evolve.neat import Genome, Population
 from evolve.stages import Stage, check_stage_joints
 from sim2real.atomic_json import read_json, write_json_atomic
@@ -50,7 +54,7 @@ from sim2real.robot.validation import load_yaml
 
 STATS_COLUMNS = ("generation", "stage", "best_fitness", "mean_fitness", "best_distance_m", "best_upright_s",
                  "species", "mean_connections", "mean_hidden", "evaluations", "evaluations_per_s",
-                 "steps_per_s", "wall_s", "harness", "threshold")
+                 "steps_per_s", "wall_s", "harness", "threshold")  # then the fitness terms (term_columns)
 
 
 @dataclass
@@ -108,6 +112,16 @@ class Run:
         return stages[min(len(self.finished), len(stages) - 1)] if stages else None
 
     @property
+    def objective(self) -> ObjectiveType:
+        """The objective of the stage running."""
+        return self.stage.kind if self.stage else OBJECTIVES[DEFAULT_OBJECTIVE]
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """stats.csv's columns: :data:`STATS_COLUMNS`, then :func:`term_columns`."""
+        return STATS_COLUMNS + term_columns(self.config)
+
+    @property
     def generation_offset(self) -> int:
         """Generations of the stages before the one running (or the last one)."""
         before = self.finished[:len(self.config.stages) - 1]
@@ -123,7 +137,7 @@ class Run:
         (out / "config.yaml").write_text(config.to_yaml())
         run = cls(config, out, log=log, **backend)
         with open(out / "stats.csv", "w", newline="") as f:
-            csv.writer(f).writerow(STATS_COLUMNS)
+            csv.writer(f).writerow(run.columns)
         return run
 
     @classmethod
@@ -150,10 +164,10 @@ class Run:
                             data["harness"], Genome.from_dict(data["genome"], population.layout))
         rows = _read_stats(out / "stats.csv")
         kept = [r for r in rows if int(r["generation"]) < run.generation_offset + population.generation]
-        with open(out / "stats.csv", "w", newline="") as f:
+        with open(out / "stats.csv", "w", newline="") as f:  # a run from before the term columns gets them
             writer = csv.writer(f)
-            writer.writerow(STATS_COLUMNS)
-            writer.writerows([[r[c] for c in STATS_COLUMNS] for r in kept])
+            writer.writerow(run.columns)
+            writer.writerows([[r.get(c) or "" for c in run.columns] for r in kept])
         run.wall_s = float(kept[-1]["wall_s"]) if kept else 0.0
         return run
 
@@ -176,11 +190,11 @@ class Run:
         pop, config, stage = self.population, self.config, self.stage
         budget = stage.generations if stage else config.generations
         index = len(self.finished)
+        harnessed = self.objective.harness
         recent: list[float] = []
         while pop.generation < budget:
             self._checkpoint()
-            walking = stage is None or stage.objective == "walk"
-            harness = config.task.harness_strength(pop.generation) if walking else 0.0
+            harness = config.task.harness_strength(pop.generation) if harnessed else 0.0
             intensity = config.randomize.intensity(pop.generation) if self.randomized else 0.0
             t0 = time.perf_counter()
             episodes = {}
@@ -206,6 +220,8 @@ class Run:
             gen_s = time.perf_counter() - t0
             self.wall_s += gen_s
             recent = (recent + [gen_s])[-10:]
+            terms = {**dict.fromkeys(term_columns(config), ""),
+                     **{name: float(values[i]) for name, values in e.terms.items()}}
             row = dict(generation=self.generation_offset + stats.generation, stage=stage.name if stage else "",
                        best_fitness=float(e.fitness.max()),
                        mean_fitness=float(e.fitness.mean()), best_distance_m=float(e.distance_m.max()),
@@ -213,7 +229,7 @@ class Run:
                        mean_connections=stats.mean_connections, mean_hidden=stats.mean_hidden,
                        evaluations=stats.evaluations, evaluations_per_s=len(e.fitness) * config.randomize.episodes / eval_s,
                        steps_per_s=e.steps / eval_s, wall_s=self.wall_s, harness=harness,
-                       threshold=stats.threshold)
+                       threshold=stats.threshold, **terms)
             self._append_stats(row)
             eta = (budget - pop.generation) * float(np.mean(recent))
             self.log(_progress_line(row, pop.generation, budget, eta, stage, intensity))
@@ -278,11 +294,17 @@ class Run:
 
     def _append_stats(self, row: dict) -> None:
         with open(self.out / "stats.csv", "a", newline="") as f:
-            csv.writer(f).writerow([_fmt(row[c]) for c in STATS_COLUMNS])
+            csv.writer(f).writerow([_fmt(row[c]) for c in self.columns])
             f.flush()
 
     def plot(self) -> None:
         plot_stats(self.out / "stats.csv", self.out / "fitness.png")
+
+
+def term_columns(config: EvolveConfig) -> tuple[str, ...]:
+    """The fitness terms of every objective of the run, in stage order, each once."""
+    kinds = [stage.kind for stage in config.stages] or [OBJECTIVES[DEFAULT_OBJECTIVE]]
+    return tuple(dict.fromkeys(name for kind in kinds for name in kind.terms))
 
 
 def code_version() -> str:

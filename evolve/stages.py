@@ -9,9 +9,10 @@ with its own objective, evolved on top of the frozen modules of the stages befor
 A stage ends at its threshold (a share of eq. 4.1's theoretical maximum; walking has no
 maximum, so a walk stage runs its budget) or after ``generations``.  The next stage starts
 from the champion of this one: every genome a copy of it with a new, empty module
-(:meth:`Population.on_top_of`), lower modules frozen but active.  Weights default to
-table 4.1: pose (3, 1), stand (1, 1, 1, 1); the single-module baseline of standing uses
-(2, 1, 1, 1) (``configs/evolve/stand_baseline.yaml``).
+(:meth:`Population.on_top_of`), lower modules frozen but active.  Objectives are those of
+:data:`evolve.locomotion.objectives.OBJECTIVES`; their weights default to table 4.1: pose
+(3, 1), stand (1, 1, 1, 1); the single-module baseline of standing uses (2, 1, 1, 1)
+(``configs/evolve/stand_baseline.yaml``).
 """
 
 from __future__ import annotations
@@ -22,25 +23,15 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
-from evolve.locomotion.objectives import (
-    PoseLimits,
-    PoseObjective,
-    PoseWeights,
-    WalkObjective,
-)
+from evolve.locomotion.objectives import OBJECTIVES, Objective, ObjectiveType, PoseWeights
 from sim2real.errors import ConfigError
 from sim2real.robot.validation import Node, dataclass_from_mapping
-
-OBJECTIVES = ("pose", "stand", "walk")
-DEFAULT_WEIGHTS = {"pose": PoseWeights(3.0, 1.0, 0.0, 0.0), "stand": PoseWeights(1.0, 1.0, 1.0, 1.0)}
 
 
 @dataclass(frozen=True)
 class Stage:
     name: str  # the module this stage evolves
-    objective: str  # pose | stand | walk
+    objective: str  # a name in OBJECTIVES: pose | stand | walk
     generations: int  # budget
     threshold: float = 0.0  # share of the theoretical maximum that ends the stage (0: run the budget)
     weights: PoseWeights | None = None  # eq. 4.1 error weights (pose and stand)
@@ -57,21 +48,20 @@ class Stage:
         return out
 
     @property
+    def kind(self) -> ObjectiveType:
+        return OBJECTIVES[self.objective]
+
+    @property
     def max_fitness(self) -> float:
         return math.inf if self.weights is None else self.weights.max_fitness()
 
     def solved(self, fitness: float) -> bool:
         return bool(self.threshold) and fitness >= self.threshold * self.max_fitness
 
-    def make_objective(self, ev, n: int):
+    def make_objective(self, ev, n: int) -> Objective:
         """This stage's objective for ``n`` simulations of evaluator ``ev``
         (the ``objective`` argument of :meth:`LocomotionEvaluator.evaluate`)."""
-        if self.objective == "walk":
-            return WalkObjective(ev, n)
-        targets = {j.name: j.home_rad for j in ev.robot.joints}
-        targets.update({k: math.radians(v) for k, v in self.target_pose_deg.items()})
-        target = np.array([targets[name] for name in ev.layout.driven])
-        return PoseObjective(ev, n, self.weights, PoseLimits(standing=self.objective == "stand"), target)
+        return self.kind.make(ev, n, self.weights, self.target_pose_deg)
 
 
 def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
@@ -87,12 +77,11 @@ def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
         if name in names:
             raise item["name"].error(f"stage name {name!r} is used twice")
         names.add(name)
-        objective = item["objective"].string(OBJECTIVES)
+        objective = item["objective"].string(tuple(OBJECTIVES))
         generations = item["generations"].integer(lo=1)
         threshold = item["threshold"].number(lo=0.0, hi=1.0) if item.has("threshold") else 0.0
-        weights = None
-        if objective != "walk":
-            weights = DEFAULT_WEIGHTS[objective]
+        weights = OBJECTIVES[objective].weights
+        if weights is not None:
             if item.has("weights"):
                 weights = dataclass_from_mapping(PoseWeights, item["weights"].value, source,
                                                  f"stages[{i}].weights.", "weight")
@@ -100,7 +89,8 @@ def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
                     if value < 0:
                         raise item["weights"].error(f"must not be negative, got {value}", key=key)
         elif item.has("weights") or threshold:
-            raise item.error("a walk stage has no weights or threshold (eq. 3 has no maximum)")
+            raise item.error(f"a {objective} stage has no weights or threshold (eq. 3 has no maximum; "
+                             "its weights are the task's coefficients)")
         target = {}
         if item.has("target_pose_deg"):
             target = {k: v.number() for k, v in item["target_pose_deg"].items()}

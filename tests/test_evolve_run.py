@@ -9,6 +9,10 @@ import pytest
 import yaml
 
 from evolve.cli import main
+from evolve.evaluation import EvaluatorSpec, LocalBackend
+from evolve.locomotion.task import TaskConfig
+from evolve.ray_backend import WorkerEvaluator
+from evolve.run import STATS_COLUMNS
 from sim2real.controller.file import load_controller
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot
@@ -61,6 +65,44 @@ def test_resumed_run_continues_exactly_as_an_uninterrupted_one(config_file, tmp_
     a = json.loads((straight / "controller.json").read_text())
     b = json.loads((split / "controller.json").read_text())
     assert a["connections"] == b["connections"] and a["hidden"] == b["hidden"]
+
+
+def test_stats_log_the_champions_fitness_terms_by_name(config_file, tmp_path):
+    out = tmp_path / "run"
+    assert main(["evolve", str(config_file), "--out", str(out), "--quiet"]) == 0
+    with open(out / "stats.csv", newline="") as f:
+        reader = csv.DictReader(f)
+        rows = list(reader)
+    assert reader.fieldnames[-3:] == ["distance", "time", "progress"]  # seed 000 eq. 3 and its tie-breaker
+    task = TaskConfig()
+    for row in rows:  # f = c_d distance + c_t time, to the 6 digits stats.csv keeps
+        fitness = task.distance_coeff * float(row["distance"]) + task.time_coeff * float(row["time"])
+        assert fitness == pytest.approx(float(row["best_fitness"]), rel=1e-5)
+
+
+def test_a_run_from_before_the_term_columns_resumes_with_them(config_file, tmp_path):
+    straight, split = tmp_path / "straight", tmp_path / "split"
+    assert main(["evolve", str(config_file), "--out", str(straight), "--quiet"]) == 0
+    assert main(["evolve", str(config_file), "--out", str(split), "--generations", "2", "--quiet"]) == 0
+    with open(split / "stats.csv", newline="") as f:
+        old = [{k: v for k, v in row.items() if k in STATS_COLUMNS} for row in csv.DictReader(f)]
+    with open(split / "stats.csv", "w", newline="") as f:  # as a run before them wrote it
+        writer = csv.DictWriter(f, STATS_COLUMNS)
+        writer.writeheader()
+        writer.writerows(old)
+    assert main(["evolve", "--resume", "--out", str(split), "--generations", "4", "--quiet"]) == 0
+    assert _stats(split) == _stats(straight)
+    with open(split / "stats.csv", newline="") as f:
+        assert [row["distance"] != "" for row in csv.DictReader(f)] == [False, False, True, True]
+
+
+def test_each_backend_owns_its_evaluator():
+    spec = EvaluatorSpec("xl430_biped", {"episode_s": 1.0}, "nominal", 2, threads=1)
+    assert LocalBackend(spec).evaluator is not LocalBackend(spec).evaluator  # no batch shared unseen
+    worker = WorkerEvaluator()  # a Ray worker's: one evaluator kept across the chunks of a spec
+    first = worker.get(spec)
+    assert worker.get(EvaluatorSpec("xl430_biped", {"episode_s": 1.0}, "nominal", 2, threads=1)) is first
+    assert worker.get(EvaluatorSpec("xl430_biped", {"episode_s": 1.0}, "nominal", 3, threads=1)) is not first
 
 
 def test_the_same_seed_gives_the_same_run_whatever_the_threads(config_file, tmp_path):

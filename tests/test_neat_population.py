@@ -1,6 +1,7 @@
 """The NEAT loop: determinism, checkpoints that resume exactly, speciation, configuration."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,6 +10,7 @@ from neat_helpers import xor_evaluator
 
 from evolve.neat import Layout, NeatConfig, Population
 from evolve.neat.reproduction import offspring_counts
+from sim2real.atomic_json import read_json
 from sim2real.errors import ConfigError
 
 XOR_CONFIG = NeatConfig(population_size=150, target_species=15, compat_exponent=0.0, sigmoid_steepness=4.9,
@@ -44,6 +46,17 @@ def test_resuming_from_a_checkpoint_continues_exactly(tmp_path, stop_at):
     tail = _run(resumed, 12 - stop_at)
     assert head + tail == expected
     assert json.dumps(resumed.to_dict()) == json.dumps(straight.to_dict())
+
+
+def test_a_checkpoint_written_before_the_restore_constructor_loads_and_resumes_exactly(tmp_path):
+    # generation 5 of this XOR run, written by commit 24747d4; then the stats of its next 4 generations there
+    data = Path(__file__).parent / "data" / "checkpoint_v1"
+    config = NeatConfig(population_size=24, target_species=4, compat_exponent=0.0, sigmoid_steepness=4.9,
+                        add_node_prob=0.2, add_link_prob=0.3, allow_recurrent=False)
+    pop = Population.load(data / "checkpoint.json.gz")
+    assert pop.config == config and pop.generation == 5
+    assert pop.to_dict() == read_json(data / "checkpoint.json.gz")  # every field restored
+    assert _run(pop, 4) == json.loads((data / "next_generations.json").read_text())
 
 
 def test_checkpoint_is_data_and_written_atomically(tmp_path):

@@ -1,5 +1,6 @@
 """Developmental hierarchies: stage configs, frozen lower modules, switching modules off."""
 
+import csv
 import json
 
 import pytest
@@ -7,6 +8,7 @@ import yaml
 
 from evolve.cli import main
 from evolve.config import parse_evolve_config
+from evolve.locomotion.objectives import OBJECTIVES
 from evolve.neat import Population
 from evolve.replay import evaluate_controller
 from evolve.run import Run
@@ -67,6 +69,19 @@ def test_stages_run_in_order_and_are_filed(staged_run):
     final = load_controller(staged_run / "controller.json")
     assert [m["name"] for m in pose["modules"]] == ["pose"]
     assert [m["name"] for m in final["modules"]] == ["pose", "stand"]
+
+
+def test_each_stage_logs_its_objectives_terms_and_leaves_the_others_empty(tmp_path):
+    doc = {**STAGED, "stages": [{"name": "pose", "objective": "pose", "generations": 1},
+                                {"name": "walk", "objective": "walk", "generations": 1}]}
+    Run.create(parse_evolve_config(doc, "staged"), tmp_path, log=lambda _: None).evolve()
+    with open(tmp_path / "stats.csv", newline="") as f:
+        reader = csv.DictReader(f)
+        pose, walk = list(reader)
+    terms = OBJECTIVES["pose"].terms + OBJECTIVES["walk"].terms
+    assert tuple(reader.fieldnames[-len(terms):]) == terms
+    assert [pose[t] != "" for t in terms] == [t in OBJECTIVES["pose"].terms for t in terms]
+    assert [walk[t] != "" for t in terms] == [t in OBJECTIVES["walk"].terms for t in terms]
 
 
 def test_lower_modules_stay_frozen(staged_run):

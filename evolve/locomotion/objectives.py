@@ -2,14 +2,20 @@
 eq. 4.1).  The evaluator runs the simulations; an objective watches them after every tick,
 says which are done, and scores them at the end.
 
+An objective's score is a dict of named terms (:attr:`Episodes.terms`, each an unweighted
+measure with its unit) and their combination with the weights from the config: eq. 3 sums
+them, eq. 4.1 multiplies.  :data:`OBJECTIVES` is the registry of objectives by the name a
+stage gives (``objective: stand``); a new objective is a class here and an entry there.
+
 Distances are in leg lengths, so that one setting serves every robot.  Seed 002's
 thresholds for a 1.8 m human (20 cm, 50 cm) become shares of its 0.9 m leg.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Callable, Mapping, Protocol
 
 import numpy as np
 
@@ -25,11 +31,13 @@ class Episodes:
     fell: np.ndarray  # bool: ended by a fall or another failure rule
     unstable: np.ndarray  # bool: numerical instability
     steps: int  # physics steps simulated in all
+    terms: Mapping[str, np.ndarray]  # the objective's fitness terms by name, unweighted, each (n,)
 
 
 class Objective(Protocol):
     """Watches ``n`` simulations of an evaluator from their reset on."""
 
+    TERMS: tuple[str, ...]  # names of its fitness terms (keys of Episodes.terms)
     fell: np.ndarray  # (n,) bool: ended by a failure rule (instability aside)
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
@@ -42,15 +50,24 @@ class Objective(Protocol):
 class WalkObjective:
     """Seed 000 eq. 3, ``f = c_d max(proj_j d, eps) + c_t t``, with its early termination:
     the pelvis below ``fall_height`` of its start height or the torso tilted past
-    ``fall_tilt_deg`` (the previous tick's fitness is kept), instability (fitness eps),
-    no progress of eps within ``stagnation_s``."""
+    ``fall_tilt_deg`` (the previous tick's terms are kept), instability (fitness eps),
+    no progress of eps within ``stagnation_s``.
+
+    Terms: ``distance`` = max(proj_j d, eps) [leg lengths] and ``time`` = t [s], weighted
+    by the task's ``distance_coeff`` (c_d) and ``time_coeff`` (c_t); ``progress``, the
+    pelvis' best forward progress [leg lengths] (0 if unstable), a tie-breaker weighted by
+    ``progress_coeff`` that selection sees and the reported fitness does not.
+    """
+
+    TERMS = ("distance", "time", "progress")
 
     def __init__(self, ev, n: int):
         task = ev.task
         self.ev, self.task = ev, task
         self.start_x = ev.site_xpos[:n, ev.soles, 0].mean(axis=1)
         self.start_pelvis = ev.xipos[:n, ev.pelvis].copy()
-        self.fitness = np.full(n, task.epsilon * task.distance_coeff)
+        self.distance_term = np.full(n, task.epsilon)  # [leg lengths]
+        self.time_term = np.zeros(n)  # [s]
         self.progress_best = np.zeros(n)  # hindmost foot [leg lengths], for stagnation
         self.pelvis_best = np.zeros(n)
         self.last_gain = np.zeros(n)
@@ -67,9 +84,9 @@ class WalkObjective:
         down = (pelvis_z < task.fall_height * self.start_pelvis[alive, 2]) | (up_z < self.min_up_z)
         ok = ~down & ~bad
         live = alive[ok]
-        # eq. 3 at this tick; a fall keeps the previous tick's value
-        self.fitness[live] = (task.distance_coeff * np.maximum(progress[ok], task.epsilon)
-                              + task.time_coeff * elapsed[live])
+        # eq. 3's terms at this tick; a fall keeps the previous tick's
+        self.distance_term[live] = np.maximum(progress[ok], task.epsilon)
+        self.time_term[live] = elapsed[live]
         self.distance[live] = hind[ok]
         self.pelvis_best[live] = np.maximum(
             self.pelvis_best[live], (ev.xipos[live, ev.pelvis, 0] - self.start_pelvis[live, 0]) / ev.leg)
@@ -77,13 +94,18 @@ class WalkObjective:
         self.progress_best[alive[gained]] = progress[gained]
         self.last_gain[alive[gained]] = elapsed[alive[gained]]
         self.fell[alive[down & ~bad]] = True
-        self.fitness[alive[bad]] = task.epsilon * task.distance_coeff
+        self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
+        self.time_term[alive[bad]] = 0.0
         stagnant = elapsed[alive] - self.last_gain[alive] > task.stagnation_s
         return down | bad | stagnant
 
     def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes:
-        selection = self.fitness + self.task.progress_coeff * np.where(unstable, 0.0, self.pelvis_best)
-        return Episodes(self.fitness, selection, self.distance, upright, self.fell, unstable, steps)
+        task = self.task
+        terms = {"distance": self.distance_term, "time": self.time_term,
+                 "progress": np.where(unstable, 0.0, self.pelvis_best)}
+        fitness = task.distance_coeff * terms["distance"] + task.time_coeff * terms["time"]
+        selection = fitness + task.progress_coeff * terms["progress"]
+        return Episodes(fitness, selection, self.distance, upright, self.fell, unstable, steps, terms)
 
 
 @dataclass(frozen=True)
@@ -115,7 +137,14 @@ class PoseLimits:
 class PoseObjective:
     """Seed 002 eq. 4.1: ``f = 100 (dt / T) prod (1 + w / (1 + x))`` over the error terms of
     :class:`PoseWeights`, dt the ticks survived of T.  The target pose is ``target_rad``
-    (driven joints, default their home angles); the CoM target is its start position."""
+    (driven joints, default their home angles); the CoM target is its start position.
+
+    Terms: ``survival`` = 100 dt / T [%], the unweighted base factor, and the errors x named
+    as the fields of :class:`PoseWeights` (``rest_pose``, ``rest_pose_end``, ``com``,
+    ``feet``), in their units there.  An unstable simulation scores 0.
+    """
+
+    TERMS = ("survival", "rest_pose", "rest_pose_end", "com", "feet")
 
     def __init__(self, ev, n: int, weights: PoseWeights, limits: PoseLimits, target_rad: np.ndarray):
         self.ev, self.weights, self.limits = ev, weights, limits
@@ -152,11 +181,45 @@ class PoseObjective:
         return fail
 
     def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes:
-        w = self.weights
-        fitness = 100.0 * self.ticks / self.ev.n_ticks
-        for weight, error in ((w.rest_pose, self.pose_error), (w.rest_pose_end, self.end_pose),
-                              (w.com, self.end_com), (w.feet, self.end_feet)):
-            fitness = fitness * (1.0 + weight / (1.0 + error))
+        terms = {"survival": 100.0 * self.ticks / self.ev.n_ticks, "rest_pose": self.pose_error,
+                 "rest_pose_end": self.end_pose, "com": self.end_com, "feet": self.end_feet}
+        fitness = terms["survival"]
+        for name in self.TERMS[1:]:
+            fitness = fitness * (1.0 + getattr(self.weights, name) / (1.0 + terms[name]))
         fitness = np.where(unstable, 0.0, fitness)
         distance = np.zeros(len(fitness))
-        return Episodes(fitness, fitness.copy(), distance, upright, self.fell, unstable, steps)
+        return Episodes(fitness, fitness.copy(), distance, upright, self.fell, unstable, steps, terms)
+
+
+def pose_target(ev, target_pose_deg: Mapping[str, float]) -> np.ndarray:
+    """Target angles of the driven joints of evaluator ``ev`` [rad]: ``target_pose_deg``
+    (joint -> [deg]) where given, else the joint's home angle."""
+    targets = {j.name: j.home_rad for j in ev.robot.joints}
+    targets.update({k: math.radians(v) for k, v in target_pose_deg.items()})
+    return np.array([targets[name] for name in ev.layout.driven])
+
+
+@dataclass(frozen=True)
+class ObjectiveType:
+    """An entry of :data:`OBJECTIVES`: what a stage with this objective evolves on."""
+
+    terms: tuple[str, ...]  # its fitness terms, in the order they combine (stats.csv columns)
+    weights: PoseWeights | None  # eq. 4.1's default weights; None: eq. 3, weighted by the task's coefficients
+    harness: bool  # the support harness holds the robot (its generations count from the stage's start)
+    # (evaluator, n, weights, target_pose_deg) -> the objective watching n simulations
+    make: Callable[[Any, int, "PoseWeights | None", Mapping[str, float]], Objective]
+
+
+def _posing(standing: bool) -> Callable[[Any, int, "PoseWeights | None", Mapping[str, float]], Objective]:
+    def make(ev, n: int, weights: PoseWeights | None, target_pose_deg: Mapping[str, float]) -> Objective:
+        return PoseObjective(ev, n, weights, PoseLimits(standing=standing), pose_target(ev, target_pose_deg))
+    return make
+
+
+# every objective a stage can name; weights default to table 4.1 (pose 3, 1; stand 1, 1, 1, 1)
+OBJECTIVES: dict[str, ObjectiveType] = {
+    "pose": ObjectiveType(PoseObjective.TERMS, PoseWeights(3.0, 1.0, 0.0, 0.0), False, _posing(False)),
+    "stand": ObjectiveType(PoseObjective.TERMS, PoseWeights(1.0, 1.0, 1.0, 1.0), False, _posing(True)),
+    "walk": ObjectiveType(WalkObjective.TERMS, None, True, lambda ev, n, weights, target: WalkObjective(ev, n)),
+}
+DEFAULT_OBJECTIVE = "walk"  # what a run without stages evolves on (the evaluator's default)

@@ -115,9 +115,6 @@ class Genome:
         else:
             self.conns[gene.innovation] = gene
 
-    def has_link(self, src: int, dst: int) -> bool:
-        return any(g.src == src and g.dst == dst for g in self.conns.values())
-
     @property
     def n_enabled(self) -> int:
         return sum(g.enabled for g in self.conns.values())

@@ -171,10 +171,6 @@ class PopulationNetwork:
         """Node values of one network, in :func:`expressed` order (to continue it elsewhere)."""
         return self.values[self._node_network == network]
 
-    @property
-    def n_connections(self) -> int:
-        return len(self._src)
-
     def reset(self) -> None:
         self.values = np.zeros(self.n_nodes)
 

@@ -49,25 +49,35 @@ class GenerationStats:
 
 
 class Population:
-    def __init__(self, config: NeatConfig, layout: Layout, seed: int | None = None,
-                 modules: tuple[str, ...] = ("main",), *, _restore: bool = False):
-        self.config = config
-        self.layout = layout
-        if _restore:
-            return
+    """A generation of genomes with its species, innovation counters and random state.
+
+    ``Population(config, layout, seed)`` starts a run from minimal genomes;
+    :meth:`on_top_of` starts a stage of a hierarchy, :meth:`from_dict` / :meth:`load` restore
+    a checkpoint.  Each lays down the whole state at once (:meth:`_set_state`).
+    """
+
+    def __init__(self, config: NeatConfig, layout: Layout, seed: int, modules: tuple[str, ...] = ("main",)):
         if seed is None:
             raise ValueError("seed: a Population needs a seed (a run must be reproducible)")
-        self.seed = seed
-        self.rng = np.random.default_rng(seed)
-        self.tracker = InnovationTracker(next_innovation=0, next_node=layout.n_interface)
-        self.genomes = [initial_genome(k, layout, config, self.tracker, self.rng, modules)
-                        for k in range(config.population_size)]
-        self.next_key = config.population_size
-        self.generation = 0
-        self.evaluations = 0
-        self.best: Genome | None = None
-        self.species = SpeciesSet(config)
-        self.species.speciate(self.genomes, self.generation)
+        rng = np.random.default_rng(seed)
+        tracker = InnovationTracker(next_innovation=0, next_node=layout.n_interface)
+        genomes = [initial_genome(k, layout, config, tracker, rng, modules) for k in range(config.population_size)]
+        self._set_state(config, layout, seed, rng, tracker, genomes)
+
+    def _set_state(self, config: NeatConfig, layout: Layout, seed: int, rng: np.random.Generator,
+                   tracker: InnovationTracker, genomes: list[Genome], species: SpeciesSet | None = None,
+                   generation: int = 0, next_key: int | None = None, evaluations: int = 0,
+                   best: Genome | None = None) -> None:
+        """Every attribute of a population; ``species`` None: the genomes speciated afresh,
+        ``next_key`` None: the key after the genomes' count."""
+        self.config, self.layout, self.seed, self.rng, self.tracker = config, layout, seed, rng, tracker
+        self.genomes = genomes
+        self.generation, self.evaluations, self.best = generation, evaluations, best
+        self.next_key = len(genomes) if next_key is None else next_key
+        if species is None:
+            species = SpeciesSet(config)
+            species.speciate(genomes, generation)
+        self.species = species
 
     # -- the loop ---------------------------------------------------------------------------
     def evaluate(self, evaluate: Evaluator) -> GenerationStats:
@@ -127,25 +137,17 @@ class Population:
         (seed 002: each stage of a hierarchy starts from the previous stage's champion)."""
         if module in ancestor.modules:
             raise ValueError(f"module {module!r} already exists in {list(ancestor.modules)}")
-        pop = cls(config, ancestor.layout, _restore=True)
-        pop.seed = seed
-        pop.rng = np.random.default_rng(seed)
-        pop.tracker = InnovationTracker(
+        tracker = InnovationTracker(
             next_innovation=max(ancestor.conns, default=-1) + 1,
             next_node=max([ancestor.layout.n_interface - 1, *ancestor.hidden]) + 1,
         )
-        pop.genomes = []
+        genomes = []
         for key in range(config.population_size):
             genome = ancestor.copy(key)
             genome.modules = ancestor.modules + (module,)
-            genome.fitness = None
-            pop.genomes.append(genome)
-        pop.next_key = config.population_size
-        pop.generation = 0
-        pop.evaluations = 0
-        pop.best = None
-        pop.species = SpeciesSet(config)
-        pop.species.speciate(pop.genomes, 0)
+            genomes.append(genome)
+        pop = cls.__new__(cls)
+        pop._set_state(config, ancestor.layout, seed, np.random.default_rng(seed), tracker, genomes)
         return pop
 
     # -- checkpoints ------------------------------------------------------------------------
@@ -179,18 +181,14 @@ class Population:
                               f"(this code reads version {CHECKPOINT_VERSION})")
         config = NeatConfig.from_mapping(data["config"], source, "config.")
         layout = Layout(*data["layout"])
-        pop = cls(config, layout, _restore=True)
-        pop.seed = data["seed"]
-        pop.rng = np.random.default_rng()
-        pop.rng.bit_generator.state = data["rng"]
-        pop.tracker = InnovationTracker.from_dict(data["tracker"])
-        pop.genomes = [Genome.from_dict(g, layout) for g in data["genomes"]]
-        by_key = {g.key: g for g in pop.genomes}
-        pop.species = SpeciesSet.from_dict(data["species"], config, layout, by_key)
-        pop.generation = int(data["generation"])
-        pop.next_key = int(data["next_key"])
-        pop.evaluations = int(data["evaluations"])
-        pop.best = None if data["best"] is None else Genome.from_dict(data["best"], layout)
+        rng = np.random.default_rng()
+        rng.bit_generator.state = data["rng"]
+        genomes = [Genome.from_dict(g, layout) for g in data["genomes"]]
+        species = SpeciesSet.from_dict(data["species"], config, layout, {g.key: g for g in genomes})
+        best = None if data["best"] is None else Genome.from_dict(data["best"], layout)
+        pop = cls.__new__(cls)
+        pop._set_state(config, layout, data["seed"], rng, InnovationTracker.from_dict(data["tracker"]), genomes,
+                       species, int(data["generation"]), int(data["next_key"]), int(data["evaluations"]), best)
         return pop
 
     @classmethod

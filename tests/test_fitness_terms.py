@@ -1,0 +1,90 @@
+"""Fitness as named terms: each objective's terms, weighted from the config, make its fitness
+exactly; the registry names every objective; a genome's terms over several episodes."""
+
+import numpy as np
+import pytest
+from neat_helpers import grown_population
+
+from evolve.evaluation import Job, score_population
+from evolve.locomotion.evaluator import LocomotionEvaluator, neat_layout
+from evolve.locomotion.objectives import OBJECTIVES, Episodes, PoseObjective, WalkObjective
+from evolve.locomotion.task import TaskConfig
+from evolve.stages import parse_stages
+from sim2real.controller.symmetry import symmetric_layout
+from sim2real.errors import ConfigError
+from sim2real.robot import load_robot
+
+ROBOT = load_robot()
+TASK = TaskConfig(episode_s=1.0, distance_coeff=2.0, time_coeff=0.25, progress_coeff=0.5)
+
+
+@pytest.fixture(scope="module")
+def evaluator():
+    return LocomotionEvaluator(ROBOT, TASK, 10, threads=1)
+
+
+@pytest.fixture(scope="module")
+def genomes():
+    layout = neat_layout(symmetric_layout(ROBOT, ROBOT.control_sets["walk"]))
+    return grown_population(seed=7, generations=3, size=10, layout=layout).genomes
+
+
+@pytest.mark.parametrize("harness", [0.0, 1.0])
+def test_walk_fitness_is_eq_3_of_its_terms_with_the_task_coefficients(evaluator, genomes, harness):
+    e = evaluator.evaluate(genomes, 1.0, harness=harness)
+    assert tuple(e.terms) == WalkObjective.TERMS == OBJECTIVES["walk"].terms
+    assert np.array_equal(e.fitness, 2.0 * e.terms["distance"] + 0.25 * e.terms["time"])
+    assert np.array_equal(e.selection, e.fitness + 0.5 * e.terms["progress"])  # the tie-breaker
+    assert np.all(e.terms["distance"] >= TASK.epsilon)
+    # the time term is the time upright (none if unstable)
+    assert e.terms["time"] == pytest.approx(np.where(e.unstable, 0.0, e.upright_s), abs=1e-9)
+
+
+@pytest.mark.parametrize("objective", ["pose", "stand"])
+def test_pose_and_stand_fitness_is_eq_4_1_of_their_terms_with_the_stage_weights(evaluator, genomes, objective):
+    weights = {"rest_pose": 2.0, "rest_pose_end": 0.5, "com": 1.5, "feet": 0.25}
+    stage, = parse_stages([{"name": "s", "objective": objective, "generations": 1, "weights": weights}], "x")
+    e = evaluator.evaluate(genomes, 1.0, objective=stage.make_objective)
+    assert tuple(e.terms) == PoseObjective.TERMS == OBJECTIVES[objective].terms
+    for i in range(len(genomes)):  # the plain oracle: f = 100 (dt / T) prod (1 + w / (1 + x))
+        expected = float(e.terms["survival"][i])
+        for name, w in weights.items():
+            expected *= 1.0 + w / (1.0 + float(e.terms[name][i]))
+        assert e.fitness[i] == (0.0 if e.unstable[i] else expected)
+    assert np.all((0.0 <= e.terms["survival"]) & (e.terms["survival"] <= 100.0))
+    assert np.array_equal(e.selection, e.fitness)  # no tie-breaker
+
+
+def test_the_registry_names_every_objective_a_stage_can_choose():
+    for name, kind in OBJECTIVES.items():
+        stage, = parse_stages([{"name": "s", "objective": name, "generations": 1}], "x")
+        assert stage.kind is kind and stage.weights == kind.weights
+        assert kind.harness == (name == "walk")  # the harness holds walkers only
+    with pytest.raises(ConfigError, match="must be one of " + ", ".join(OBJECTIVES)):
+        parse_stages([{"name": "s", "objective": "dance", "generations": 1}], "x")
+
+
+class _Fixed:
+    """A backend returning fixed per-simulation episodes."""
+
+    def __init__(self, episodes: Episodes):
+        self.episodes = episodes
+
+    def run(self, job: Job) -> Episodes:
+        assert len(job.genomes) == len(self.episodes.fitness)
+        return self.episodes
+
+
+@pytest.mark.parametrize("score", ["mean", "worst"])
+def test_a_genomes_terms_over_episodes_are_their_mean_or_its_worst_episodes(genomes, score):
+    fitness = np.array([3.0, 2.0, 1.0, 5.0, 4.0, 6.0])  # 2 genomes x 3 episodes
+    a, b = np.arange(6.0), np.arange(6.0) * 10
+    per_sim = Episodes(fitness, fitness, np.zeros(6), np.ones(6), np.zeros(6, bool), np.zeros(6, bool), 60,
+                       {"a": a, "b": b})
+    e = score_population(_Fixed(per_sim), genomes[:2], steepness=1.0, harness=0.0, stage=None, episodes=3,
+                         score=score, intensity=0.0, key=(0, 0, 0))
+    if score == "mean":
+        assert e.fitness.tolist() == [2.0, 5.0] and e.terms["a"].tolist() == [1.0, 4.0]
+    else:  # the terms of each genome's episode of lowest fitness: its 3rd, its 2nd
+        assert e.fitness.tolist() == [1.0, 4.0] and e.terms["a"].tolist() == [2.0, 4.0]
+        assert e.terms["b"].tolist() == [20.0, 40.0]
