@@ -52,6 +52,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     from evolve.replay import evaluate_controller
     from evolve.run import Run
     from sim2real.controller.file import load_controller, save_controller
+    from sim2real.hardware.realtime import RealtimeRequest
     from sim2real.simulation.compare import compare, plot
     from sim2real.simulation.dry_run import dry_run
 
@@ -91,7 +92,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     step(4, f"dry run through the real runtime on the simulated Dynamixel bus, reality profile {args.reality!r}")
     trace = out / "dry_run.csv"
     result = dry_run(controller, duration_s=sim["seconds"], trace_path=trace, reality=args.reality,
-                     log=lambda line: print("  " + line))
+                     log=lambda line: print("  " + line), realtime=RealtimeRequest())
     print(json.dumps({k: result[k] for k in ("distance_m", "fell", "ticks", "overruns", "bus_errors", "stop_reason")}))
     if result["stop_reason"] != "duration reached":
         return run_failed(f"the dry run stopped early: {result['stop_reason']}")

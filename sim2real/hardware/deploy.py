@@ -46,7 +46,7 @@ from sim2real.hardware.dynamixel.chain import ServoChain
 from sim2real.hardware.realtime import (
     RealtimeRequest,
     no_garbage_collection,
-    ordinary_scheduling,
+    release_realtime,
     request_realtime,
 )
 from sim2real.hardware.trace import TraceWriter
@@ -203,7 +203,8 @@ class RealTimeLoop:
         self.goal_ticks = mapping.ticks(self.goal)
 
     def run(self, duration_s: float | None, report: RunReport) -> None:
-        start = deadline = self.last_good = self.clock()
+        start = deadline = self.clock()
+        self.failing_since: float | None = None
         n_ticks = None if duration_s is None else int(round(duration_s / self.tick_s))
         while n_ticks is None or report.ticks < n_ticks:
             began = self.clock()
@@ -239,8 +240,8 @@ class RealTimeLoop:
 
     def _read(self, give_up_at: float, report: RunReport) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """Joint angles, foot switches and up-vector, each read retried until ``give_up_at``;
-        None when the tick ran out.  Raises :class:`CommunicationError` once no read has
-        succeeded for ``lost_after_s``."""
+        None when the tick ran out.  Raises :class:`CommunicationError` once reads have
+        failed for ``lost_after_s`` without one success."""
         angles = self._attempt(lambda: self.mapping.angles(self.chain.sync_read("present_position", attempts=1)),
                                give_up_at, report)
         if angles is None:
@@ -248,7 +249,7 @@ class RealTimeLoop:
         board = self._attempt(lambda: self.chain.read_board(attempts=1), give_up_at, report)
         if board is None:
             return None
-        self.last_good = self.clock()
+        self.failing_since = None
         return angles, board[0], board[1]
 
     def _attempt(self, read: Callable[[], Any], give_up_at: float, report: RunReport) -> Any:
@@ -258,9 +259,13 @@ class RealTimeLoop:
             except CommunicationError as exc:
                 report.corrupt_replies += exc.corrupt
                 now = self.clock()
-                silent_s = now - self.last_good
-                if silent_s >= self.lost_after_s:
-                    raise CommunicationError(exc.ids, f"{exc.what} (no good reply for {silent_s * 1e3:.0f} ms)",
+                # Timed from the first failure, not the last success: a host that stalled
+                # between two good reads has not lost its bus.
+                if self.failing_since is None:
+                    self.failing_since = now
+                failing_s = now - self.failing_since
+                if failing_s >= self.lost_after_s:
+                    raise CommunicationError(exc.ids, f"{exc.what} (no good reply for {failing_s * 1e3:.0f} ms)",
                                              exc.corrupt) from exc
                 if now >= give_up_at or attempt == TICK_ATTEMPTS - 1:
                     return None
@@ -331,6 +336,7 @@ def drive(bus: Bus, robot: RobotSpec, controller: dict[str, Any], duration_s: fl
     policy = Policy(controller, robot, disabled_modules)
     trace = None
     startup_error: StartupError | None = None
+    grant = None
     if realtime is not None:
         grant = request_realtime(realtime)
         report.realtime = grant.summary()
@@ -370,8 +376,8 @@ def drive(bus: Bus, robot: RobotSpec, controller: dict[str, Any], duration_s: fl
             if trace is not None:
                 trace.close()
             bus.close()
-            if report.realtime is not None and report.realtime["priority"] is not None:
-                ordinary_scheduling()
+            if grant is not None:
+                release_realtime(grant)
     if signals.received and signals.cut_short:
         report.stop_notes.append(f"ramp to rest cut short by {signals.received[-1]}")
     if startup_error is not None:

@@ -120,6 +120,22 @@ def ordinary_scheduling() -> None:
         pass
 
 
+def release_realtime(grant: RealtimeGrant) -> None:
+    """Undo what ``grant`` got, for a process that goes on after its real-time part (a dry
+    run inside the quickstart, a test): ordinary scheduling, memory unlocked, any CPU."""
+    if grant.priority is not None:
+        ordinary_scheduling()
+    if grant.memory_locked:
+        libc_name = ctypes.util.find_library("c")
+        if libc_name is not None:
+            ctypes.CDLL(libc_name).munlockall()
+    if grant.cpu is not None:
+        try:
+            os.sched_setaffinity(0, range(os.cpu_count() or 1))
+        except OSError:
+            pass
+
+
 @contextmanager
 def no_garbage_collection() -> Iterator[None]:
     """The cyclic garbage collector off for a block: its pauses (milliseconds on a large heap)

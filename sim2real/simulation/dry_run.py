@@ -157,7 +157,9 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     perturbed by the reality profile ``reality`` (None: nominal); see ``biped dry-run``.
 
     The simulated bus runs in its own process.  ``realtime`` is the runtime's real-time
-    request (None: none); ``simbus_realtime`` the simulated bus's as its flags (None: none).
+    request (None: none; this process keeps its scheduling); ``simbus_realtime`` the simulated
+    bus's as its command-line flags (None: its default, real-time scheduling - a simulated
+    robot starved of CPU would fall, or go silent, for the wrong reason).
     """
     from sim2real.simulation.reality import (
         load_reality,  # MuJoCo: only a dry run needs it, not `biped run`
@@ -171,7 +173,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     check_fault_times(parse_faults(faults, robot), duration_s)
     args = ["--robot", robot_arg, "--seed", str(seed), "--fault-delay", str(ramp_s),
             *(["--reality", reality] if reality else []), *(["--faults", faults] if faults else []),
-            *(simbus_realtime if simbus_realtime is not None else ["--no-realtime"])]
+            *(simbus_realtime or [])]
     with SimulatedBusProcess(args, log) as simbus:
         report = drive(DynamixelBus(simbus.port, robot.bus.baud, robot), robot, data, duration_s=duration_s,
                        trace_path=trace_path, log=log, ramp_s=ramp_s, disabled_modules=disabled_modules,
