@@ -15,7 +15,8 @@ from evolve.neat import NeatConfig, Population
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.hardware import MockBus
-from sim2real.hardware.deploy import StartupError, drive
+from sim2real.hardware.deploy import drive
+from sim2real.hardware.dynamixel.startup import StartupError
 from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import load_robot
 

@@ -300,7 +300,7 @@ def test_lost_communication_waits_for_lost_after_s(served, controller):
 
 
 def test_a_device_that_answers_only_corrupt_packets_is_named_as_such(controller):
-    from sim2real.hardware.deploy import StartupError
+    from sim2real.hardware.dynamixel.startup import StartupError
 
     chain = EmulatedChain(MockBus(ROBOT).devices)
     with PtyServer(chain, baud=1_000_000, corrupt_rate=1.0) as server:

@@ -23,6 +23,7 @@ from sim2real.cli.args import (
 )
 from sim2real.errors import UsageError
 from sim2real.hardware.deploy import LOST_AFTER_S
+from sim2real.hardware.trace import sidecar_path
 from sim2real.robot import DEFAULT_ROBOT, load_robot
 from sim2real.simulation.simbus import service as simbus_service
 from sim2real.simulation.simbus.service import add_realtime_arguments
@@ -115,8 +116,8 @@ def _servo_robot(name: str | None, controller: Path | None = None):
 
 
 def _check_trace(trace: Path | None, controller: Path) -> None:
-    if trace is not None and Path(trace).with_suffix(".json").resolve() == Path(controller).resolve():
-        raise UsageError(f"--trace {trace}: its sidecar {Path(trace).with_suffix('.json')} would overwrite the "
+    if trace is not None and sidecar_path(trace).resolve() == Path(controller).resolve():
+        raise UsageError(f"--trace {trace}: its sidecar {sidecar_path(trace)} would overwrite the "
                          "controller")
 
 

@@ -1,4 +1,5 @@
-"""Dynamixel buses: one interface (:class:`Bus`), a mock for tests, the real SDK-backed one.
+"""Driving servos: one interface (:class:`Bus`), a mock for tests, the Dynamixel package
+(the SDK-backed bus, the chain, registers, errors, start-up), the real-time loop and traces.
 
 Above the bus nothing knows which one it talks to; :class:`ServoChain` adds the robot
 (names, signedness, retries) on top of any of them.

@@ -1,22 +1,18 @@
-"""The bus interface and its errors.
+"""The bus interface and its errors: protocol-free.
 
 Values cross this interface as unsigned integers of the register's size, exactly as on
 the wire; :class:`~sim2real.hardware.dynamixel.chain.ServoChain` decodes signs and names.
+A vendor package (:mod:`sim2real.hardware.dynamixel`) implements :class:`Bus` and turns its
+status codes into :class:`ServoError`; ``tests/test_bus_contract.py`` holds every
+implementation to the same contract.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Iterable
+from typing import Iterable, Sequence
 
 from sim2real.errors import BipedError
-
-# Protocol 2.0 status error numbers (bits 0-6), e-manual "Status Packet".
-ERROR_NUMBERS = {1: "result fail", 2: "instruction error", 3: "CRC error", 4: "data range error",
-                 5: "data length error", 6: "data limit error", 7: "access error"}
-ALERT_BIT = 0x80
-# Hardware Error Status bits (X series, address 70).
-HARDWARE_ERRORS = {0: "input voltage", 2: "overheating", 3: "motor encoder", 4: "electrical shock", 5: "overload"}
 
 
 class CommunicationError(BipedError):
@@ -32,34 +28,25 @@ class CommunicationError(BipedError):
 
 
 class ServoError(BipedError):
-    """A servo reported an error in its status packet (or its alert bit is set)."""
+    """A servo reported an error in its status (or its hardware alert is set).
 
-    def __init__(self, dxl_id: int, error: int, detail: str = "", value: int | None = None):
+    ``error`` is the raw status code, ``reasons`` what it says in words (the vendor package
+    decodes it), ``alert`` whether the servo has a latched hardware error, ``value`` the data
+    that came with the status, if it was a read."""
+
+    def __init__(self, dxl_id: int, error: int, reasons: Sequence[str] = (), *, alert: bool = False,
+                 value: int | None = None):
         self.id = dxl_id
         self.error = error
-        self.value = value  # the data that came with the status, if it was a read
-        self.alert = bool(error & ALERT_BIT)
-        number = error & 0x7F
-        parts = []
-        if number:
-            parts.append(ERROR_NUMBERS.get(number, f"error {number}"))
-        if self.alert:
-            parts.append("hardware alert")
-        if detail:
-            parts.append(detail)
-        super().__init__(f"servo {dxl_id}: {', '.join(parts) or 'error'}")
-
-
-def decode_hardware_error(status: int) -> str:
-    """Hardware Error Status bits in words."""
-    names = [name for bit, name in HARDWARE_ERRORS.items() if status & (1 << bit)]
-    return ", ".join(names) or "none"
+        self.reasons = tuple(reasons)
+        self.alert = alert
+        self.value = value
+        super().__init__(f"servo {dxl_id}: {', '.join(self.reasons) or 'error'}")
 
 
 class Bus(ABC):
-    """A chain of Dynamixel devices on one port.  Values are unsigned ints of ``size`` bytes."""
-
-    protocol: float = 2.0
+    """A chain of devices (servos, a sensor board) on one port, each answering by its ID.
+    Values are unsigned ints of ``size`` bytes at a control-table ``address``."""
 
     def open(self) -> None:
         """Open the port (idempotent)."""
@@ -76,26 +63,31 @@ class Bus(ABC):
 
     @abstractmethod
     def ping(self, dxl_id: int) -> int:
-        """The device's model number."""
+        """The device's model number.  Raises :class:`CommunicationError` if it does not answer."""
 
     @abstractmethod
-    def read(self, dxl_id: int, address: int, size: int) -> int: ...
+    def read(self, dxl_id: int, address: int, size: int) -> int:
+        """``size`` bytes from ``address``.  Raises :class:`CommunicationError` if the device
+        does not answer, :class:`ServoError` if its status carries an error (``value`` holds
+        the data that came with it)."""
 
     @abstractmethod
-    def write(self, dxl_id: int, address: int, size: int, value: int) -> None: ...
+    def write(self, dxl_id: int, address: int, size: int, value: int) -> None:
+        """``value`` to ``address``, as the device's firmware takes it: :class:`ServoError` if
+        it refuses (the value is then not applied), :class:`CommunicationError` if it is silent."""
 
     @abstractmethod
     def sync_read(self, ids: list[int], address: int, size: int) -> dict[int, int]:
         """Every listed device's value.  Raises :class:`CommunicationError` naming every device
-        that did not answer, and :class:`ServoError` for a status with an error byte (the
-        alert bit included, which the SDK's group classes drop)."""
+        that did not answer, and :class:`ServoError` for a status with an error (the hardware
+        alert included, which the Dynamixel SDK's group classes drop)."""
 
     @abstractmethod
-    def sync_write(self, address: int, size: int, values: dict[int, int]) -> None: ...
-
-    def bulk_read(self, requests: list[tuple[int, int, int]]) -> dict[int, int]:
-        """(id, address, size) per device; the default reads them one by one."""
-        return {dxl_id: self.read(dxl_id, address, size) for dxl_id, address, size in requests}
+    def sync_write(self, address: int, size: int, values: dict[int, int]) -> None:
+        """One instruction for every device in ``values``, without replies: a device applies
+        its value under the same rules as :meth:`write`, and one that refuses it (a goal
+        outside its position limits, say) keeps its old value silently, as on the wire."""
 
     @abstractmethod
-    def reboot(self, dxl_id: int) -> None: ...
+    def reboot(self, dxl_id: int) -> None:
+        """Restart the device: clears a latched hardware error, torque off."""

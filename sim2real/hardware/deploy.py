@@ -2,12 +2,11 @@
 
     report = drive(bus, robot, controller, duration_s=30, trace_path="run.csv")
 
-Start-up pings every configured device and checks its model number (every problem in one
-error), sets Return Delay Time 0, position mode, position limits from the joint ranges and
-the Bus Watchdog, refuses servos with a latched hardware error, then turns torque on and
-ramps slowly from the present pose to the controller's start pose.  The loop keeps a fixed
-rate on absolute deadlines (an overrun re-syncs instead of catching up, and is counted);
-each tick reads joints, feet and up-vector, activates, maps and sync-writes.
+Start-up (:mod:`sim2real.hardware.dynamixel.startup`) checks that the bus holds the robot of
+the config and configures its servos; then torque goes on and the goals ramp slowly from the
+present pose to the controller's start pose.  The loop keeps a fixed rate on absolute
+deadlines (an overrun re-syncs instead of catching up, and is counted); each tick reads
+joints, feet and up-vector, activates, maps and sync-writes.
 
 A noisy bus does not stop the robot: a failed read is retried while the tick's budget lasts,
 a tick without a good read holds the last goals (and is counted), and communication counts
@@ -36,13 +35,11 @@ import numpy as np
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, UsageError
-from sim2real.hardware.bus import (
-    Bus,
-    CommunicationError,
-    ServoError,
-    decode_hardware_error,
-)
+from sim2real.hardware.bus import Bus, CommunicationError, ServoError
 from sim2real.hardware.dynamixel.chain import ServoChain
+from sim2real.hardware.dynamixel.errors import decode_hardware_error
+from sim2real.hardware.dynamixel.registers import Reg
+from sim2real.hardware.dynamixel.startup import StartupError, start_up
 from sim2real.hardware.realtime import (
     RealtimeRequest,
     no_garbage_collection,
@@ -52,8 +49,6 @@ from sim2real.hardware.realtime import (
 from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import RobotSpec
 
-POSITION_MODE = 3
-WATCHDOG_MS = 100  # servos stop if the host is silent this long (X series: 20 ms units)
 RAMP_S = 2.0  # start-up and shutdown ramps [s]
 RAMP_TICK_S = 0.02
 SPIN_S = 0.0005  # the loop spins this long before each deadline instead of sleeping (5 % of a 10 ms tick)
@@ -65,10 +60,6 @@ TICK_ATTEMPTS = 4  # ... and at most this often each (a failing mock bus answers
 # (or, at the end, make the tool tell the user to cut the power for nothing).
 PATIENT_ATTEMPTS = 3
 PATIENCE_S = 0.3
-
-
-class StartupError(BipedError):
-    """The bus does not hold the robot the config describes."""
 
 
 class UnsafeOutput(BipedError):
@@ -120,64 +111,6 @@ class RunReport:
                 "jitter_ms_p99": pct(self.jitter_s, 99, 1e3), "realtime": self.realtime}
 
 
-def start_up(chain: ServoChain, mapping: ServoMapping, warn: Callable[[str], None] = print) -> None:
-    problems = []
-    for dxl_id, profile in chain.devices.items():
-        try:
-            model = chain.ping(dxl_id, PATIENT_ATTEMPTS, PATIENCE_S)
-        except CommunicationError as exc:
-            problems.append(f"ID {dxl_id} ({profile.model}) "
-                            + ("answers only with corrupt packets (wrong baud rate, or noise on the wire?)"
-                               if exc.corrupt else "does not answer"))
-            continue
-        if model != profile.model_number:
-            problems.append(f"ID {dxl_id} is model number {model}, the config expects {profile.model} "
-                            f"({profile.model_number})")
-    if problems:
-        raise StartupError("the bus does not match the robot config: " + "; ".join(problems))
-    errors = []
-    for dxl_id in chain.servo_ids:
-        if "hardware_error_status" in chain.devices[dxl_id].control_table:
-            try:
-                status = chain.read(dxl_id, "hardware_error_status", PATIENT_ATTEMPTS, PATIENCE_S)
-            except ServoError as exc:  # the alert bit comes with the very value we asked for
-                if exc.value is None:
-                    raise
-                status = exc.value
-            if status:
-                errors.append(f"ID {dxl_id}: {decode_hardware_error(status)}")
-    if errors:
-        raise StartupError("hardware errors latched (power-cycle or REBOOT the servo): " + "; ".join(errors))
-    chain.torque(False, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)  # EEPROM settings need torque off
-    for k, dxl_id in enumerate(chain.servo_ids):
-        profile = chain.devices[dxl_id]
-        settings = [("return_delay_time", 0)]
-        if "operating_mode" in profile.control_table:
-            settings.append(("operating_mode", POSITION_MODE))
-        if "min_position_limit" in profile.control_table:
-            settings += [("min_position_limit", int(mapping.tick_low[k])),
-                         ("max_position_limit", int(mapping.tick_high[k]))]
-        if "bus_watchdog" in profile.control_table:  # 0 first: clears a tripped watchdog
-            settings += [("bus_watchdog", 0), ("bus_watchdog", WATCHDOG_MS // 20)]
-        for name, value in settings:
-            chain.write(dxl_id, name, value, PATIENT_ATTEMPTS, PATIENCE_S)
-    latency = usb_latency_timer_ms(getattr(chain.bus, "port_name", None))
-    if latency is not None and latency != 1:
-        warn(f"warning: the USB adapter's latency timer is {latency} ms; set it to 1 ms "
-             f"(echo 1 > /sys/bus/usb-serial/devices/<tty>/latency_timer)")
-
-
-def usb_latency_timer_ms(port: str | None) -> int | None:
-    """The FTDI latency timer of a /dev/ttyUSB* port (Linux sysfs), or None."""
-    if not port:
-        return None
-    path = Path("/sys/bus/usb-serial/devices") / Path(port).name / "latency_timer"
-    try:
-        return int(path.read_text().strip())
-    except (OSError, ValueError):
-        return None
-
-
 def ramp(chain: ServoChain, mapping: ServoMapping, start: np.ndarray, target: np.ndarray,
          seconds: float = RAMP_S, sleep: Callable[[float], None] = time.sleep,
          cut_short: Callable[[], bool] = lambda: False) -> bool:
@@ -187,7 +120,7 @@ def ramp(chain: ServoChain, mapping: ServoMapping, start: np.ndarray, target: np
     for k in range(1, steps + 1):
         if cut_short():
             return False
-        chain.sync_write("goal_position", mapping.ticks(start + (target - start) * k / steps))
+        chain.sync_write(Reg.GOAL_POSITION, mapping.ticks(start + (target - start) * k / steps))
         sleep(RAMP_TICK_S)
     return True
 
@@ -224,7 +157,7 @@ class RealTimeLoop:
                 self.goal, self.goal_ticks = goal, self.mapping.ticks(goal)
                 report.compute_s.append(compute_s)
             t_bus = self.clock()
-            self.chain.sync_write("goal_position", self.goal_ticks)
+            self.chain.sync_write(Reg.GOAL_POSITION, self.goal_ticks)
             bus_s += self.clock() - t_bus
             deadline += self.tick_s
             now = self.clock()
@@ -242,7 +175,7 @@ class RealTimeLoop:
         """Joint angles, foot switches and up-vector, each read retried until ``give_up_at``;
         None when the tick ran out.  Raises :class:`CommunicationError` once reads have
         failed for ``lost_after_s`` without one success."""
-        angles = self._attempt(lambda: self.mapping.angles(self.chain.sync_read("present_position", attempts=1)),
+        angles = self._attempt(lambda: self.mapping.angles(self.chain.sync_read(Reg.PRESENT_POSITION, attempts=1)),
                                give_up_at, report)
         if angles is None:
             return None
@@ -344,13 +277,13 @@ def drive(bus: Bus, robot: RobotSpec, controller: dict[str, Any], duration_s: fl
     bus.open()  # a port that does not open: nothing was sent, nothing to stop
     with StopSignals() as signals:
         try:
-            start_up(chain, mapping, warn=log)
+            start_up(chain, mapping, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S, warn=log)
             if trace_path is not None:
                 trace = TraceWriter(trace_path, robot.joint_names, {
                     "robot": robot.name, "controller_hash": controller["robot"]["joint_map_hash"],
                     "controller_provenance": controller.get("provenance", {}), "tick_s": policy.tick_s,
                     "software": "servo-biped-evolve"})
-            present = mapping.angles(chain.sync_read("present_position", None, PATIENT_ATTEMPTS, PATIENCE_S))
+            present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION, None, PATIENT_ATTEMPTS, PATIENCE_S))
             chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)
             ramp(chain, mapping, present, policy.reset(), ramp_s, sleep)
             loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s)
@@ -394,9 +327,7 @@ def _stop_reason(exc: BaseException, chain: ServoChain, report: RunReport) -> st
         report.bus_errors += 1
         detail = ""
         try:
-            detail = decode_hardware_error(chain.read(exc.id, "hardware_error_status"))
-        except ServoError as again:
-            detail = decode_hardware_error(again.value or 0)
+            detail = decode_hardware_error(chain.hardware_error(exc.id))
         except (BipedError, KeyError):
             pass
         return f"{exc}" + (f" (hardware error: {detail})" if detail and detail != "none" else "")
@@ -418,7 +349,7 @@ def _stop_safely(chain: ServoChain, mapping: ServoMapping, policy: Policy, repor
     if ramp_to_rest and "hardware" not in report.stop_reason and not signals.cut_short:
         log(f"stopping ({report.stop_reason}): ramp to rest over {ramp_s:.1f} s, then torque off")
         try:
-            present = mapping.angles(chain.sync_read("present_position"))
+            present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION))
             if not ramp(chain, mapping, present, policy.hold, ramp_s, sleep, lambda: signals.cut_short):
                 log("warning: ramp to rest cut short by a signal; turning torque off")
         except (BipedError, ValueError):
@@ -439,7 +370,7 @@ def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS, patience_s: 
     ``attempts`` tries and ``patience_s`` seconds.
     """
     try:
-        chain.sync_write("torque_enable", np.zeros(len(chain.servo_ids), dtype=np.int64))
+        chain.sync_write(Reg.TORQUE_ENABLE, np.zeros(len(chain.servo_ids), dtype=np.int64))
     except (BipedError, ValueError):  # a port gone, or servos of different tables: per servo below
         pass
     result = TorqueOff()
@@ -449,7 +380,7 @@ def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS, patience_s: 
         while attempt < attempts or time.monotonic() < give_up_at:
             attempt += 1
             try:
-                if chain.read(dxl_id, "torque_enable", attempts=1) == 0:
+                if chain.read(dxl_id, Reg.TORQUE_ENABLE, attempts=1) == 0:
                     result.confirmed.append(dxl_id)
                     break
             except ServoError as exc:  # alert bit set: the value still came with it
@@ -459,7 +390,7 @@ def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS, patience_s: 
             except (BipedError, ValueError):
                 continue
             try:
-                chain.write(dxl_id, "torque_enable", 0, attempts=1)
+                chain.write(dxl_id, Reg.TORQUE_ENABLE, 0, attempts=1)
             except (BipedError, ValueError):
                 pass
         else:

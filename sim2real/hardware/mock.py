@@ -1,5 +1,7 @@
 """An in-memory Dynamixel chain for tests: control tables from ``firmware_profiles/``,
 servos that move toward their goals at the profile's no-load speed, and injectable faults.
+Each device takes a write - by WRITE or SYNC WRITE - under its firmware's rules (EEPROM
+locked while torque is on, the e-manual's ranges, goals within the position limits).
 
     bus = MockBus(robot)                   # every servo and the sensor board of the robot
     bus.faults.silent.add(4)               # servo 4 stops answering
@@ -14,15 +16,19 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
-from sim2real.hardware.bus import ALERT_BIT, Bus, CommunicationError, ServoError
+from sim2real.hardware.bus import Bus, CommunicationError
+from sim2real.hardware.dynamixel.errors import (
+    ACCESS_ERROR,
+    ALERT_BIT,
+    DATA_LENGTH_ERROR,
+    DATA_LIMIT_ERROR,
+    DATA_RANGE_ERROR,
+    ERROR_NUMBER_MASK,
+    status_error,
+)
+from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.robot import RobotSpec
 from sim2real.robot.profiles import DeviceProfile
-
-# Protocol 2.0 status errors (e-manual, "Status Packet")
-DATA_RANGE_ERROR = 4
-DATA_LENGTH_ERROR = 5
-DATA_LIMIT_ERROR = 6
-ACCESS_ERROR = 7
 
 
 @dataclass
@@ -39,12 +45,12 @@ class MockDevice:
         self.table = bytearray(end)
         for reg in profile.control_table.values():
             self.set(reg.address, reg.size, reg.default & ((1 << (8 * reg.size)) - 1))
-        if "id" in profile.control_table:
-            self.set(profile.register("id").address, 1, dxl_id)
+        if Reg.ID in profile.control_table:
+            self.set(profile.register(Reg.ID).address, 1, dxl_id)
         if profile.is_servo:  # a robot at rest, horns near their centre
-            self.set_named("present_position", profile.position.center_tick)
-            self.set_named("goal_position", profile.position.center_tick)
-        self.position = float(self.get_named("present_position")) if profile.is_servo else 0.0
+            self.set_named(Reg.PRESENT_POSITION, profile.position.center_tick)
+            self.set_named(Reg.GOAL_POSITION, profile.position.center_tick)
+        self.position = float(self.get_named(Reg.PRESENT_POSITION)) if profile.is_servo else 0.0
 
     def get(self, address: int, size: int) -> int:
         return int.from_bytes(self.table[address:address + size], "little")
@@ -63,7 +69,7 @@ class MockDevice:
     # -- what a servo's firmware answers: (value, error byte) ---------------------------------
     def alert(self) -> int:
         table = self.profile.control_table
-        return ALERT_BIT if "hardware_error_status" in table and self.get_named("hardware_error_status") else 0
+        return ALERT_BIT if Reg.HARDWARE_ERROR_STATUS in table and self.get_named(Reg.HARDWARE_ERROR_STATUS) else 0
 
     def read(self, address: int, size: int) -> tuple[int, int]:
         return self.get(address, size), self.alert()
@@ -79,27 +85,27 @@ class MockDevice:
             return DATA_LENGTH_ERROR | self.alert()
         if reg is not None and size > reg.size:
             error = self.write(address, reg.size, value & ((1 << (8 * reg.size)) - 1))
-            if error & 0x7F:
+            if error & ERROR_NUMBER_MASK:
                 return error
             return self.write(address + reg.size, size - reg.size, value >> (8 * reg.size))
         if reg is None or reg.access != "RW":
             return ACCESS_ERROR | self.alert()
-        torque_on = self.profile.is_servo and self.get_named("torque_enable")
+        torque_on = self.profile.is_servo and self.get_named(Reg.TORQUE_ENABLE)
         if reg.area == "EEPROM" and torque_on and self.profile.protocol == 2.0:
             return ACCESS_ERROR | self.alert()  # X series: EEPROM is locked while torque is on
         if reg.range is not None:
             signed = value - (1 << (8 * size)) if reg.signed and value >= 1 << (8 * size - 1) else value
             if not reg.range[0] <= signed <= reg.range[1]:
                 return DATA_RANGE_ERROR | self.alert()
-        if reg.name == "torque_enable" and value and self.alert():
+        if reg.name == Reg.TORQUE_ENABLE and value and self.alert():
             return self.alert()  # refused until REBOOT, and the alert bit says why
-        if reg.name == "goal_position" and "min_position_limit" in self.profile.control_table:
+        if reg.name == Reg.GOAL_POSITION and Reg.MIN_POSITION_LIMIT in self.profile.control_table:
             signed = value - (1 << 32) if value >= 1 << 31 else value
-            if not self.get_named("min_position_limit") <= signed <= self.get_named("max_position_limit"):
+            if not self.get_named(Reg.MIN_POSITION_LIMIT) <= signed <= self.get_named(Reg.MAX_POSITION_LIMIT):
                 return DATA_LIMIT_ERROR | self.alert()  # outside the position limits: not applied
         self.set(address, size, value)
-        if reg.name == "torque_enable" and value:
-            self.position = float(self.get_named("present_position"))
+        if reg.name == Reg.TORQUE_ENABLE and value:
+            self.position = float(self.get_named(Reg.PRESENT_POSITION))
         return self.alert()
 
     def factory_reset(self, keep_id: bool) -> None:
@@ -107,34 +113,34 @@ class MockDevice:
         dxl_id = self.id
         for reg in self.profile.control_table.values():
             self.set(reg.address, reg.size, reg.default & ((1 << (8 * reg.size)) - 1))
-        if keep_id and "id" in self.profile.control_table:
-            self.set_named("id", dxl_id)
+        if keep_id and Reg.ID in self.profile.control_table:
+            self.set_named(Reg.ID, dxl_id)
 
     def reboot(self) -> None:
-        self.set_named("hardware_error_status", 0)
+        self.set_named(Reg.HARDWARE_ERROR_STATUS, 0)
         if self.profile.is_servo:
-            self.set_named("torque_enable", 0)
+            self.set_named(Reg.TORQUE_ENABLE, 0)
 
     def raise_hardware_error(self, bits: int) -> None:
-        self.set_named("hardware_error_status", bits)
+        self.set_named(Reg.HARDWARE_ERROR_STATUS, bits)
         if self.profile.is_servo:
-            self.set_named("torque_enable", 0)  # the firmware drops torque on a hardware error
+            self.set_named(Reg.TORQUE_ENABLE, 0)  # the firmware drops torque on a hardware error
 
     def advance(self, dt: float) -> None:
         """Move toward the goal at the no-load speed while torque is on [ticks]."""
-        if not self.profile.is_servo or not self.get_named("torque_enable"):
+        if not self.profile.is_servo or not self.get_named(Reg.TORQUE_ENABLE):
             return
-        goal_reg = self.profile.register("goal_position")
+        goal_reg = self.profile.register(Reg.GOAL_POSITION)
         goal = self.get(goal_reg.address, goal_reg.size)
         if goal_reg.signed and goal >= 1 << (8 * goal_reg.size - 1):
             goal -= 1 << (8 * goal_reg.size)
         speed = self.profile.motor.no_load_speed_rad_s / self.profile.position.rad_per_tick  # [tick/s]
         step = max(-speed * dt, min(speed * dt, goal - self.position))
         self.position += step
-        self.set_named("present_position", int(round(self.position)))
-        if "present_velocity" in self.profile.control_table:
+        self.set_named(Reg.PRESENT_POSITION, int(round(self.position)))
+        if Reg.PRESENT_VELOCITY in self.profile.control_table:
             rpm = step / max(dt, 1e-9) * self.profile.position.rad_per_tick * 60 / (2 * math.pi)
-            self.set_named("present_velocity", int(round(rpm / self.profile.units.get("velocity_unit_rpm", 1.0))))
+            self.set_named(Reg.PRESENT_VELOCITY, int(round(rpm / self.profile.units.get("velocity_unit_rpm", 1.0))))
 
 
 class MockBus(Bus):
@@ -145,12 +151,13 @@ class MockBus(Bus):
                 self.devices[joint.servo.id] = MockDevice(joint.servo.id, joint.servo.profile)
         if robot.sensor_board is not None:
             self.devices[robot.sensor_board.id] = MockDevice(robot.sensor_board.id, robot.sensor_board.profile)
-        self.protocol = next(iter(self.devices.values())).profile.protocol
         self.faults = Faults()
         self.clock = clock
         self._last = clock()
         self.is_open = False
-        self.writes: list[tuple[int, int, int]] = []  # (id, address, value) of every write, for tests
+        # (id, address, value) of every write and sync-write item a device received, applied or
+        # refused: what went over the wire, for tests
+        self.writes: list[tuple[int, int, int]] = []
 
     def open(self) -> None:
         self.is_open = True
@@ -183,12 +190,12 @@ class MockBus(Bus):
     @staticmethod
     def _raise(device: MockDevice, error: int, value: int | None = None) -> None:
         if error:
-            raise ServoError(device.id, error, value=value)
+            raise status_error(device.id, error, value)
 
     # -- Bus --------------------------------------------------------------------------------------
     def ping(self, dxl_id: int) -> int:
         device = self._device(dxl_id)
-        return device.get_named("model_number")
+        return device.get_named(Reg.MODEL_NUMBER)
 
     def read(self, dxl_id: int, address: int, size: int) -> int:
         device = self._device(dxl_id)
@@ -198,10 +205,8 @@ class MockBus(Bus):
 
     def write(self, dxl_id: int, address: int, size: int, value: int) -> None:
         device = self._device(dxl_id)
-        error = device.write(address, size, value)
-        if not error & 0x7F:
-            self.writes.append((dxl_id, address, value))
-        self._raise(device, error)
+        self.writes.append((dxl_id, address, value))
+        self._raise(device, device.write(address, size, value))
 
     def sync_read(self, ids: list[int], address: int, size: int) -> dict[int, int]:
         values, missing = {}, []
@@ -217,14 +222,13 @@ class MockBus(Bus):
         return values
 
     def sync_write(self, address: int, size: int, values: dict[int, int]) -> None:
-        for dxl_id, value in values.items():  # no status packets: errors pass silently, as on the wire
+        self._advance()
+        for dxl_id, value in values.items():
             device = self.devices.get(dxl_id)
             if device is None or dxl_id in self.faults.silent:
                 continue
-            self._advance()
-            if device.profile.is_servo and "goal_position" in device.profile.control_table:
-                device.set(address, size, value)
-                self.writes.append((dxl_id, address, value))
+            self.writes.append((dxl_id, address, value))
+            device.write(address, size, value)  # the firmware's rules; no status packet says if it refused
 
     def reboot(self, dxl_id: int) -> None:
         self._device(dxl_id).reboot()

@@ -1,10 +1,19 @@
-"""Traces of a run: CSV (header row, one row a tick) plus a JSON sidecar of metadata.
+"""Traces of a run: one type, :class:`Trace`, for the real robot, the mock bus and dry runs.
 
-The same format serves the real robot, the mock bus and dry runs, and reads directly into
-pandas or PlotJuggler.  Rows are flushed at least once a second, so a crash loses at most
-a second; the sidecar is written (atomically) before the first row.  :func:`read_trace`
-reads one back, refusing what is not a trace with one error naming the file, and dropping
-(with a note) the partial last row that a killed run leaves.
+On disk a trace is a CSV file (a header row, one row a control tick) and a JSON sidecar of
+metadata beside it (the same name ending in ``.json``); pandas and PlotJuggler read the CSV
+as it is.  The real-time loop streams it through :class:`TraceWriter`: the sidecar is
+written (atomically) before the first row, and rows are flushed at least once a second, so
+a crash loses at most a second.  ``compare`` and system identification read it back:
+
+    trace = Trace.read("run.csv")             # refuses what is not a trace, in one line
+    trace.times                               # (n,) [s] since the loop began
+    trace.goals(robot.joint_names)            # (n, joints) commanded angles [rad]
+    trace.present(robot.joint_names)          # (n, joints) angles the servos reported [rad]
+    trace["up_z"], trace.metadata["robot"]    # any channel; the sidecar's metadata
+
+A :class:`Trace` is immutable and checks itself: increasing finite times, one finite value
+a channel a tick, unique channel names.  Each channel has a unit (:func:`loop_channels`).
 """
 
 from __future__ import annotations
@@ -13,8 +22,10 @@ import csv
 import json
 import math
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from types import MappingProxyType
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -22,19 +33,46 @@ from sim2real.atomic_json import write_text_atomic
 from sim2real.errors import ConfigError
 
 FLUSH_EVERY_S = 1.0
+TIME = "time_s"  # the column of times: seconds since the loop began
+TIMING = ("compute_ms", "bus_ms", "overrun")  # how the loop kept time, not what the robot did
+GOAL, PRESENT = "_goal_rad", "_present_rad"  # after a joint's name: its commanded and reported angle [rad]
 
 
-def trace_columns(joints: Sequence[str]) -> list[str]:
-    return (["time_s", "tick"] + [f"{j}_goal_rad" for j in joints] + [f"{j}_present_rad" for j in joints]
-            + ["foot_left", "foot_right", "up_x", "up_y", "up_z", "compute_ms", "bus_ms", "overrun"])
+@dataclass(frozen=True)
+class Channel:
+    """One column of a trace: its name in the CSV header and the unit of its values
+    ("rad", "ms", "count", "flag" for 0/1, "1" for dimensionless, "" when not known)."""
+
+    name: str
+    unit: str
+
+
+def loop_channels(joints: Sequence[str]) -> tuple[Channel, ...]:
+    """What the real-time loop records each tick, in CSV order after ``time_s``: the tick's
+    number, goals and present angles per joint, the foot switches (1 touching), the torso's
+    up-vector (unit, torso frame), the network's compute time and the bus time, and whether
+    the tick overran its deadline."""
+    return (Channel("tick", "count"), *(Channel(f"{j}{GOAL}", "rad") for j in joints),
+            *(Channel(f"{j}{PRESENT}", "rad") for j in joints),
+            Channel("foot_left", "flag"), Channel("foot_right", "flag"),
+            *(Channel(f"up_{axis}", "1") for axis in "xyz"),
+            Channel("compute_ms", "ms"), Channel("bus_ms", "ms"), Channel("overrun", "flag"))
+
+
+def sidecar_path(path: Path | str) -> Path:
+    """The JSON sidecar of a trace CSV: the same name ending in ``.json``."""
+    return Path(path).with_suffix(".json")
 
 
 class TraceWriter:
-    def __init__(self, path: Path | str, joints: Sequence[str], metadata: dict[str, Any]):
+    """Streams the loop's trace to ``path`` (and its sidecar: ``metadata`` plus the columns
+    and the wall-clock start time), one row a :meth:`write`."""
+
+    def __init__(self, path: Path | str, joints: Sequence[str], metadata: Mapping[str, Any]):
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.columns = trace_columns(joints)
-        write_text_atomic(self.path.with_suffix(".json"), json.dumps(
+        self.columns = [TIME] + [c.name for c in loop_channels(joints)]
+        write_text_atomic(sidecar_path(self.path), json.dumps(
             {**metadata, "columns": self.columns, "start_time": time.time()}, indent=1))
         self._file = open(self.path, "w", newline="")
         self._csv = csv.writer(self._file)
@@ -43,6 +81,8 @@ class TraceWriter:
 
     def write(self, t: float, tick: int, goal: np.ndarray, present: np.ndarray, feet: np.ndarray,
               up: np.ndarray, compute_s: float, bus_s: float, overrun: bool) -> None:
+        """One tick: ``t`` [s] since the loop began, goals and present angles (joints,) [rad],
+        feet (2,) touching, up (3,), compute and bus time [s], the deadline missed."""
         row = [f"{t:.6f}", tick, *(f"{v:.6f}" for v in goal), *(f"{v:.6f}" for v in present),
                int(feet[0]), int(feet[1]), *(f"{v:.5f}" for v in up),
                f"{compute_s * 1e3:.4f}", f"{bus_s * 1e3:.4f}", int(overrun)]
@@ -58,72 +98,149 @@ class TraceWriter:
             self._file.close()
 
 
-def sidecar_path(path: Path | str) -> Path:
-    """The JSON sidecar of a trace CSV: the same name ending in ``.json``."""
-    return Path(path).with_suffix(".json")
+@dataclass(frozen=True, eq=False)
+class Trace:
+    """A recorded run: ``times`` (n,) [s], increasing; ``data`` (n, m), one column a channel
+    in its unit; ``channels`` (m,); ``metadata`` from the sidecar (robot, controller_hash,
+    tick_s [s], ...); ``notes``: what reading the file found and set right.  The arrays are
+    read-only copies; a ``ValueError`` names the argument that is wrong."""
 
+    times: np.ndarray
+    data: np.ndarray
+    channels: tuple[Channel, ...]
+    metadata: Mapping[str, Any] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    _index: Mapping[str, int] = field(init=False, repr=False)
 
-def read_trace(path: Path | str) -> tuple[dict[str, Any], dict[str, np.ndarray], list[str]]:
-    """A trace CSV and its sidecar -> (metadata, {column: values (n,)}, notes).
+    def __post_init__(self) -> None:
+        times = np.array(self.times, dtype=float)
+        if times.ndim != 1 or len(times) == 0:
+            raise ValueError(f"times: must be a non-empty 1-D array [s], got shape {times.shape}")
+        if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+            raise ValueError("times: must be finite and increase")
+        channels = tuple(self.channels)
+        if not all(isinstance(c, Channel) for c in channels):
+            raise ValueError("channels: must be Channel(name, unit) each")
+        names = [c.name for c in channels]
+        if TIME in names or len(set(names)) != len(names) or not all(names):
+            raise ValueError(f"channels: names must be unique, non-empty and not {TIME!r}")
+        data = np.array(self.data, dtype=float)
+        if data.shape != (len(times), len(channels)):
+            raise ValueError(f"data: shape {data.shape}, expected (times, channels) = ({len(times)}, {len(channels)})")
+        if not np.all(np.isfinite(data)):
+            raise ValueError("data: must be finite")
+        times.setflags(write=False)
+        data.setflags(write=False)
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "data", data)
+        object.__setattr__(self, "channels", channels)
+        object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
+        object.__setattr__(self, "notes", tuple(self.notes))
+        object.__setattr__(self, "_index", MappingProxyType({name: k for k, name in enumerate(names)}))
 
-    Refused with :class:`ConfigError` naming the file: a file that cannot be read, is
-    binary or empty, has no rows, a header unlike its sidecar's ``columns``, a row of the
-    wrong length or with something other than a finite number, ``time_s`` not increasing.
-    A last row cut short - no end of line, or too few fields: what a run killed mid-write
-    leaves - is dropped and said in ``notes``; so is a missing sidecar (metadata ``{}``).
-    """
-    path = Path(path)
-    source = str(path)
-    if path.suffix.lower() == ".json":
-        raise ConfigError(source, "", "a trace is the CSV file; a .json beside it is its sidecar")
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise ConfigError(source, "", f"cannot read the trace: {exc.strerror or exc}") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        text = "\0"
-    if "\0" in text:
-        raise ConfigError(source, "", "not a trace: a binary file, not CSV text")
-    if not text.strip():
-        raise ConfigError(source, "", "the trace is empty (no header row)")
-    notes: list[str] = []
-    meta = _read_sidecar(path, notes)
-    lines = text.splitlines(keepends=True)
-    rows = list(csv.reader(lines))
-    while len(rows) > 1 and not rows[-1]:  # blank lines at the end
-        rows.pop()
-        lines.pop()
-    header, rows = rows[0], rows[1:]
-    if len(set(header)) != len(header) or not all(header):
-        raise ConfigError(source, "header", "column names must be unique and non-empty")
-    if isinstance(meta.get("columns"), list) and meta["columns"] != header:
-        missing = [c for c in meta["columns"] if c not in header]
-        extra = [c for c in header if c not in meta["columns"]]
-        raise ConfigError(source, "header", f"does not match the columns of its sidecar {sidecar_path(path).name}"
-                          f" (missing {missing[:3]}, unexpected {extra[:3]})")
-    if rows and (not lines[-1].endswith(("\n", "\r")) or len(rows[-1]) < len(header)):
-        rows.pop()
-        notes.append(f"{source}: the last row is cut short (a run killed mid-write?): dropped")
-    if not rows:
-        raise ConfigError(source, "", "the trace has no rows")
-    values = np.empty((len(rows), len(header)))
-    for k, row in enumerate(rows):
-        if len(row) != len(header):
-            raise ConfigError(source, f"row {k + 2}", f"has {len(row)} fields, the header {len(header)}")
-        for j, cell in enumerate(row):
-            try:
-                values[k, j] = float(cell)
-            except ValueError:
-                values[k, j] = math.nan
-            if not math.isfinite(values[k, j]):
-                raise ConfigError(source, f"row {k + 2}", f"{header[j]}: {cell!r} is not a finite number")
-    columns = {name: values[:, j] for j, name in enumerate(header)}
-    if "time_s" in columns and np.any(np.diff(columns["time_s"]) <= 0):
-        k = int(np.argmax(np.diff(columns["time_s"]) <= 0)) + 1
-        raise ConfigError(source, f"row {k + 2}", "time_s does not increase")
-    return meta, columns, notes
+    def __len__(self) -> int:
+        return len(self.times)
+
+    def __contains__(self, name: object) -> bool:
+        return name == TIME or name in self._index
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """One channel's values (n,) (``time_s``: the times)."""
+        if name == TIME:
+            return self.times
+        try:
+            return self.data[:, self._index[name]]
+        except KeyError:
+            raise KeyError(f"the trace has no channel {name!r}") from None
+
+    def missing(self, names: Sequence[str]) -> list[str]:
+        """Those of ``names`` the trace lacks, in order."""
+        return [name for name in names if name not in self]
+
+    def goals(self, joints: Sequence[str]) -> np.ndarray:
+        """Commanded angles (n, joints) [rad]."""
+        return np.stack([self[f"{j}{GOAL}"] for j in joints], axis=1)
+
+    def present(self, joints: Sequence[str]) -> np.ndarray:
+        """Angles the servos reported (n, joints) [rad]."""
+        return np.stack([self[f"{j}{PRESENT}"] for j in joints], axis=1)
+
+    @property
+    def feet(self) -> np.ndarray:
+        """Foot switches (n, 2): left, right; True touching."""
+        return np.stack([self["foot_left"], self["foot_right"]], axis=1) > 0.5
+
+    @classmethod
+    def read(cls, path: Path | str) -> "Trace":
+        """A trace CSV and its sidecar.
+
+        Refused with :class:`ConfigError` naming the file: a file that cannot be read, is
+        binary or empty, has no rows, a header unlike its sidecar's ``columns`` or without
+        ``time_s``, a row of the wrong length or with something other than a finite number,
+        ``time_s`` not increasing.  A last row cut short - no end of line, or too few fields:
+        what a run killed mid-write leaves - is dropped and said in ``notes``; so is a
+        missing sidecar (metadata ``{}``).  Channels the loop writes get their units from
+        :func:`loop_channels`; others have the unit "".
+        """
+        path = Path(path)
+        source = str(path)
+        if path.suffix.lower() == ".json":
+            raise ConfigError(source, "", "a trace is the CSV file; a .json beside it is its sidecar")
+        try:
+            raw = path.read_bytes()
+        except OSError as exc:
+            raise ConfigError(source, "", f"cannot read the trace: {exc.strerror or exc}") from None
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            text = "\0"
+        if "\0" in text:
+            raise ConfigError(source, "", "not a trace: a binary file, not CSV text")
+        if not text.strip():
+            raise ConfigError(source, "", "the trace is empty (no header row)")
+        notes: list[str] = []
+        meta = _read_sidecar(path, notes)
+        lines = text.splitlines(keepends=True)
+        rows = list(csv.reader(lines))
+        while len(rows) > 1 and not rows[-1]:  # blank lines at the end
+            rows.pop()
+            lines.pop()
+        header, rows = rows[0], rows[1:]
+        if len(set(header)) != len(header) or not all(header):
+            raise ConfigError(source, "header", "column names must be unique and non-empty")
+        columns = meta.pop("columns", None)
+        if isinstance(columns, list) and columns != header:
+            missing = [c for c in columns if c not in header]
+            extra = [c for c in header if c not in columns]
+            raise ConfigError(source, "header", f"does not match the columns of its sidecar {sidecar_path(path).name}"
+                              f" (missing {missing[:3]}, unexpected {extra[:3]})")
+        if TIME not in header:
+            raise ConfigError(source, "header", f"has no {TIME} column")
+        if rows and (not lines[-1].endswith(("\n", "\r")) or len(rows[-1]) < len(header)):
+            rows.pop()
+            notes.append(f"{source}: the last row is cut short (a run killed mid-write?): dropped")
+        if not rows:
+            raise ConfigError(source, "", "the trace has no rows")
+        values = np.empty((len(rows), len(header)))
+        for k, row in enumerate(rows):
+            if len(row) != len(header):
+                raise ConfigError(source, f"row {k + 2}", f"has {len(row)} fields, the header {len(header)}")
+            for j, cell in enumerate(row):
+                try:
+                    values[k, j] = float(cell)
+                except ValueError:
+                    values[k, j] = math.nan
+                if not math.isfinite(values[k, j]):
+                    raise ConfigError(source, f"row {k + 2}", f"{header[j]}: {cell!r} is not a finite number")
+        t = header.index(TIME)
+        if np.any(np.diff(values[:, t]) <= 0):
+            k = int(np.argmax(np.diff(values[:, t]) <= 0)) + 1
+            raise ConfigError(source, f"row {k + 2}", f"{TIME} does not increase")
+        joints = [name.removesuffix(GOAL) for name in header if name.endswith(GOAL)]
+        units = {c.name: c.unit for c in loop_channels(joints)}
+        others = [j for j in range(len(header)) if j != t]
+        return cls(values[:, t], values[:, others], tuple(Channel(header[j], units.get(header[j], "")) for j in others),
+                   meta, tuple(notes))
 
 
 def _read_sidecar(path: Path, notes: list[str]) -> dict[str, Any]:

@@ -20,7 +20,7 @@ from sim2real.controller.file import load_controller
 from sim2real.controller.mapping import ServoMapping, quantize
 from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, ConfigError
-from sim2real.hardware.trace import read_trace, sidecar_path, trace_columns
+from sim2real.hardware.trace import TIMING, Trace, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.simulation.model_builder import build_model
 
@@ -28,9 +28,10 @@ MAX_LAG_S = 0.5
 CONTACT_SHARE = 0.05
 
 
-def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray | None, policy: Policy | None,
-              feet_real: np.ndarray, up_real: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Joint angles (n, joints) and foot contacts (n, 2) of the simulation at the trace's ticks."""
+def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray,
+              policy: Policy | None) -> tuple[np.ndarray, np.ndarray]:
+    """Joint angles (n, joints) [rad] and foot contacts (n, 2) of the simulation at the trace's
+    ``times`` (n,) [s]: driven by ``goals`` (n, joints) [rad], or closed-loop by ``policy``."""
     model = build_model(robot)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
@@ -75,26 +76,23 @@ def lag_s(real: np.ndarray, sim: np.ndarray, dt: float) -> float | None:
 
 def compare(trace_path: Path | str, robot_name: str | None = None,
             controller_path: Path | str | None = None) -> dict[str, Any]:
-    meta, cols, notes = read_trace(trace_path)
-    if not (robot_name or meta.get("robot")):
+    trace = Trace.read(trace_path)
+    if not (robot_name or trace.metadata.get("robot")):
         raise ConfigError(str(trace_path), "", f"no robot: its sidecar {sidecar_path(trace_path).name} "
                           "is missing or names none; give --robot")
-    robot = load_robot(robot_name or meta["robot"])
+    robot = load_robot(robot_name or trace.metadata["robot"])
     names = list(robot.joint_names)
-    needed = [c for c in trace_columns(names) if c not in ("compute_ms", "bus_ms", "overrun")]
-    missing = [c for c in needed if c not in cols]
+    missing = trace.missing([c.name for c in loop_channels(names) if c.name not in TIMING])
     if missing:
         raise ConfigError(str(trace_path), "header", f"lacks {len(missing)} column(s) of a {robot.name} trace: "
                           f"{', '.join(missing[:4])}{', ...' if len(missing) > 4 else ''}")
-    times = cols["time_s"]
-    real = np.stack([cols[f"{n}_present_rad"] for n in names], axis=1)
-    goals = np.stack([cols[f"{n}_goal_rad"] for n in names], axis=1)
-    feet_real = np.stack([cols["foot_left"], cols["foot_right"]], axis=1) > 0.5
-    up_real = np.stack([cols["up_x"], cols["up_y"], cols["up_z"]], axis=1)
+    times = trace.times
+    real = trace.present(names)
+    feet_real = trace.feet
     policy = None
     if controller_path is not None:
         policy = Policy(load_controller(controller_path, robot), robot)
-    sim, feet_sim = _simulate(robot, times, goals, policy, feet_real, up_real)
+    sim, feet_sim = _simulate(robot, times, trace.goals(names), policy)
     dt = float(np.median(np.diff(times))) if len(times) > 1 else 0.0
     joints = {}
     for j, name in enumerate(names):
@@ -103,7 +101,7 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
         joints[name] = {"rmse_deg": float(np.sqrt(np.mean(err ** 2))), "mae_deg": float(np.mean(np.abs(err))),
                         "lag_ms": None if lag is None else lag * 1e3}
     return {"robot": robot.name, "ticks": len(times), "mode": "closed-loop" if policy else "replayed goals",
-            "joints": joints, "contact_agreement": float(np.mean(feet_real == feet_sim)), "notes": notes,
+            "joints": joints, "contact_agreement": float(np.mean(feet_real == feet_sim)), "notes": list(trace.notes),
             "_series": {"times": times, "real": real, "sim": sim, "names": names}}
 
 

@@ -13,7 +13,8 @@ from typing import Callable, TypeVar
 
 import numpy as np
 
-from sim2real.hardware.bus import Bus, CommunicationError
+from sim2real.hardware.bus import Bus, CommunicationError, ServoError
+from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.robot import RobotSpec
 from sim2real.robot.profiles import DeviceProfile, Register
 
@@ -65,30 +66,30 @@ class ServoChain:
                     raise
                 self.retries_used += 1
 
-    def register(self, dxl_id: int, name: str) -> Register:
+    def register(self, dxl_id: int, name: Reg) -> Register:
         return self.devices[dxl_id].register(name)
 
     def ping(self, dxl_id: int, attempts: int | None = None, patience_s: float = 0.0) -> int:
         """The device's model number."""
         return self.with_retries(lambda: self.bus.ping(dxl_id), attempts, patience_s)
 
-    def read(self, dxl_id: int, name: str, attempts: int | None = None, patience_s: float = 0.0) -> int:
+    def read(self, dxl_id: int, name: Reg, attempts: int | None = None, patience_s: float = 0.0) -> int:
         reg = self.register(dxl_id, name)
         return decode(reg, self.with_retries(lambda: self.bus.read(dxl_id, reg.address, reg.size), attempts,
                                              patience_s))
 
-    def write(self, dxl_id: int, name: str, value: int, attempts: int | None = None, patience_s: float = 0.0) -> None:
+    def write(self, dxl_id: int, name: Reg, value: int, attempts: int | None = None, patience_s: float = 0.0) -> None:
         reg = self.register(dxl_id, name)
         raw = encode(reg, value)
         self.with_retries(lambda: self.bus.write(dxl_id, reg.address, reg.size, raw), attempts, patience_s)
 
-    def _common(self, ids: list[int], name: str) -> Register:
+    def _common(self, ids: list[int], name: Reg) -> Register:
         regs = {(r.address, r.size) for r in (self.register(i, name) for i in ids)}
         if len(regs) != 1:
             raise ValueError(f"{name} differs in address or size between servos {ids}: no sync access")
         return self.register(ids[0], name)
 
-    def sync_read(self, name: str, ids: list[int] | None = None, attempts: int | None = None,
+    def sync_read(self, name: Reg, ids: list[int] | None = None, attempts: int | None = None,
                   patience_s: float = 0.0) -> np.ndarray:
         """Decoded values in ``ids`` order (default: every servo in joint order)."""
         ids = self.servo_ids if ids is None else ids
@@ -96,7 +97,7 @@ class ServoChain:
         raw = self.with_retries(lambda: self.bus.sync_read(ids, reg.address, reg.size), attempts, patience_s)
         return np.array([decode(reg, raw[i]) for i in ids], dtype=np.int64)
 
-    def sync_write(self, name: str, values: np.ndarray, ids: list[int] | None = None) -> None:
+    def sync_write(self, name: Reg, values: np.ndarray, ids: list[int] | None = None) -> None:
         ids = self.servo_ids if ids is None else ids
         reg = self._common(ids, name)
         self.bus.sync_write(reg.address, reg.size, {i: encode(reg, v) for i, v in zip(ids, values)})
@@ -104,25 +105,35 @@ class ServoChain:
     def torque(self, on: bool, ids: list[int] | None = None, attempts: int | None = None,
                patience_s: float = 0.0) -> None:
         for dxl_id in self.servo_ids if ids is None else ids:
-            self.write(dxl_id, "torque_enable", int(on), attempts, patience_s)
+            self.write(dxl_id, Reg.TORQUE_ENABLE, int(on), attempts, patience_s)
+
+    def hardware_error(self, dxl_id: int, attempts: int | None = None, patience_s: float = 0.0) -> int:
+        """The device's Hardware Error Status bits (0: none), read even when its hardware
+        alert comes with them.  ``KeyError`` for a device without that entry."""
+        try:
+            return self.read(dxl_id, Reg.HARDWARE_ERROR_STATUS, attempts, patience_s)
+        except ServoError as exc:  # the alert bit comes with the very value we asked for
+            if exc.value is None:
+                raise
+            return exc.value
 
     def read_board(self, attempts: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Foot switches (left, right: True touching) and the torso up-vector (unit, torso frame)."""
         if self.board_id is None:
             raise ValueError(f"robot {self.robot.name} has no sensor board")
         profile = self.devices[self.board_id]
-        first = profile.register("foot_switch_left")
-        last = profile.register("up_vector_z")
+        first = profile.register(Reg.FOOT_SWITCH_LEFT)
+        last = profile.register(Reg.UP_VECTOR_Z)
         size = last.address + last.size - first.address
         raw = self.with_retries(lambda: self.bus.read(self.board_id, first.address, size), attempts)
         block = raw.to_bytes(size, "little")
 
-        def field(name: str) -> int:
+        def field(name: Reg) -> int:
             reg = profile.register(name)
             offset = reg.address - first.address
             return decode(reg, int.from_bytes(block[offset:offset + reg.size], "little"))
 
         touching = profile.sensors.get("foot_switch", {}).get("touching", 1)
-        feet = np.array([field("foot_switch_left") == touching, field("foot_switch_right") == touching])
+        feet = np.array([field(Reg.FOOT_SWITCH_LEFT) == touching, field(Reg.FOOT_SWITCH_RIGHT) == touching])
         up = np.array([field("up_vector_x"), field("up_vector_y"), field("up_vector_z")], dtype=float) / 16384.0
         return feet, up

@@ -19,7 +19,8 @@ import time
 
 import dynamixel_sdk as sdk
 
-from sim2real.hardware.bus import Bus, CommunicationError, ServoError
+from sim2real.hardware.bus import Bus, CommunicationError
+from sim2real.hardware.dynamixel.errors import ERROR_NUMBER_MASK, status_error
 from sim2real.robot import RobotSpec
 
 LATENCY_MS = 1.0  # the USB adapter's latency timer, once set to 1 ms (start-up warns otherwise)
@@ -80,11 +81,11 @@ class DynamixelBus(Bus):
         if result != sdk.COMM_SUCCESS:
             raise CommunicationError(ids, f"{what}: {self.packets.getTxRxResult(result)}")
         if error:
-            raise ServoError(ids[0], error, value=value)
+            raise status_error(ids[0], error, value)
 
     def ping(self, dxl_id: int) -> int:
         model, result, error = self.packets.ping(self.port, dxl_id)
-        self._check([dxl_id], result, error & 0x7F, "ping")
+        self._check([dxl_id], result, error & ERROR_NUMBER_MASK, "ping")
         return model
 
     def read(self, dxl_id: int, address: int, size: int) -> int:
@@ -132,7 +133,7 @@ class DynamixelBus(Bus):
             raise CommunicationError(missing, "no status packet in sync read")
         if errors:
             dxl_id, error = errors[0]
-            raise ServoError(dxl_id, error, value=values[dxl_id])
+            raise status_error(dxl_id, error, values[dxl_id])
         return values
 
     def sync_write(self, address: int, size: int, values: dict[int, int]) -> None:
@@ -145,5 +146,5 @@ class DynamixelBus(Bus):
 
     def reboot(self, dxl_id: int) -> None:
         result, error = self.packets.reboot(self.port, dxl_id)
-        self._check([dxl_id], result, error & 0x7F, "reboot")
+        self._check([dxl_id], result, error & ERROR_NUMBER_MASK, "reboot")
         time.sleep(0.5)  # the servo boots before it answers again

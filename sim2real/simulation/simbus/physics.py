@@ -26,6 +26,8 @@ import mujoco
 import numpy as np
 
 from sim2real.controller.mapping import ServoMapping
+from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
+from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing
@@ -39,7 +41,6 @@ from sim2real.simulation.reality import (
     sample,
 )
 
-OVERLOAD_BIT = 1 << 5
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
 CONTACT_SHARE = 0.05  # a foot switch closes at this share of the body weight
 FALL_HEIGHT = 0.7  # as in evolution: pelvis below 70 % of its start height
@@ -80,7 +81,7 @@ class PhysicsChain:
         self._publish()
         self._start_soles, self._start_height = self.sole_x(), self.pelvis_height()
         for k, dxl_id in enumerate(self.ids):
-            self.devices[dxl_id].set_named("goal_position", int(self.devices[dxl_id].get_named("present_position")))
+            self.devices[dxl_id].set_named(Reg.GOAL_POSITION, int(self.devices[dxl_id].get_named(Reg.PRESENT_POSITION)))
 
     # -- angles and ticks, unclamped: what the encoder sees -----------------------------------
     def _ticks(self, angles: np.ndarray) -> np.ndarray:
@@ -91,12 +92,12 @@ class PhysicsChain:
         goal, on = np.zeros(len(self.ids)), np.zeros(len(self.ids), dtype=bool)
         for k, dxl_id in enumerate(self.ids):
             device = self.devices[dxl_id]
-            reg = device.profile.register("goal_position")
+            reg = device.profile.register(Reg.GOAL_POSITION)
             raw = device.get(reg.address, reg.size)
             if reg.signed and raw >= 1 << (8 * reg.size - 1):
                 raw -= 1 << (8 * reg.size)
             goal[k] = raw
-            on[k] = bool(device.get_named("torque_enable"))
+            on[k] = bool(device.get_named(Reg.TORQUE_ENABLE))
         return self.mapping.angles(goal), on
 
     def advance(self) -> None:
@@ -136,27 +137,27 @@ class PhysicsChain:
         qdot = self.data.qvel[self.dadr]
         for k, dxl_id in enumerate(self.ids):
             device = self.devices[dxl_id]
-            device.set_named("present_position", int(ticks[k]))
+            device.set_named(Reg.PRESENT_POSITION, int(ticks[k]))
             device.position = float(ticks[k])
             unit = device.profile.units.get("velocity_unit_rpm")
-            if unit and "present_velocity" in device.profile.control_table:
+            if unit and Reg.PRESENT_VELOCITY in device.profile.control_table:
                 rpm = self.mapping.direction[k] * qdot[k] * 60 / (2 * math.pi)
-                device.set_named("present_velocity", int(round(rpm / unit)))
+                device.set_named(Reg.PRESENT_VELOCITY, int(round(rpm / unit)))
             table = device.profile.control_table
-            if "present_load" in table:
+            if Reg.PRESENT_LOAD in table:
                 load = self.data.actuator_force[k] / self.stall[k] * 1000.0
-                device.set_named("present_load", int(round(self.mapping.direction[k] * load)))
-            elif "present_current" in table:  # current-sensing servos (XM430): torque / K_t
+                device.set_named(Reg.PRESENT_LOAD, int(round(self.mapping.direction[k] * load)))
+            elif Reg.PRESENT_CURRENT in table:  # current-sensing servos (XM430): torque / K_t
                 motor = device.profile.motor
                 amps = self.data.actuator_force[k] * motor.stall_current_a / motor.stall_torque_nm
-                lsb_ma = float(table["present_current"].unit.split()[0])  # e.g. "2.69 mA"
-                device.set_named("present_current", int(round(self.mapping.direction[k] * amps * 1000 / lsb_ma)))
+                lsb_ma = float(table[Reg.PRESENT_CURRENT].unit.split()[0])  # e.g. "2.69 mA"
+                device.set_named(Reg.PRESENT_CURRENT, int(round(self.mapping.direction[k] * amps * 1000 / lsb_ma)))
         if self.board is not None:
             board = self.devices[self.board]
             touching = [(self.data.sensordata[a] > CONTACT_SHARE * self.weight) != (self.rng.random() < p.foot_flip_p[0])
                         for a in self.touch]
-            board.set_named("foot_switch_left", int(touching[0]))
-            board.set_named("foot_switch_right", int(touching[1]))
+            board.set_named(Reg.FOOT_SWITCH_LEFT, int(touching[0]))
+            board.set_named(Reg.FOOT_SWITCH_RIGHT, int(touching[1]))
             up = self.data.sensordata[self.up:self.up + 3] + self.rng.normal(0.0, 1.0, 3) * p.up_noise_sd[0]
             for axis, value in zip("xyz", up):
                 board.set_named(f"up_vector_{axis}", int(round(float(value) * 16384)))

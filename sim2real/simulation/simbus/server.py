@@ -20,11 +20,11 @@ import time
 import tty
 from typing import Callable
 
+from sim2real.hardware.dynamixel.errors import DATA_LENGTH_ERROR, ERROR_NUMBER_MASK, INSTRUCTION_ERROR
+from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockDevice
 from sim2real.simulation.simbus import protocol1 as p1
 from sim2real.simulation.simbus import protocol2 as p2
-
-INSTRUCTION_ERROR, DATA_LENGTH_ERROR = 0x02, 0x05
 
 
 class EmulatedChain:
@@ -159,13 +159,13 @@ class EmulatedChain:
             return p1.status(dxl_id, 0, value.to_bytes(params[1], "little"))
         if inst == p1.WRITE and len(params) >= 2:
             error = device.write(params[0], len(params) - 1, int.from_bytes(params[1:], "little"))
-            return p1.status(dxl_id, p1.RANGE_ERROR if error & 0x7F else 0)
+            return p1.status(dxl_id, p1.RANGE_ERROR if error & ERROR_NUMBER_MASK else 0)
         return p1.status(dxl_id, p1.INSTRUCTION_ERROR)
 
     def _ping(self, dxl_id: int) -> bytes:
         device = self.devices[dxl_id]
-        return p2.status(dxl_id, device.alert(), device.get_named("model_number").to_bytes(2, "little")
-                         + bytes([device.get_named("firmware_version")]))
+        return p2.status(dxl_id, device.alert(), device.get_named(Reg.MODEL_NUMBER).to_bytes(2, "little")
+                         + bytes([device.get_named(Reg.FIRMWARE_VERSION)]))
 
     def _read(self, dxl_id: int, address: int, size: int) -> bytes:
         device = self.devices.get(dxl_id)
@@ -259,6 +259,6 @@ class PtyServer:
         delay = len(reply) * 10.0 / self.baud
         for dxl_id, _, _ in self.chain.parser().feed(reply):
             device = self.chain.devices.get(dxl_id)
-            if device is not None and "return_delay_time" in device.profile.control_table:
-                delay += 2e-6 * device.get_named("return_delay_time")
+            if device is not None and Reg.RETURN_DELAY_TIME in device.profile.control_table:
+                delay += 2e-6 * device.get_named(Reg.RETURN_DELAY_TIME)
         time.sleep(delay)
