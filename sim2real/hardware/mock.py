@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from sim2real.hardware.bus import ALERT_BIT, Bus, CommunicationError, ServoError
+from sim2real.hardware.dynamixel.chain import decode
 from sim2real.robot import RobotSpec
 from sim2real.robot.profiles import DeviceProfile
 
@@ -88,14 +89,12 @@ class MockDevice:
         if reg.area == "EEPROM" and torque_on and self.profile.protocol == 2.0:
             return ACCESS_ERROR | self.alert()  # X series: EEPROM is locked while torque is on
         if reg.range is not None:
-            signed = value - (1 << (8 * size)) if reg.signed and value >= 1 << (8 * size - 1) else value
-            if not reg.range[0] <= signed <= reg.range[1]:
+            if not reg.range[0] <= decode(reg, value) <= reg.range[1]:
                 return DATA_RANGE_ERROR | self.alert()
         if reg.name == "torque_enable" and value and self.alert():
             return self.alert()  # refused until REBOOT, and the alert bit says why
         if reg.name == "goal_position" and "min_position_limit" in self.profile.control_table:
-            signed = value - (1 << 32) if value >= 1 << 31 else value
-            if not self.get_named("min_position_limit") <= signed <= self.get_named("max_position_limit"):
+            if not self.get_named("min_position_limit") <= decode(reg, value) <= self.get_named("max_position_limit"):
                 return DATA_LIMIT_ERROR | self.alert()  # outside the position limits: not applied
         self.set(address, size, value)
         if reg.name == "torque_enable" and value:
@@ -125,9 +124,7 @@ class MockDevice:
         if not self.profile.is_servo or not self.get_named("torque_enable"):
             return
         goal_reg = self.profile.register("goal_position")
-        goal = self.get(goal_reg.address, goal_reg.size)
-        if goal_reg.signed and goal >= 1 << (8 * goal_reg.size - 1):
-            goal -= 1 << (8 * goal_reg.size)
+        goal = decode(goal_reg, self.get(goal_reg.address, goal_reg.size))
         speed = self.profile.motor.no_load_speed_rad_s / self.profile.position.rad_per_tick  # [tick/s]
         step = max(-speed * dt, min(speed * dt, goal - self.position))
         self.position += step
