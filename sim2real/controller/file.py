@@ -6,7 +6,8 @@
 controller names its robot (and a hash of the robot's joint map, so that a file for
 another robot is refused), its control tick, the network's inputs and outputs in order,
 the bilateral-symmetry wiring, its modules, its nodes and enabled connections, how outputs
-map onto joints, and where it came from (``schemas/controller-v1.schema.json``).
+map onto joints, and where it came from.  Its keys and bounds are those of the published
+schema, ``schemas/controller-v1.schema.json``, which this module reads them from.
 
 ``Controller.load`` checks a file whole before anything moves or simulates
 (:func:`check_controller`, the one validation, which every ``Controller`` passes), so that
@@ -40,6 +41,7 @@ import os
 import re
 import reprlib
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, ClassVar, Mapping
@@ -51,6 +53,7 @@ from sim2real.controller.mapping import OUTPUT_RULE, hold_pose
 from sim2real.controller.symmetry import (
     BIAS,
     CENTER_OUTPUT,
+    SENSOR_INPUTS,
     SIDES,
     SymmetricLayout,
     symmetric_layout,
@@ -60,21 +63,24 @@ from sim2real.errors import ConfigError
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.robot.timing import control_timing
 
-FORMAT = "biped-controller"
-VERSION = 1
-REQUIRED = ("format", "version", "robot", "tick_s", "inputs", "outputs", "bias", "symmetry",
-            "sigmoid_steepness", "modules", "hidden", "connections", "joints", "task", "provenance")
+# The format's keys and bounds are the published schema's, read from it: written once.
+SCHEMA: dict[str, Any] = json.loads((resources.files("sim2real.controller") / "schemas"
+                                     / "controller-v1.schema.json").read_text(encoding="utf-8"))
+_FIELDS, _DEFS = SCHEMA["properties"], SCHEMA["$defs"]
+FORMAT: str = _FIELDS["format"]["const"]
+VERSION: int = _FIELDS["version"]["const"]
+REQUIRED: tuple[str, ...] = tuple(SCHEMA["required"])
+MAX_WEIGHT = float(_FIELDS["connections"]["items"]["prefixItems"][2]["maximum"])  # NeatConfig clips to 20
+MAX_STEEPNESS = float(_FIELDS["sigmoid_steepness"]["maximum"])  # seed 000 uses 1, classic NEAT 4.9
+TICK_RANGE_S = (float(_FIELDS["tick_s"]["minimum"]), float(_FIELDS["tick_s"]["maximum"]))  # [s]; robots: 10-70 ms
+_BIAS = _FIELDS["bias"]["items"]["items"]
+BIAS_RANGE = (float(_BIAS["minimum"]), float(_BIAS["maximum"]))  # bias nodes are inputs (seed 000 7.3)
+MAX_NODE_ID: int = _DEFS["node_id"]["maximum"]
+ANGLE_LIMIT_RAD = float(_DEFS["angle"]["maximum"])  # joint ranges and hold angles [rad]
+NETWORKS = list(SIDES)
 
 MAX_BYTES = 4 * 1024 * 1024  # a 300-connection controller is < 20 KB; 4 MiB holds ~200,000
 MAX_DEPTH = 64  # the format nests 3 deep, provenance's config about 6
-MAX_WEIGHT = 1000.0  # |weight| bound; evolve.neat.NeatConfig clips to 20 by default
-MAX_STEEPNESS = 100.0  # seed 000 uses 1, classic NEAT 4.9
-TICK_RANGE_S = (0.001, 1.0)  # [s]; robots here tick every 10-70 ms
-BIAS_RANGE = (-1.0, 1.0)  # bias nodes are inputs: +1, and +1 right / -1 left (seed 000 7.3)
-MAX_NODE_ID = 2 ** 31 - 1
-NETWORKS = list(SIDES)
-SENSOR_INPUTS = ["own_foot", "other_foot", "up_forward", "up_sideways"]  # after the joint angles
-ANGLE_LIMIT_RAD = 2 * math.pi  # joint ranges and hold angles [rad]
 RANGE_TOLERANCE_RAD = 1e-9
 
 _ESCAPE = re.compile(rb"\\.", re.DOTALL)  # in valid JSON a backslash starts a 2-byte escape
@@ -136,8 +142,9 @@ class Symmetry:
     @classmethod
     def of(cls, robot: RobotSpec, layout: SymmetricLayout) -> "Symmetry":
         names = robot.joint_names
-        return cls(tuple(names[i] for i in layout.leg_index["right"]), tuple(names[i] for i in layout.leg_index["left"]),
-                   tuple(names[i] for i in layout.center_index), tuple(layout.center_mirror.tolist()), CENTER_OUTPUT)
+        right, left = (tuple(names[i] for i in layout.leg_index[side]) for side in ("right", "left"))
+        return cls(right, left, tuple(names[i] for i in layout.center_index), tuple(layout.center_mirror.tolist()),
+                   CENTER_OUTPUT)
 
     def to_dict(self) -> dict[str, Any]:
         block = {"networks": list(NETWORKS), "leg_joints": {"right": list(self.right), "left": list(self.left)},
@@ -278,7 +285,7 @@ class Controller:
             rule = symmetric_layout(robot, self.joints.driven)
         except ValueError as exc:
             raise ConfigError(source, "symmetry", str(exc)) from None
-        if wired != rule or list(rule.input_names) != list(self.inputs) or list(rule.output_names) != list(self.outputs):
+        if wired != rule or (rule.input_names, rule.output_names) != (self.inputs, self.outputs):
             raise ConfigError(source, "symmetry", f"the wiring differs from robot {robot.name}'s for the driven "
                               f"joints {list(rule.driven)} (inputs {list(rule.input_names)}, outputs "
                               f"{list(rule.output_names)})")
@@ -614,7 +621,7 @@ def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str],
             raise c.error(f"outputs[{i}]", f"{_show(name)}: the first {k} outputs are the own leg's (own_...)")
     why = f"the symmetry block ({k} leg joints, centre joints {_show(center)})"
     c.same_names("outputs", outputs, own + center, why)
-    c.same_names("inputs", inputs, own + ["other_" + n[4:] for n in own] + center + SENSOR_INPUTS,
+    c.same_names("inputs", inputs, own + ["other_" + n[4:] for n in own] + center + list(SENSOR_INPUTS),
                  why[:-1] + ", then 4 sensors)")
 
 

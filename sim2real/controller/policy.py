@@ -4,9 +4,10 @@ Evolution's wiring, tick for tick: present joint angles, foot switches and the t
 up-vector become both networks' inputs (:mod:`sim2real.controller.symmetry`); their
 outputs become joint goals by the central-0.8 rule, rate-limited to the servos' no-load
 speed per tick (:mod:`sim2real.controller.mapping`); joints the controller does not drive
-hold the centre of their range.  Only the input wiring is fused: one gather derived from
-:func:`~sim2real.controller.symmetry.network_inputs` (its test oracle); every number is
-computed by the same functions as in evolution.
+hold the centre of their range.  Only the wiring is fused, into gathers derived from
+:func:`~sim2real.controller.symmetry.network_inputs` and
+:func:`~sim2real.controller.symmetry.joint_outputs` (their test oracles); every number is
+computed as in evolution, bit for bit.
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ class Policy:
         self.max_step = max_steps(robot, self.tick_s)
         self.hold = hold_pose(robot, self.layout.driven)
         self._gather, self._sign = self._input_gather()
+        self._first, self._second = self._output_gather()
         d = self.driven
         self._d_low, self._d_high, self._d_step = self.low[d], self.high[d], self.max_step[d]
 
@@ -53,6 +55,16 @@ class Policy:
         sign = np.sign(rows)
         return index, sign
 
+    def _output_gather(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each driven joint's output as the mean of two entries of the networks' flat outputs
+        (one entry twice for a leg joint, one of each network for a centre joint): the same
+        numbers as :func:`joint_outputs` (its test oracle), whose mean of two is the same exact
+        halving."""
+        entries = self.networks.n_networks * self.layout.n_outputs
+        weight = np.array([joint_outputs(self.layout, one_hot.reshape(self.networks.n_networks, -1),
+                                         len(self.low))[0, self.driven] for one_hot in np.eye(entries)])
+        return weight.argmax(axis=0), entries - 1 - weight[::-1].argmax(axis=0)  # first and last entry read
+
     def reset(self) -> np.ndarray:
         """Zero the networks' state; returns the start pose (home for driven joints) [rad]."""
         self.networks.reset()
@@ -63,9 +75,8 @@ class Policy:
         """One tick: joint angles [rad] (robot order), feet (left, right: touching), up-vector
         (torso frame) and the last goals -> the next goals [rad] for every joint."""
         readings = np.concatenate([normalized_angle(angles, self.low, self.high), foot_inputs(feet_touching), up])
-        out = self.networks.activate(readings[self._gather] * self._sign)
-        wanted = output_to_angle(joint_outputs(self.layout, out, len(self.low))[0, self.driven],
-                                 self._d_low, self._d_high)
+        out = self.networks.activate(readings[self._gather] * self._sign).reshape(-1)
+        wanted = output_to_angle(0.5 * (out[self._first] + out[self._second]), self._d_low, self._d_high)
         goal = previous_goal.copy()
         goal[self.driven] = rate_limit(wanted, previous_goal[self.driven], self._d_step)
         return goal

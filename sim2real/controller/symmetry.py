@@ -31,6 +31,7 @@ SIDES = ("right", "left")
 
 BIAS = ((1.0, 1.0), (1.0, -1.0))  # the bias nodes of the (right, left) network: +1, and the side
 CENTER_OUTPUT = "mean of both networks"  # what a centre joint gets
+SENSOR_INPUTS = ("own_foot", "other_foot", "up_forward", "up_sideways")  # after the joint angles
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,8 +106,7 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
         raise ValueError(f"joints not on robot {robot.name}: {unknown}")
     slots = tuple((robot.joints[order[n]].location, robot.joints[order[n]].axis) for n in right)
     slot_names = [f"{loc}_{axis}" if loc != "knee" else "knee" for loc, axis in slots]
-    inputs = ([f"own_{s}" for s in slot_names] + [f"other_{s}" for s in slot_names] + list(center)
-              + ["own_foot", "other_foot", "up_forward", "up_sideways"])
+    inputs = [f"own_{s}" for s in slot_names] + [f"other_{s}" for s in slot_names] + list(center) + list(SENSOR_INPUTS)
     outputs = [f"own_{s}" for s in slot_names] + list(center)
     return SymmetricLayout(
         driven=tuple(sorted((*right, *left, *center), key=order.get)),
