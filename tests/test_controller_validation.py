@@ -21,12 +21,12 @@ from evolve.locomotion.export import controller_from_genome, genome_from_control
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population, PopulationNetwork
 from sim2real.controller.file import (
-    Controller,
     MAX_BYTES,
     MAX_DEPTH,
     MAX_STEEPNESS,
     MAX_WEIGHT,
     TICK_RANGE_S,
+    Controller,
     nesting_depth,
 )
 from sim2real.controller.policy import Policy
