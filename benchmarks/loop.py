@@ -21,6 +21,7 @@ Goals: with the hogs, jitter p99 <= 1 ms and overruns <= 0.1 % on the mock bus; 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import os
 import subprocess
@@ -36,7 +37,7 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
-from sim2real.controller.file import check_controller, save_controller
+from sim2real.controller.file import Controller
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.hardware import MockBus
 from sim2real.hardware.deploy import drive
@@ -44,13 +45,13 @@ from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import load_robot
 
 
-def random_controller(robot, connections: int, hidden: int, seed: int) -> dict:
+def random_controller(robot, connections: int, hidden: int, seed: int) -> Controller:
     """A controller of the given size with random weights (recurrent, self-loops allowed),
     in an exported controller's frame (an unconnected genome's)."""
     rng = np.random.default_rng(seed)
     layout = symmetric_layout(robot, robot.control_sets["walk"])
     controller = controller_from_genome(Genome(0, neat_layout(layout)), robot, layout, TaskConfig(), 1.0,
-                                        {"seed": seed, "made_by": "benchmarks.loop.random_controller"})
+                                        {"seed": seed, "made_by": "benchmarks.loop.random_controller"}).to_dict()
     interface = layout.n_inputs + 2 + layout.n_outputs
     nodes = list(range(interface)) + list(range(interface, interface + hidden))
     targets = nodes[layout.n_inputs + 2:]
@@ -59,10 +60,10 @@ def random_controller(robot, connections: int, hidden: int, seed: int) -> dict:
         pairs.add((int(rng.choice(nodes)), int(rng.choice(targets))))
     controller["hidden"] = [[n, 0] for n in range(interface, interface + hidden)]
     controller["connections"] = [[s, d, float(rng.normal()), 0] for s, d in sorted(pairs)]
-    return controller
+    return Controller.from_dict(controller, "benchmarks.loop.random_controller")
 
 
-def standing_controller(robot) -> dict:
+def standing_controller(robot) -> Controller:
     """No connections: every output 0.5, each driven joint at the centre of its range."""
     return random_controller(robot, 0, hidden=0, seed=0)
 
@@ -82,12 +83,10 @@ def hogs(enabled: bool) -> Iterator[int]:
 
 
 def mock_part(robot, ticks: int, tick_ms: float, connections: int, realtime: bool, busy: bool) -> dict:
-    controller = random_controller(robot, connections, hidden=40, seed=0)
-    controller["tick_s"] = tick_ms / 1000.0
-    check_controller(controller, "benchmarks.loop")
+    controller = dataclasses.replace(random_controller(robot, connections, hidden=40, seed=0), tick_s=tick_ms / 1000.0)
     request = RealtimeRequest() if realtime else None
     with hogs(busy) as n_hogs:
-        result = drive(MockBus(robot), robot, controller, duration_s=ticks * controller["tick_s"],
+        result = drive(MockBus(robot), robot, controller, duration_s=ticks * controller.tick_s,
                        log=lambda s: None, ramp_s=0.1, realtime=request)
     s = result.summary()
     return {"realtime": realtime, "hogs": n_hogs, "ticks": s["ticks"], "compute_us_p50": s["compute_us_p50"],
@@ -144,7 +143,7 @@ def main(argv=None) -> None:
         controller = args.controller
         if controller is None:
             controller = Path(tmp) / "stand.json"
-            save_controller(controller, standing_controller(robot))
+            standing_controller(robot).save(controller)
         if "mock" in parts:
             rows = {}
             for busy in (False, True):

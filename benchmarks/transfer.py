@@ -28,7 +28,6 @@ from evolve.evaluation import EvaluatorSpec, build_evaluator
 from evolve.neat import Population
 from evolve.replay import WALK_LEG_LENGTHS, evaluate_controller
 from evolve.run import Best, Run
-from sim2real.controller.file import save_controller
 from sim2real.simulation.dry_run import dry_run
 
 
@@ -56,8 +55,8 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
     best = int(np.lexsort((worst, share[:, 0]))[-1])
     genome = genomes[best]
     path = run_dir / "robust_walker.json"
-    save_controller(path, run.controller(Best(float(nominal.fitness[best]), float(nominal.distance_m[best]),
-                                              float(nominal.upright_s[best]), pop.generation, 0.0, genome)))
+    run.controller(Best(float(nominal.fitness[best]), float(nominal.distance_m[best]),
+                        float(nominal.upright_s[best]), pop.generation, 0.0, genome)).save(path)
     return path, {"genome": genome.key, "walks_share": float(share[best, 0]), "worst_distance_m": float(worst[best]),
                   "population_walks_share_mean": float(share.mean()), "selected_from": n, "episodes": episodes + 1}
 

@@ -22,7 +22,6 @@ from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.replay import WALK_LEG_LENGTHS
 from evolve.run import Run
-from sim2real.controller.file import save_controller
 
 
 def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: int | None = None,
@@ -48,7 +47,7 @@ def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: i
         if full and not result.fell[0] and distance >= WALK_LEG_LENGTHS * leg:
             state.update(walked=True, minutes_to_walk=(time.perf_counter() - start) / 60.0,
                          generation=row["generation"], walk_distance_m=distance)
-            save_controller(out / "walker.json", run.controller(champion))  # judged without the harness
+            run.controller(champion).save(out / "walker.json")  # judged without the harness
             return True
         over = generations is not None and row["generation"] + 1 >= generations
         return over or time.perf_counter() - start > budget

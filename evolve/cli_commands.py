@@ -107,7 +107,7 @@ def cmd_view_controller(args: argparse.Namespace) -> int:
                 viewer.sync()
                 time.sleep(max(0.0, t0 + d.time - time.monotonic()))  # real time
 
-            evaluator.evaluate([genome], data["sigmoid_steepness"], on_tick=show,
+            evaluator.evaluate([genome], data.sigmoid_steepness, on_tick=show,
                                disabled_modules=tuple(args.disable_module))
     return 0
 
@@ -182,7 +182,7 @@ def cmd_evolve(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from sim2real.controller.file import load_controller, save_controller
+    from sim2real.controller.file import Controller
 
     if not args.run_dir.is_dir():
         raise FileNotFoundError(f"{args.run_dir}: no such run folder")
@@ -195,7 +195,7 @@ def cmd_export(args: argparse.Namespace) -> int:
                                     f"(finished: {', '.join(done) or 'none'}; the running stage's best is controller.json)")
     if not source.exists():
         raise FileNotFoundError(f"{args.run_dir} has no controller.json yet (has the run finished a generation?)")
-    save_controller(args.output, load_controller(source))
+    Controller.load(source).save(args.output)
     print(f"wrote {args.output}")
     return 0
 

@@ -51,7 +51,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     from evolve.config import load_evolve_config
     from evolve.replay import evaluate_controller
     from evolve.run import Run
-    from sim2real.controller.file import load_controller, save_controller
+    from sim2real.controller.file import Controller
     from sim2real.hardware.realtime import RealtimeRequest
     from sim2real.simulation.compare import compare, plot
     from sim2real.simulation.dry_run import dry_run
@@ -73,7 +73,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
 
     step(2, "exporting the best controller")
     controller = out / "controller.json"
-    save_controller(controller, load_controller(run_dir / "controller.json"))
+    Controller.load(run_dir / "controller.json").save(controller)
     sim = evaluate_controller(controller)
     print(f"{controller}: {sim['distance_m']:+.3f} m in {sim['seconds']:.1f} s in simulation, fell={sim['fell']}")
 
@@ -107,7 +107,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
 
     print(f"""
 done.  In {out}/:
-  controller.json   the controller (versioned JSON; load_controller / biped run)
+  controller.json   the controller (versioned JSON; Controller.load / biped run)
   run/              the evolution: stats.csv, fitness.png, checkpoints (continue: biped evolve --resume --out {run_dir} --generations 400)
   {'walk.mp4          the controller in simulation' if video else '(no video)'}
   dry_run.csv       the dry run's trace (+ .json sidecar)

@@ -19,19 +19,16 @@ from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import genome_from_controller
 from evolve.locomotion.task import TaskConfig
 from sim2real.controller.activation import check_disabled_modules
-from sim2real.controller.file import load_controller
+from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError, UsageError
-from sim2real.robot import RobotSpec, load_robot
 from sim2real.simulation.reality import NOMINAL, Reality, load_reality
 
 
 def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
            keep_going: bool = False, reality: Reality = NOMINAL, disabled_modules: tuple[str, ...] = ()):
-    data = load_controller(path)
-    spec: RobotSpec = load_robot(robot or data["robot"]["name"])
-    data = load_controller(path, spec)  # now checked against the robot's joint map
+    data, spec = Controller.load_for_robot(path, robot)
     check_disabled_modules(data, disabled_modules)
-    task = TaskConfig.from_mapping(data["task"], str(path), "task.")
+    task = TaskConfig.from_mapping(dict(data.task), str(path), "task.")
     changes = {"episode_s": float(seconds)} if seconds is not None else {}
     if keep_going:
         changes.update(fall_height=1e-6, fall_tilt_deg=180.0, stagnation_s=1e9)
@@ -40,7 +37,7 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
     if evaluator.n_ticks < 1:
         what = f"--seconds {seconds:g}" if seconds is not None else f"{path}: task.episode_s {task.episode_s:g}"
         raise UsageError(f"{what}: shorter than one control tick ({evaluator.tick_s:g} s)")
-    if list(evaluator.layout.input_names) != data["inputs"] or list(evaluator.layout.output_names) != data["outputs"]:
+    if evaluator.layout != data.layout(spec):
         raise ConfigError(str(path), "joints.driven", f"the inputs/outputs do not match robot {spec.name}'s "
                           f"{task.control_set!r} control set (the task's, default 'walk')")
     genome = genome_from_controller(data)
@@ -57,7 +54,7 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
                                            disabled_modules=disabled_modules)
     keys = np.array([[seed, e] for e in range(episodes)])
     perturbation = None if reality.is_nominal else evaluator.sample(keys)
-    result = evaluator.evaluate([genome] * episodes, data["sigmoid_steepness"], harness=0.0,
+    result = evaluator.evaluate([genome] * episodes, data.sigmoid_steepness, harness=0.0,
                                 disabled_modules=disabled_modules, perturbation=perturbation)
     leg = spec.body.leg_length
     full = result.upright_s >= evaluator.n_ticks * evaluator.tick_s - 1e-9
@@ -124,6 +121,6 @@ def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | N
                 images.append(renderer.render().copy())
             count[0] += 1
 
-        evaluator.evaluate([genome], data["sigmoid_steepness"], harness=0.0, on_tick=grab,
+        evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=grab,
                            disabled_modules=disabled_modules)
     return images, evaluator.tick_s * every

@@ -47,7 +47,7 @@ from evolve.locomotion.objectives import DEFAULT_OBJECTIVE, OBJECTIVES, Objectiv
 from evolve.neat import Genome, Population
 from evolve.stages import Stage, check_stage_joints
 from sim2real.atomic_json import read_json, write_json_atomic
-from sim2real.controller.file import save_controller
+from sim2real.controller.file import Controller
 from sim2real.errors import UsageError
 from sim2real.robot import load_robot
 from sim2real.robot.validation import load_yaml
@@ -278,10 +278,10 @@ class Run:
         write_json_atomic(self.out / "best.json", {
             "fitness": b.fitness, "distance_m": b.distance_m, "upright_s": b.upright_s,
             "generation": b.generation, "harness": b.harness, "genome": b.genome.to_dict()})
-        save_controller(self.out / "controller.json", self.controller())
+        self.controller().save(self.out / "controller.json")
 
-    def controller(self, best: Best | None = None) -> dict:
-        """Controller file data of ``best`` (default: the run's best so far)."""
+    def controller(self, best: Best | None = None) -> Controller:
+        """The controller of ``best`` (default: the run's best so far)."""
         b = best or self.best
         config_yaml = self.config.to_yaml()
         provenance = {"seed": self.config.seed, "generation": b.generation, "fitness": b.fitness,

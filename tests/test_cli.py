@@ -73,14 +73,13 @@ def test_run_without_a_port_uses_the_simulated_bus(tmp_path):
     from evolve.locomotion.export import controller_from_genome
     from evolve.locomotion.task import TaskConfig
     from evolve.neat import Genome
-    from sim2real.controller.file import save_controller
     from sim2real.controller.symmetry import symmetric_layout
     from sim2real.robot import load_robot
 
     robot = load_robot()
     layout = symmetric_layout(robot, robot.control_sets["walk"])
-    save_controller(tmp_path / "c.json", controller_from_genome(Genome(0, neat_layout(layout)), robot, layout,
-                                                                TaskConfig(), 1.0, {"seed": 0}))
+    controller_from_genome(Genome(0, neat_layout(layout)), robot, layout, TaskConfig(), 1.0,
+                           {"seed": 0}).save(tmp_path / "c.json")
     result = run_biped("run", str(tmp_path / "c.json"), "--duration", "0.5", "--json")
     assert result.returncode == 0, result.stdout + result.stderr
     assert "simulated bus" in result.stderr

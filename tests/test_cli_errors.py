@@ -17,7 +17,6 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
-from sim2real.controller.file import save_controller
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import load_robot
@@ -30,8 +29,8 @@ def controller(tmp_path_factory):
     """A standing controller (no connections) for the default robot."""
     layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
     path = tmp_path_factory.mktemp("c") / "stand.json"
-    save_controller(path, controller_from_genome(Genome(0, neat_layout(layout)), ROBOT, layout,
-                                                 TaskConfig(episode_s=1.0), 1.0, {"seed": 0}))
+    controller_from_genome(Genome(0, neat_layout(layout)), ROBOT, layout, TaskConfig(episode_s=1.0), 1.0,
+                           {"seed": 0}).save(path)
     return path
 
 

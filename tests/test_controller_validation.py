@@ -26,9 +26,8 @@ from sim2real.controller.file import (
     MAX_STEEPNESS,
     MAX_WEIGHT,
     TICK_RANGE_S,
-    load_controller,
+    Controller,
     nesting_depth,
-    save_controller,
 )
 from sim2real.controller.policy import Policy
 from sim2real.controller.symmetry import bias_values, symmetric_layout
@@ -51,7 +50,7 @@ def grown_controller(seed: int = 4) -> dict:
     for _ in range(12):
         pop.step(lambda gs: rng.random(len(gs)))
     genome = max(pop.genomes, key=lambda g: len(g.conns))
-    data = controller_from_genome(genome, ROBOT, layout, TaskConfig(), 1.0, {"seed": seed})
+    data = controller_from_genome(genome, ROBOT, layout, TaskConfig(), 1.0, {"seed": seed}).to_dict()
     for conn in data["connections"][::2]:
         conn[3] = 0  # half of them in the lower module
     data["hidden"][0][1] = 0
@@ -68,7 +67,7 @@ def valid() -> dict:
 @pytest.fixture(scope="module")
 def valid_path(valid, tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("valid") / "controller.json"
-    save_controller(path, valid)
+    Controller.from_dict(valid).save(path)
     return path
 
 
@@ -79,17 +78,17 @@ def write(tmp_path: Path, data, name: str = "bad.json") -> Path:
 
 
 def refused(path: Path, robot=ROBOT) -> str:
-    """load_controller's one-line message for a file it must refuse."""
+    """Controller.load's one-line message for a file it must refuse."""
     with pytest.raises(ConfigError) as info:
-        load_controller(path, robot)
+        Controller.load(path, robot)
     message = str(info.value)
     assert "\n" not in message and message.startswith(f"{path}: ")
     return message[len(f"{path}: "):]
 
 
 def test_controllers_the_project_writes_load_and_match_the_schema(valid_path, valid):
-    assert load_controller(valid_path, ROBOT) == valid
-    assert load_controller(valid_path) == valid
+    assert Controller.load(valid_path, ROBOT).to_dict() == valid
+    assert Controller.load(valid_path).to_dict() == valid
     jsonschema.validate(valid, SCHEMA)
 
 
@@ -104,11 +103,11 @@ def test_a_300_connection_controller_validates_in_well_under_10_ms(valid, tmp_pa
         pairs.add((int(rng.choice(nodes)), int(rng.choice(nodes[len(data["inputs"]) + 2:]))))
     data["connections"] = [[s, d, float(rng.normal()), 1] for s, d in sorted(pairs)]
     path = tmp_path / "c300.json"
-    save_controller(path, data)
+    Controller.from_dict(data).save(path)
     times = []
     for _ in range(5):
         start = time.perf_counter()
-        load_controller(path, ROBOT)
+        Controller.load(path, ROBOT)
         times.append(time.perf_counter() - start)
     assert min(times) < 0.010, times
 
@@ -310,7 +309,7 @@ def test_a_file_that_does_not_fit_the_robot_is_refused_by_name(valid, tmp_path, 
     data = copy.deepcopy(valid)
     mutate(data)
     path = write(tmp_path, data)
-    load_controller(path)  # consistent in itself
+    Controller.load(path)  # consistent in itself
     message = refused(path)
     assert message.startswith(expected), message
 
@@ -400,7 +399,7 @@ def test_numbers_beyond_json_are_named(valid_path, tmp_path):
 def test_a_byte_order_mark_is_accepted(valid_path, tmp_path):
     path = tmp_path / "bom.json"
     path.write_bytes(b"\xef\xbb\xbf" + valid_path.read_bytes())
-    assert load_controller(path, ROBOT) == load_controller(valid_path, ROBOT)
+    assert Controller.load(path, ROBOT) == Controller.load(valid_path, ROBOT)
 
 
 def slow_depth(text: str) -> int:
@@ -584,7 +583,7 @@ def test_the_extremes_the_format_allows_run_with_finite_goals(valid, tmp_path, t
     data.update(tick_s=tick_s, sigmoid_steepness=MAX_STEEPNESS, bias=[[-1.0, 1.0], [1.0, -1.0]])
     for k, conn in enumerate(data["connections"]):
         conn[2] = MAX_WEIGHT if k % 3 else -MAX_WEIGHT
-    policy = Policy(load_controller(write(tmp_path, data), ROBOT), ROBOT)
+    policy = Policy(Controller.load(write(tmp_path, data), ROBOT), ROBOT)
     goal = policy.reset()
     for k in range(50):
         angles = policy.high if k % 2 else policy.low  # the servos at their limits
@@ -604,11 +603,11 @@ def test_whatever_the_check_lets_through_runs_and_gives_finite_goals(data, valid
     path = fuzz_dir / "c.json"
     path.write_text(json.dumps(doc))
     try:
-        controller = load_controller(path, ROBOT)
+        controller = Controller.load(path, ROBOT)
     except ConfigError as exc:
         assert "\n" not in str(exc) and str(exc).startswith(f"{path}: ")
         return
-    jsonschema.validate(controller, SCHEMA)  # the schema is no stricter than the check
+    jsonschema.validate(controller.to_dict(), SCHEMA)  # the schema is no stricter than the check
     policy = Policy(controller, ROBOT)
     rng = np.random.default_rng(0)
     goal = policy.reset()
@@ -618,8 +617,8 @@ def test_whatever_the_check_lets_through_runs_and_gives_finite_goals(data, valid
         assert np.all(np.isfinite(goal)) and np.all(goal >= policy.low) and np.all(goal <= policy.high)
     # the evolution side (eval, view, render) builds the same network from it
     genome = genome_from_controller(controller)
-    net = PopulationNetwork([genome, genome], controller["sigmoid_steepness"], bias_values=bias_values(1))
-    assert np.all(np.isfinite(net.activate(rng.uniform(-1, 1, (2, len(controller["inputs"]))))))
+    net = PopulationNetwork([genome, genome], controller.sigmoid_steepness, bias_values=bias_values(1))
+    assert np.all(np.isfinite(net.activate(rng.uniform(-1, 1, (2, len(controller.inputs))))))
 
 
 @FUZZ
@@ -633,6 +632,6 @@ def test_damaged_bytes_give_a_config_error_or_a_controller(cut, flips, insert, v
     path = fuzz_dir / "bytes.json"
     path.write_bytes(bytes(raw))
     try:
-        load_controller(path, ROBOT)
+        Controller.load(path, ROBOT)
     except ConfigError as exc:
         assert "\n" not in str(exc)

@@ -55,7 +55,7 @@ def test_a_normal_run_ends_with_torque_off_and_goals_inside_limits(controller, t
     bus = MockBus(ROBOT)
     report = run(bus, controller, duration_s=0.4, trace_path=tmp_path / "run.csv")
     assert report.stop_reason == "duration reached"
-    assert report.ticks == round(0.4 / controller["tick_s"])
+    assert report.ticks == round(0.4 / controller.tick_s)
     assert all(v == 0 for v in torque(bus).values())
     goals_within_limits(bus)
     rows = (tmp_path / "run.csv").read_text().splitlines()
@@ -186,13 +186,14 @@ from hypothesis import strategies as st  # noqa: E402
        readings=st.lists(st.floats(-1e9, 1e9, allow_nan=False), min_size=16, max_size=16),
        weight_scale=st.floats(0.01, 1e3))
 def test_no_goal_outside_the_limits_whatever_the_network_or_readings(seed, robot_name, readings, weight_scale):
+    from sim2real.controller.file import MAX_WEIGHT, Controller
     from sim2real.controller.policy import Policy
 
     robot = load_robot(robot_name)
-    controller = random_controller(robot, connections=60, hidden=8, seed=seed)
-    for conn in controller["connections"]:
-        conn[2] *= weight_scale
-    policy = Policy(controller, robot)
+    data = random_controller(robot, connections=60, hidden=8, seed=seed).to_dict()
+    for conn in data["connections"]:
+        conn[2] = float(np.clip(conn[2] * weight_scale, -MAX_WEIGHT, MAX_WEIGHT))  # the format's bound
+    policy = Policy(Controller.from_dict(data), robot)
     mapping = ServoMapping(robot)
     values = np.array(readings)
     n = len(robot.joints)
@@ -223,13 +224,11 @@ def test_biped_run_works_where_mujoco_cannot_be_imported(tmp_path):
     import subprocess
     import sys
 
-    from sim2real.controller import save_controller
-
     blocker = tmp_path / "blocked"
     blocker.mkdir()
     (blocker / "mujoco.py").write_text("raise ModuleNotFoundError(\"No module named 'mujoco'\", name='mujoco')\n")
     controller = tmp_path / "c.json"
-    save_controller(controller, random_controller(ROBOT, connections=20, hidden=2, seed=0))
+    random_controller(ROBOT, connections=20, hidden=2, seed=0).save(controller)
     env = {**os.environ, "PYTHONPATH": f"{blocker}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
     out = subprocess.run([sys.executable, "-m", "evolve.cli", "run", str(controller), "--bus", "mock", "--duration",
                           "0.3", "--json", "--no-realtime"], capture_output=True, text=True, timeout=120, env=env)

@@ -11,7 +11,6 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
-from sim2real.controller.file import save_controller
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.robot import load_robot
 from sim2real.simulation.compare import compare, lag_s
@@ -26,7 +25,7 @@ def standing_controller(tmp_path_factory):
     layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
     genome = Genome(0, neat_layout(layout))
     path = tmp_path_factory.mktemp("c") / "stand.json"
-    save_controller(path, controller_from_genome(genome, ROBOT, layout, TaskConfig(), 1.0, {"seed": 0}))
+    controller_from_genome(genome, ROBOT, layout, TaskConfig(), 1.0, {"seed": 0}).save(path)
     return path
 
 

@@ -84,7 +84,7 @@ def test_the_whole_run_over_the_real_sdk_and_a_pty(tmp_path):
         report = drive(DynamixelBus(server.port, 1_000_000, ROBOT), ROBOT, controller, duration_s=0.5,
                        trace_path=tmp_path / "t.csv", log=lambda s: None, ramp_s=0.1)
     assert report.stop_reason == "duration reached" and report.bus_errors == 0
-    assert report.ticks == round(0.5 / controller["tick_s"])
+    assert report.ticks == round(0.5 / controller.tick_s)
     assert all(d.get_named("torque_enable") == 0 for d in devices.values() if d.profile.is_servo)
     assert all(d.get_named("return_delay_time") == 0 for d in devices.values() if d.profile.is_servo)
 

@@ -13,7 +13,7 @@ from evolve.evaluation import EvaluatorSpec, LocalBackend
 from evolve.locomotion.task import TaskConfig
 from evolve.ray_backend import WorkerEvaluator
 from evolve.run import STATS_COLUMNS
-from sim2real.controller.file import load_controller
+from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot
 
@@ -51,9 +51,9 @@ def test_evolve_writes_the_run_folder(config_file, tmp_path):
     assert [float(r["harness"]) for r in rows] == [1.0, 0.5, 0.0, 0.0]
     resolved = yaml.safe_load((out / "config.yaml").read_text())
     assert resolved["neat"]["weight_sigma"] > 0  # every default written out
-    controller = load_controller(out / "controller.json", load_robot())
-    assert controller["provenance"]["seed"] == 5
-    assert len(controller["inputs"]) == 11 and controller["bias"] == [[1.0, 1.0], [1.0, -1.0]]
+    controller = Controller.load(out / "controller.json", load_robot())
+    assert controller.provenance["seed"] == 5
+    assert len(controller.inputs) == 11 and controller.bias == ((1.0, 1.0), (1.0, -1.0))
 
 
 def test_resumed_run_continues_exactly_as_an_uninterrupted_one(config_file, tmp_path):
@@ -120,7 +120,8 @@ def test_eval_export_and_render_a_controller(config_file, tmp_path, capsys):
     assert set(report) >= {"distance_m", "upright_s", "fell", "leg_length_m"}
     assert report["leg_length_m"] == pytest.approx(load_robot().body.leg_length)
     assert main(["export", str(out), "-o", str(tmp_path / "c.json")]) == 0
-    assert load_controller(tmp_path / "c.json") == load_controller(out / "controller.json")
+    assert (tmp_path / "c.json").read_bytes() == (out / "controller.json").read_bytes()
+    assert Controller.load(tmp_path / "c.json") == Controller.load(out / "controller.json")
     video = tmp_path / "walk.gif"
     result = subprocess.run([sys.executable, "-m", "evolve.cli", "render", str(out / "controller.json"),
                              "-o", str(video), "--seconds", "0.5", "--width", "160", "--height", "120"],
@@ -133,17 +134,17 @@ def test_a_controller_for_another_robot_or_a_broken_file_is_refused(config_file,
     out = tmp_path / "run"
     assert main(["evolve", str(config_file), "--out", str(out), "--quiet"]) == 0
     with pytest.raises(ConfigError, match="robot.joint_map_hash: made for robot 'xl430_biped'"):
-        load_controller(out / "controller.json", load_robot("op3_legs"))
+        Controller.load(out / "controller.json", load_robot("op3_legs"))
     broken = tmp_path / "broken.json"
     broken.write_text((out / "controller.json").read_text()[:200])
     with pytest.raises(ConfigError, match="broken.json: not valid JSON"):
-        load_controller(broken)
+        Controller.load(broken)
     data = json.loads((out / "controller.json").read_text())
     data["connections"].append([0, 9999, 1.0, 0])
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps(data))
     with pytest.raises(ConfigError, match=r"connections\[\d+\]: dst 9999 is not a node"):
-        load_controller(bad)
+        Controller.load(bad)
 
 
 def test_an_existing_run_is_not_overwritten_and_bad_configs_are_named(config_file, tmp_path, capsys):
@@ -203,8 +204,7 @@ def test_controller_matches_its_json_schema_and_stays_small(config_file, tmp_pat
     data = _json.loads((out / "controller.json").read_text())
     jsonschema.validate(data, schema)
     data["connections"] = [[0, 13 + (i % 4), 0.123456789012345 * i, 0] for i in range(300)]
-    from sim2real.controller.file import save_controller
-    save_controller(tmp_path / "big.json", data)
+    Controller.from_dict(data).save(tmp_path / "big.json")
     assert (tmp_path / "big.json").stat().st_size < 20_000
 
 

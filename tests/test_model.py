@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 from conftest import all_robot_names
 
+from sim2real.controller.mapping import hold_pose
 from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model, hold_ctrl, to_mjcf
+from sim2real.simulation.model_builder import build_model, to_mjcf
 from sim2real.simulation.statics import holding_torques
 
 
@@ -74,7 +75,7 @@ def test_adjacent_links_never_collide_but_the_legs_do():
 
 def test_undriven_joints_hold_the_centre_of_their_range():
     robot = load_robot()
-    ctrl = hold_ctrl(robot, set(robot.control_sets["walk"]))
+    ctrl = hold_pose(robot, robot.control_sets["walk"])
     for target, joint in zip(ctrl, robot.joints):
         expected = joint.home_rad if joint.name in robot.control_sets["walk"] else joint.center_rad
         assert target == pytest.approx(expected)

@@ -151,12 +151,11 @@ def test_eval_reports_the_spread_over_randomized_episodes(tmp_path, capsys):
     from evolve.cli import main
     from evolve.locomotion.export import controller_from_genome
     from evolve.neat import Genome
-    from sim2real.controller.file import save_controller
 
     layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
     path = tmp_path / "stand.json"
-    save_controller(path, controller_from_genome(Genome(0, neat_layout(layout)), ROBOT, layout,
-                                                 TaskConfig(episode_s=1.0), 1.0, {"seed": 0}))
+    controller_from_genome(Genome(0, neat_layout(layout)), ROBOT, layout, TaskConfig(episode_s=1.0), 1.0,
+                           {"seed": 0}).save(path)
     assert main(["eval", str(path), "--randomize", "--episodes", "3", "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["episodes"] == 3 and report["reality"] == "randomize"

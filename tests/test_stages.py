@@ -13,7 +13,7 @@ from evolve.neat import Population
 from evolve.replay import evaluate_controller
 from evolve.run import Run
 from evolve.stages import parse_stages
-from sim2real.controller.file import load_controller
+from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError
 
 STAGED = {
@@ -65,10 +65,10 @@ def test_stages_run_in_order_and_are_filed(staged_run):
     rows = (staged_run / "stats.csv").read_text().splitlines()[1:]
     assert [r.split(",")[1] for r in rows] == ["pose"] * 2 + ["stand"] * 3
     assert [int(r.split(",")[0]) for r in rows] == [0, 1, 2, 3, 4]
-    pose = load_controller(staged_run / "stages" / "pose" / "controller.json")
-    final = load_controller(staged_run / "controller.json")
-    assert [m["name"] for m in pose["modules"]] == ["pose"]
-    assert [m["name"] for m in final["modules"]] == ["pose", "stand"]
+    pose = Controller.load(staged_run / "stages" / "pose" / "controller.json")
+    final = Controller.load(staged_run / "controller.json")
+    assert pose.modules == ("pose",)
+    assert final.modules == ("pose", "stand")
 
 
 def test_each_stage_logs_its_objectives_terms_and_leaves_the_others_empty(tmp_path):
@@ -85,14 +85,14 @@ def test_each_stage_logs_its_objectives_terms_and_leaves_the_others_empty(tmp_pa
 
 
 def test_lower_modules_stay_frozen(staged_run):
-    pose = load_controller(staged_run / "stages" / "pose" / "controller.json")
-    frozen = sorted((s, d, w) for s, d, w, m in pose["connections"])
+    pose = Controller.load(staged_run / "stages" / "pose" / "controller.json")
+    frozen = sorted((s, d, w) for s, d, w, m in pose.connections)
     population = Population.load(staged_run / "checkpoint.json.gz")
     for genome in population.genomes:
         assert genome.modules == ("pose", "stand")
         lower = sorted((g.src, g.dst, g.weight) for g in genome.conns.values() if g.module == 0 and g.enabled)
         assert lower == frozen, genome.key
-        assert all(genome.hidden[n] == 1 for n in genome.hidden if n not in dict(pose["hidden"]))
+        assert all(genome.hidden[n] == 1 for n in genome.hidden if n not in dict(pose.hidden))
 
 
 def test_switching_the_top_module_off_gives_the_lower_behaviour(staged_run):
@@ -106,7 +106,7 @@ def test_switching_the_top_module_off_gives_the_lower_behaviour(staged_run):
 def test_export_of_a_stage_and_of_a_missing_one(staged_run, tmp_path, capsys):
     out = tmp_path / "pose.json"
     assert main(["export", str(staged_run), "--stage", "pose", "-o", str(out)]) == 0
-    assert [m["name"] for m in load_controller(out)["modules"]] == ["pose"]
+    assert Controller.load(out).modules == ("pose",)
     assert main(["export", str(staged_run), "--stage", "walk", "-o", str(out)]) != 0
     assert "no finished stage 'walk' (finished: pose, stand" in capsys.readouterr().err
 
@@ -122,7 +122,7 @@ def test_a_staged_run_resumes_exactly(staged_run, tmp_path):
         return [r.split(",")[:4] for r in (out / "stats.csv").read_text().splitlines()]
     assert rows(split) == rows(staged_run)
     assert (split / "controller.json").read_bytes() != b"" and \
-        load_controller(split / "controller.json")["connections"] == load_controller(staged_run / "controller.json")["connections"]
+        Controller.load(split / "controller.json").connections == Controller.load(staged_run / "controller.json").connections
 
 
 def test_a_target_pose_for_a_joint_not_driven_is_refused(tmp_path):

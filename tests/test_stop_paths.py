@@ -22,7 +22,6 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population
-from sim2real.controller.file import save_controller
 from sim2real.controller.policy import Policy
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.hardware import MockBus
@@ -211,7 +210,7 @@ def test_a_port_that_does_not_open_stops_before_anything_is_sent(controller):
 @pytest.fixture(scope="module")
 def controller_file(controller, tmp_path_factory):
     path = tmp_path_factory.mktemp("c") / "c.json"
-    save_controller(path, controller)
+    controller.save(path)
     return path
 
 
@@ -295,7 +294,7 @@ def test_lost_communication_waits_for_lost_after_s(served, controller):
     assert report.stop_reason.startswith("lost communication: servo 3")
     assert "no good reply for" in report.stop_reason
     ticks_while_silent = report.ticks - 5
-    assert ticks_while_silent * controller["tick_s"] >= 0.3 - controller["tick_s"]
+    assert ticks_while_silent * controller.tick_s >= 0.3 - controller.tick_s
     assert report.missed_ticks == ticks_while_silent
 
 

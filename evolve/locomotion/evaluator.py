@@ -29,6 +29,8 @@ from evolve.locomotion.objectives import Episodes, Objective, WalkObjective
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, Layout, PopulationNetwork
 from sim2real.controller.mapping import (
+    hold_pose,
+    max_steps,
     normalized_angle,
     output_to_angle,
     quantize,
@@ -37,13 +39,15 @@ from sim2real.controller.mapping import (
 from sim2real.controller.symmetry import (
     SymmetricLayout,
     bias_values,
+    foot_inputs,
     joint_outputs,
     network_inputs,
     symmetric_layout,
 )
 from sim2real.robot import RobotSpec
+from sim2real.robot.spec import GRAVITY
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import build_model, hold_ctrl
+from sim2real.simulation.model_builder import build_model
 from sim2real.simulation.reality import (
     NOMINAL,
     PERTURBED_FIELDS,
@@ -55,7 +59,6 @@ from sim2real.simulation.reality import (
     sample,
 )
 
-GRAVITY = 9.81
 MAX_JOINT_SPEED = 1e3  # [rad/s] beyond this a simulation is numerically unstable
 
 
@@ -88,9 +91,8 @@ class LocomotionEvaluator:
         self.high = np.array([j.range_rad[1] for j in robot.joints])
         self.resolution = np.array([j.servo.profile.position.rad_per_tick if (j.servo and task.quantize)
                                     else 0.0 for j in robot.joints])
-        self.max_step = np.array([j.servo.profile.motor.no_load_speed_rad_s * self.tick_s if j.servo
-                                  else np.inf for j in robot.joints])
-        self.hold = hold_ctrl(robot, set(self.layout.driven))
+        self.max_step = max_steps(robot, self.tick_s)
+        self.hold = hold_pose(robot, self.layout.driven)
         self.qadr = np.array([model.jnt_qposadr[model.joint(n).id] for n in names], dtype=np.intp)
         self.touch_adr = np.array([model.sensor_adr[model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")])
         self.up_adr = model.sensor_adr[model.sensor("torso_up").id]
@@ -98,7 +100,7 @@ class LocomotionEvaluator:
         self.pelvis = model.body("pelvis").id
         self.leg = robot.body.leg_length
         self.mass = robot.body.mass
-        self.touch_threshold = task.contact_threshold * self.mass * GRAVITY
+        self.touch_threshold = robot.foot_contact_n
 
         self.batch = Batch(model, max_population, threads)
         self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
@@ -167,8 +169,7 @@ class LocomotionEvaluator:
                 touch = touch ^ p.foot_flip[alive, t]
                 up = up + p.up_noise[alive, t]
             q = quantize(q, self.resolution)
-            inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high),
-                                    np.where(touch, -1.0, 1.0), up)
+            inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high), foot_inputs(touch), up)
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
             goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)
             goal[alive] = goal_alive

@@ -13,6 +13,11 @@ of them (an abrupt end would drop every gait that leaned on it at once).
 ``progress_coeff`` adds a tie-breaker for selection only: the pelvis' forward progress in
 leg lengths, so that early generations, which neither step nor fall, are not all equal
 (DESIGN.md section 5); the reported fitness stays eq. 3.
+
+When a foot touches is the robot's (its sensor board's ``contact_share``), not the task's:
+evolution, the simulated bus and ``compare`` read it there alike.  Configs and controller
+files written before carry ``contact_threshold: 0.05``, the value all of them shared; that
+key is still read, and refused with any other value.
 """
 
 from __future__ import annotations
@@ -23,11 +28,12 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from sim2real.errors import ConfigError
+from sim2real.robot.spec import DEFAULT_CONTACT_SHARE
 from sim2real.robot.validation import dataclass_from_mapping
 
 # (key, low, high): the value must lie in (low, high]
-BOUNDED = (("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")), ("harness_height", 0.0, 1.0),
-           ("contact_threshold", 0.0, 1.0))
+BOUNDED = (("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")), ("harness_height", 0.0, 1.0))
+LEGACY_CONTACT_THRESHOLD = "contact_threshold"  # the task's key for it until the robot owned it
 
 
 @dataclass(frozen=True)
@@ -48,11 +54,18 @@ class TaskConfig:
     harness_height: float = 0.85  # the harness catches the pelvis below this share of its start height
     harness_max_force: float = 0.5  # its force on each axis is capped at this share of the weight
     quantize: bool = True  # joint angles at the servo's encoder resolution
-    contact_threshold: float = 0.05  # a foot touches when it carries this share of the weight
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any] | None, source: str = "<config>",
                      prefix: str = "task.") -> "TaskConfig":
+        if isinstance(values, Mapping) and LEGACY_CONTACT_THRESHOLD in values:
+            values = dict(values)
+            legacy = values.pop(LEGACY_CONTACT_THRESHOLD)
+            if legacy != DEFAULT_CONTACT_SHARE:
+                raise ConfigError(source, prefix + LEGACY_CONTACT_THRESHOLD, f"{legacy!r}: when a foot touches is "
+                                  "the robot's now (sensor_board.contact_share in its config, default "
+                                  f"{DEFAULT_CONTACT_SHARE}), read alike by evolution, the simulated bus and "
+                                  "compare; remove this key")
         config = dataclass_from_mapping(cls, values, source, prefix, "task")
         for f in dataclasses.fields(config):
             v = getattr(config, f.name)

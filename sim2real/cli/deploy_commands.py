@@ -102,13 +102,13 @@ def add_compare_command(sub: argparse._SubParsersAction) -> None:
 
 # -- checks before anything runs (evolve.cli calls args.check, then args.func) ---------------
 def _servo_robot(name: str | None, controller: Path | None = None):
-    """(controller data or None, robot): the robot named, else the controller's; it must have a bus."""
-    from sim2real.controller.file import load_controller
+    """(controller or None, robot): the robot named, else the controller's; it must have a bus."""
+    from sim2real.controller.file import Controller
 
-    data = load_controller(controller) if controller is not None else None
-    robot = load_robot(name or (data["robot"]["name"] if data else DEFAULT_ROBOT))
-    if data is not None:
-        data = load_controller(controller, robot)
+    if controller is not None:
+        data, robot = Controller.load_for_robot(controller, name)
+    else:
+        data, robot = None, load_robot(name or DEFAULT_ROBOT)
     if robot.bus is None:
         raise UsageError(f"robot {robot.name} has no Dynamixel bus (a simulation-only character): "
                          "it cannot be driven through servos")
@@ -130,7 +130,7 @@ def check_run(args: argparse.Namespace) -> None:
             raise UsageError("--baud applies to a real bus (--port); the mock and simulated buses take the "
                              "robot's rate")
         check_baud(robot, args.baud)
-    check_duration(args.duration, float(data["tick_s"]))
+    check_duration(args.duration, float(data.tick_s))
     check_disabled_modules(data, args.disable_module)
     _check_trace(args.trace, args.controller)
 
@@ -140,7 +140,7 @@ def check_dry_run(args: argparse.Namespace) -> None:
     from sim2real.simulation.dry_run import check_fault_times, parse_faults
 
     data, robot = _servo_robot(args.robot, args.controller)
-    check_duration(args.duration, float(data["tick_s"]))
+    check_duration(args.duration, float(data.tick_s))
     check_disabled_modules(data, args.disable_module)
     check_fault_times(parse_faults(args.faults, robot), args.duration)
     _check_trace(args.trace, args.controller)
@@ -157,9 +157,9 @@ def check_simbus(args: argparse.Namespace) -> None:
 
 def check_compare(args: argparse.Namespace) -> None:
     if args.controller is not None:  # the file on its own first; against the robot once the trace names it
-        from sim2real.controller.file import load_controller
+        from sim2real.controller.file import Controller
 
-        load_controller(args.controller)
+        Controller.load(args.controller)
     if args.plot is not None:
         require_module("matplotlib", "--plot")
 
@@ -197,13 +197,11 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from sim2real.controller.file import load_controller
+    from sim2real.controller.file import Controller
     from sim2real.hardware import MockBus
     from sim2real.hardware.deploy import drive
 
-    data = load_controller(args.controller)
-    robot = load_robot(args.robot or data["robot"]["name"])
-    data = load_controller(args.controller, robot)
+    data, robot = Controller.load_for_robot(args.controller, args.robot)
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
     realtime = simbus_service.realtime_request(args)
     if args.port or args.bus == "mock":

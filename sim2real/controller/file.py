@@ -1,11 +1,16 @@
 """Controller files: versioned, self-describing JSON of an evolved network (data only).
 
-A controller names its robot (and a hash of the robot's joint map, so that a file for
+:class:`Controller` is what crosses from evolution to the robot: a frozen, valid controller
+(``Controller.load``/``save``; ``from_dict``/``to_dict`` for the JSON values;
+``for_robot`` writes the wiring of a robot's control set around an evolved network).  A
+controller names its robot (and a hash of the robot's joint map, so that a file for
 another robot is refused), its control tick, the network's inputs and outputs in order,
 the bilateral-symmetry wiring, its modules, its nodes and enabled connections, how outputs
-map onto joints, and where it came from (``schemas/controller-v1.schema.json``).
+map onto joints, and where it came from.  Its keys and bounds are those of the published
+schema, ``schemas/controller-v1.schema.json``, which this module reads them from.
 
-``load_controller`` checks a file whole before anything moves or simulates, so that
+``Controller.load`` checks a file whole before anything moves or simulates
+(:func:`check_controller`, the one validation, which every ``Controller`` passes), so that
 whatever it returns runs (:class:`~sim2real.controller.policy.Policy`) without an exception; every
 problem is one :class:`ConfigError` line, ``FILE: FIELD: problem``.  In order:
 
@@ -35,31 +40,47 @@ import math
 import os
 import re
 import reprlib
+from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
-from typing import Any
+from types import MappingProxyType
+from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
 from sim2real.atomic_json import write_text_atomic
-from sim2real.controller.symmetry import symmetric_layout
+from sim2real.controller.mapping import OUTPUT_RULE, hold_pose
+from sim2real.controller.symmetry import (
+    BIAS,
+    CENTER_OUTPUT,
+    SENSOR_INPUTS,
+    SIDES,
+    SymmetricLayout,
+    symmetric_layout,
+    wired_layout,
+)
 from sim2real.errors import ConfigError
-from sim2real.robot import RobotSpec
+from sim2real.robot import RobotSpec, load_robot
+from sim2real.robot.timing import control_timing
 
-FORMAT = "biped-controller"
-VERSION = 1
-REQUIRED = ("format", "version", "robot", "tick_s", "inputs", "outputs", "bias", "symmetry",
-            "sigmoid_steepness", "modules", "hidden", "connections", "joints", "task", "provenance")
+# The format's keys and bounds are the published schema's, read from it: written once.
+SCHEMA: dict[str, Any] = json.loads((resources.files("sim2real.controller") / "schemas"
+                                     / "controller-v1.schema.json").read_text(encoding="utf-8"))
+_FIELDS, _DEFS = SCHEMA["properties"], SCHEMA["$defs"]
+FORMAT: str = _FIELDS["format"]["const"]
+VERSION: int = _FIELDS["version"]["const"]
+REQUIRED: tuple[str, ...] = tuple(SCHEMA["required"])
+MAX_WEIGHT = float(_FIELDS["connections"]["items"]["prefixItems"][2]["maximum"])  # NeatConfig clips to 20
+MAX_STEEPNESS = float(_FIELDS["sigmoid_steepness"]["maximum"])  # seed 000 uses 1, classic NEAT 4.9
+TICK_RANGE_S = (float(_FIELDS["tick_s"]["minimum"]), float(_FIELDS["tick_s"]["maximum"]))  # [s]; robots: 10-70 ms
+_BIAS = _FIELDS["bias"]["items"]["items"]
+BIAS_RANGE = (float(_BIAS["minimum"]), float(_BIAS["maximum"]))  # bias nodes are inputs (seed 000 7.3)
+MAX_NODE_ID: int = _DEFS["node_id"]["maximum"]
+ANGLE_LIMIT_RAD = float(_DEFS["angle"]["maximum"])  # joint ranges and hold angles [rad]
+NETWORKS = list(SIDES)
 
 MAX_BYTES = 4 * 1024 * 1024  # a 300-connection controller is < 20 KB; 4 MiB holds ~200,000
 MAX_DEPTH = 64  # the format nests 3 deep, provenance's config about 6
-MAX_WEIGHT = 1000.0  # |weight| bound; evolve.neat.NeatConfig clips to 20 by default
-MAX_STEEPNESS = 100.0  # seed 000 uses 1, classic NEAT 4.9
-TICK_RANGE_S = (0.001, 1.0)  # [s]; robots here tick every 10-70 ms
-BIAS_RANGE = (-1.0, 1.0)  # bias nodes are inputs: +1, and +1 right / -1 left (seed 000 7.3)
-MAX_NODE_ID = 2 ** 31 - 1
-NETWORKS = ["right", "left"]
-SENSOR_INPUTS = ["own_foot", "other_foot", "up_forward", "up_sideways"]  # after the joint angles
-ANGLE_LIMIT_RAD = 2 * math.pi  # joint ranges and hold angles [rad]
 RANGE_TOLERANCE_RAD = 1e-9
 
 _ESCAPE = re.compile(rb"\\.", re.DOTALL)  # in valid JSON a backslash starts a 2-byte escape
@@ -90,17 +111,185 @@ def dumps(data: dict[str, Any]) -> str:
     return "{\n" + ",\n".join(lines) + "\n}\n"
 
 
-def save_controller(path: Path | str, data: dict[str, Any]) -> None:
-    """Validate and write atomically."""
-    check_controller(data, str(path))
-    write_text_atomic(path, dumps(data))
+def _frozen(value: Any) -> Any:
+    """JSON values made immutable: objects as read-only mappings, arrays as tuples."""
+    if isinstance(value, dict):
+        return MappingProxyType({k: _frozen(v) for k, v in value.items()})
+    if isinstance(value, (list, tuple)):
+        return tuple(_frozen(v) for v in value)
+    return value
 
 
-def load_controller(path: Path | str, robot: RobotSpec | None = None) -> dict[str, Any]:
-    """Read and validate a controller; with ``robot``, refuse one made for another robot or
-    driving other joints.  Raises :class:`ConfigError` (one line) for any problem."""
-    source = str(path)
-    return check_controller(decode(read_bounded(path, source), source), source, robot)
+def _thawed(value: Any) -> Any:
+    """:func:`_frozen` undone: plain JSON values again."""
+    if isinstance(value, Mapping):
+        return {k: _thawed(v) for k, v in value.items()}
+    if isinstance(value, tuple):
+        return [_thawed(v) for v in value]
+    return value
+
+
+@dataclass(frozen=True)
+class Symmetry:
+    """The ``symmetry`` block: which joints each network drives (seed 000 section 7.3)."""
+
+    right: tuple[str, ...]  # the right network's leg joints, slot by slot
+    left: tuple[str, ...]  # the left network's, the same slots
+    center: tuple[str, ...]  # joints both drive; each gets the mean of their outputs
+    center_mirror_for_left: tuple[float, ...]  # -1 where the left network sees a centre joint mirrored
+    center_output: str | None = None  # how a centre joint's output is made, in words
+
+    @classmethod
+    def of(cls, robot: RobotSpec, layout: SymmetricLayout) -> "Symmetry":
+        names = robot.joint_names
+        right, left = (tuple(names[i] for i in layout.leg_index[side]) for side in ("right", "left"))
+        return cls(right, left, tuple(names[i] for i in layout.center_index), tuple(layout.center_mirror.tolist()),
+                   CENTER_OUTPUT)
+
+    def to_dict(self) -> dict[str, Any]:
+        block = {"networks": list(NETWORKS), "leg_joints": {"right": list(self.right), "left": list(self.left)},
+                 "center_joints": list(self.center), "center_mirror_for_left": list(self.center_mirror_for_left)}
+        if self.center_output is not None:
+            block["center_output"] = self.center_output
+        return block
+
+
+@dataclass(frozen=True)
+class JointMap:
+    """The ``joints`` block: the driven joints, every joint's range [rad], the angles the
+    others hold [rad], and the output rule in words."""
+
+    driven: tuple[str, ...]
+    range_rad: Mapping[str, tuple[float, float]]
+    hold_rad: Mapping[str, float] | None = None
+    output_rule: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        block: dict[str, Any] = {"driven": list(self.driven), "range_rad": _thawed(self.range_rad)}
+        if self.hold_rad is not None:
+            block["hold_rad"] = dict(self.hold_rad)
+        if self.output_rule is not None:
+            block["output_rule"] = self.output_rule
+        return block
+
+
+@dataclass(frozen=True)
+class Controller:
+    """A controller, checked whole (:func:`check_controller` on construction): numbers as
+    the file holds them, so that saving an unchanged controller writes the same bytes.
+    Node ids: inputs, the two bias nodes, outputs, then hidden nodes."""
+
+    robot_name: str
+    joint_map_hash: str  # of the robot it was made for (:func:`joint_map_hash`)
+    tick_s: float  # control tick [s]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    bias: tuple[tuple[float, ...], ...]  # bias node values of the right and the left network
+    symmetry: Symmetry
+    sigmoid_steepness: float
+    modules: tuple[str, ...]  # control modules, lowest first (seed 002), all enabled
+    hidden: tuple[tuple[int, int], ...]  # (node id, module index)
+    connections: tuple[tuple[int, int, float, int], ...]  # (source id, target id, weight, module index)
+    joints: JointMap
+    task: Mapping[str, Any]  # the task it was evolved for (free-form)
+    provenance: Mapping[str, Any]  # seed, generation, fitness, ... (free-form)
+
+    format: ClassVar[str] = FORMAT
+    version: ClassVar[int] = VERSION
+
+    def __post_init__(self) -> None:
+        check_controller(self.to_dict(), "<controller>")
+
+    # -- JSON values ---------------------------------------------------------------------------
+    @classmethod
+    def from_dict(cls, data: Any, source: str = "<controller>", robot: RobotSpec | None = None) -> "Controller":
+        """A controller from decoded JSON, checked (with ``robot``: against it too);
+        :class:`ConfigError` naming ``source`` and the field otherwise."""
+        check_controller(data, source, robot)
+        sym, joints = data["symmetry"], data["joints"]
+        return cls(
+            robot_name=data["robot"]["name"], joint_map_hash=data["robot"]["joint_map_hash"],
+            tick_s=data["tick_s"], inputs=tuple(data["inputs"]), outputs=tuple(data["outputs"]),
+            bias=_frozen(data["bias"]),
+            symmetry=Symmetry(tuple(sym["leg_joints"]["right"]), tuple(sym["leg_joints"]["left"]),
+                              tuple(sym["center_joints"]), tuple(sym["center_mirror_for_left"]),
+                              sym.get("center_output")),
+            sigmoid_steepness=data["sigmoid_steepness"], modules=tuple(m["name"] for m in data["modules"]),
+            hidden=_frozen(data["hidden"]), connections=_frozen(data["connections"]),
+            joints=JointMap(tuple(joints["driven"]), _frozen(joints["range_rad"]),
+                            MappingProxyType(dict(joints["hold_rad"])) if "hold_rad" in joints else None,
+                            joints.get("output_rule")),
+            task=_frozen(data["task"]), provenance=_frozen(data["provenance"]),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON values of the file, keys in the format's order."""
+        return {
+            "format": self.format, "version": self.version,
+            "robot": {"name": self.robot_name, "joint_map_hash": self.joint_map_hash},
+            "tick_s": self.tick_s, "inputs": list(self.inputs), "outputs": list(self.outputs),
+            "bias": _thawed(self.bias), "symmetry": self.symmetry.to_dict(),
+            "sigmoid_steepness": self.sigmoid_steepness,
+            "modules": [{"name": m, "enabled": True} for m in self.modules],
+            "hidden": _thawed(self.hidden), "connections": _thawed(self.connections),
+            "joints": self.joints.to_dict(), "task": _thawed(self.task), "provenance": _thawed(self.provenance),
+        }
+
+    @classmethod
+    def for_robot(cls, robot: RobotSpec, layout: SymmetricLayout, *, sigmoid_steepness: float,
+                  modules: tuple[str, ...], hidden: list[tuple[int, int]],
+                  connections: list[tuple[int, int, float, int]], task: Mapping[str, Any],
+                  provenance: Mapping[str, Any]) -> "Controller":
+        """An evolved network (``hidden`` and ``connections`` in node ids) wired for
+        ``robot``'s joints by ``layout``: its tick, bias values, symmetry block, joint ranges
+        and hold pose are the robot's and the conventions' own."""
+        hold = hold_pose(robot, layout.driven)
+        return cls(
+            robot_name=robot.name, joint_map_hash=joint_map_hash(robot), tick_s=control_timing(robot).tick_s,
+            inputs=layout.input_names, outputs=layout.output_names, bias=BIAS, symmetry=Symmetry.of(robot, layout),
+            sigmoid_steepness=sigmoid_steepness, modules=tuple(modules), hidden=_frozen(hidden),
+            connections=_frozen(connections),
+            joints=JointMap(layout.driven, _frozen({j.name: j.range_rad for j in robot.joints}),
+                            MappingProxyType({j.name: float(hold[i]) for i, j in enumerate(robot.joints)
+                                              if j.name not in layout.driven}), OUTPUT_RULE),
+            task=_frozen(dict(task)), provenance=_frozen(dict(provenance)),
+        )
+
+    # -- files ---------------------------------------------------------------------------------
+    @classmethod
+    def load(cls, path: Path | str, robot: RobotSpec | None = None) -> "Controller":
+        """Read and check a controller file; with ``robot``, refuse one made for another robot
+        or driving other joints.  Raises :class:`ConfigError` (one line) for any problem."""
+        source = str(path)
+        return cls.from_dict(decode(read_bounded(path, source), source), source, robot)
+
+    @classmethod
+    def load_for_robot(cls, path: Path | str, robot: str | None = None) -> tuple["Controller", RobotSpec]:
+        """The controller and its robot - ``robot`` if named, else the one the file names -
+        checked against each other."""
+        spec = load_robot(robot or cls.load(path).robot_name)
+        return cls.load(path, spec), spec
+
+    def save(self, path: Path | str) -> None:
+        """Write atomically, one top-level key a line (:func:`dumps`)."""
+        write_text_atomic(path, dumps(self.to_dict()))
+
+    # -- wiring ----------------------------------------------------------------------------------
+    def layout(self, robot: RobotSpec) -> SymmetricLayout:
+        """The wiring of the symmetry block on ``robot``, checked to be the one the robot
+        gives for the driven joints (:func:`~sim2real.controller.symmetry.symmetric_layout`)."""
+        s = self.symmetry
+        source = f"controller for {self.robot_name}"
+        try:
+            wired = wired_layout(robot, s.right, s.left, s.center, s.center_mirror_for_left)
+            rule = symmetric_layout(robot, self.joints.driven)
+        except ValueError as exc:
+            raise ConfigError(source, "symmetry", str(exc)) from None
+        if wired != rule or (rule.input_names, rule.output_names) != (self.inputs, self.outputs):
+            raise ConfigError(source, "symmetry", f"the wiring differs from robot {robot.name}'s for the driven "
+                              f"joints {list(rule.driven)} (inputs {list(rule.input_names)}, outputs "
+                              f"{list(rule.output_names)})")
+        return wired
 
 
 # -- bytes to JSON ------------------------------------------------------------------------------
@@ -432,7 +621,7 @@ def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str],
             raise c.error(f"outputs[{i}]", f"{_show(name)}: the first {k} outputs are the own leg's (own_...)")
     why = f"the symmetry block ({k} leg joints, centre joints {_show(center)})"
     c.same_names("outputs", outputs, own + center, why)
-    c.same_names("inputs", inputs, own + ["other_" + n[4:] for n in own] + center + SENSOR_INPUTS,
+    c.same_names("inputs", inputs, own + ["other_" + n[4:] for n in own] + center + list(SENSOR_INPUTS),
                  why[:-1] + ", then 4 sensors)")
 
 

@@ -10,9 +10,16 @@ All functions take numpy arrays and broadcast; angles in [rad].
 
 from __future__ import annotations
 
+from collections.abc import Collection
+
 import numpy as np
 
+from sim2real.robot import RobotSpec
+from sim2real.robot.servo_model import max_step_per_tick
+
 OUTPUT_MARGIN = 0.1  # output range clamped at each end
+OUTPUT_RULE = (f"central {1.0 - 2.0 * OUTPUT_MARGIN:g} of the range: {OUTPUT_MARGIN:g} -> low, "
+               f"{1.0 - OUTPUT_MARGIN:g} -> high")  # as a controller file states it
 
 
 def output_to_angle(output: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
@@ -29,6 +36,18 @@ def angle_to_output(angle: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.
 def rate_limit(goal: np.ndarray, previous: np.ndarray, max_step: np.ndarray) -> np.ndarray:
     """Move from ``previous`` toward ``goal`` by at most ``max_step`` [rad]."""
     return previous + np.clip(goal - previous, -max_step, max_step)
+
+
+def max_steps(robot: RobotSpec, tick_s: float) -> np.ndarray:
+    """(n_joints,) how far each joint's goal may move in one tick [rad]: its servo's
+    :func:`~sim2real.robot.servo_model.max_step_per_tick` (no limit without a servo)."""
+    return np.array([max_step_per_tick(j.servo.profile, tick_s) if j.servo else np.inf for j in robot.joints])
+
+
+def hold_pose(robot: RobotSpec, driven: Collection[str]) -> np.ndarray:
+    """(n_joints,) the goals before the first tick [rad]: driven joints start at home, the
+    others hold the centre of their range throughout (seed 000 section 7.2)."""
+    return np.array([j.home_rad if j.name in driven else j.center_rad for j in robot.joints])
 
 
 def quantize(angle: np.ndarray, resolution: np.ndarray) -> np.ndarray:
@@ -52,7 +71,7 @@ class ServoMapping:
     a goal outside the limits.
     """
 
-    def __init__(self, robot) -> None:
+    def __init__(self, robot: RobotSpec) -> None:
         joints = [j for j in robot.joints if j.servo is not None]
         if len(joints) != len(robot.joints):
             raise ValueError(f"robot {robot.name} has joints without servos")

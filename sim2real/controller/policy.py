@@ -1,51 +1,49 @@
-"""A controller file as a policy: robot readings in, joint goals out (no MuJoCo).
+"""A controller as a policy: robot readings in, joint goals out (no MuJoCo).
 
-The same wiring as in evolution (:mod:`sim2real.controller.symmetry`, :mod:`sim2real.controller.mapping`, which
-the tests use as the oracle of this faster, fused form):
-present joint angles, foot switches and the torso's up-vector become both networks'
-inputs; their outputs become joint goals by the central-0.8 rule, rate-limited to the
-servos' no-load speed per tick; joints the controller does not drive hold the centre of
-their range.
+Evolution's wiring, tick for tick: present joint angles, foot switches and the torso's
+up-vector become both networks' inputs (:mod:`sim2real.controller.symmetry`); their
+outputs become joint goals by the central-0.8 rule, rate-limited to the servos' no-load
+speed per tick (:mod:`sim2real.controller.mapping`); joints the controller does not drive
+hold the centre of their range.  Only the wiring is fused, into gathers derived from
+:func:`~sim2real.controller.symmetry.network_inputs` and
+:func:`~sim2real.controller.symmetry.joint_outputs` (their test oracles); every number is
+computed as in evolution, bit for bit.
 """
 
 from __future__ import annotations
 
-from typing import Any, Iterable
+from typing import Iterable
 
 import numpy as np
 
 from sim2real.controller.activation import ControllerNetworks
-from sim2real.controller.mapping import OUTPUT_MARGIN
-from sim2real.controller.symmetry import network_inputs, symmetric_layout
+from sim2real.controller.file import Controller
+from sim2real.controller.mapping import (
+    hold_pose,
+    max_steps,
+    normalized_angle,
+    output_to_angle,
+    rate_limit,
+)
+from sim2real.controller.symmetry import foot_inputs, joint_outputs, network_inputs
 from sim2real.robot import RobotSpec
 
 
 class Policy:
-    def __init__(self, controller: dict[str, Any], robot: RobotSpec, disabled_modules: Iterable[str] = ()):
+    def __init__(self, controller: Controller, robot: RobotSpec, disabled_modules: Iterable[str] = ()):
         self.robot = robot
-        self.layout = symmetric_layout(robot, tuple(controller["joints"]["driven"]))
-        if list(self.layout.input_names) != controller["inputs"]:
-            raise ValueError(f"controller inputs {controller['inputs']} do not match robot {robot.name}'s "
-                             f"{list(self.layout.input_names)}")
+        self.layout = controller.layout(robot)
         self.networks = ControllerNetworks(controller, disabled_modules)
-        names = list(robot.joint_names)
-        self.driven = np.array([names.index(n) for n in self.layout.driven], dtype=np.intp)
+        self.driven = np.array([robot.joint_names.index(n) for n in self.layout.driven], dtype=np.intp)
         self.low = np.array([j.range_rad[0] for j in robot.joints])
         self.high = np.array([j.range_rad[1] for j in robot.joints])
-        self.tick_s = float(controller["tick_s"])
-        self.max_step = np.array([j.servo.profile.motor.no_load_speed_rad_s * self.tick_s if j.servo else np.inf
-                                  for j in robot.joints])
-        self.hold = np.array([j.home_rad if j.name in self.layout.driven else j.center_rad for j in robot.joints])
+        self.tick_s = float(controller.tick_s)
+        self.max_step = max_steps(robot, self.tick_s)
+        self.hold = hold_pose(robot, self.layout.driven)
         self._gather, self._sign = self._input_gather()
-        self._right_out = self.layout.leg_index["right"]
-        self._left_out = self.layout.leg_index["left"]
-        self._center_out = self.layout.center_index
-        self._k = self.layout.n_leg
-        # the central-0.8 rule as one affine map, clipped to the range afterwards
+        self._first, self._second = self._output_gather()
         d = self.driven
-        self._scale = (self.high[d] - self.low[d]) / (1.0 - 2.0 * OUTPUT_MARGIN)
-        self._offset = self.low[d] - OUTPUT_MARGIN * self._scale
-        self._span = 2.0 / (self.high - self.low)
+        self._d_low, self._d_high, self._d_step = self.low[d], self.high[d], self.max_step[d]
 
     def _input_gather(self) -> tuple[np.ndarray, np.ndarray]:
         """Both networks' inputs as one gather from [angles, feet, up] and a sign: the same
@@ -56,6 +54,17 @@ class Policy:
         index = np.abs(rows).astype(np.intp) - 1
         sign = np.sign(rows)
         return index, sign
+
+    def _output_gather(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each driven joint's output as the mean of two entries of the networks' flat outputs
+        (one entry twice for a leg joint, one of each network for a centre joint): the same
+        numbers as :func:`joint_outputs` (its test oracle), whose mean of two is the same exact
+        halving."""
+        entries = self.networks.n_networks * self.layout.n_outputs
+        weight = np.array([joint_outputs(self.layout, one_hot.reshape(self.networks.n_networks, -1),
+                                         len(self.low))[0, self.driven] for one_hot in np.eye(entries)])
+        return weight.argmax(axis=0), entries - 1 - weight[::-1].argmax(axis=0)  # first and last entry read
+
     def reset(self) -> np.ndarray:
         """Zero the networks' state; returns the start pose (home for driven joints) [rad]."""
         self.networks.reset()
@@ -65,15 +74,9 @@ class Policy:
              previous_goal: np.ndarray) -> np.ndarray:
         """One tick: joint angles [rad] (robot order), feet (left, right: touching), up-vector
         (torso frame) and the last goals -> the next goals [rad] for every joint."""
-        readings = np.concatenate([(angles - self.low) * self._span - 1.0,
-                                   np.where(feet_touching, -1.0, 1.0), up])
-        out = self.networks.activate(readings[self._gather] * self._sign)
-        joint_out = np.empty(len(self.low))
-        joint_out[self._right_out] = out[0, :self._k]
-        joint_out[self._left_out] = out[1, :self._k]
-        joint_out[self._center_out] = 0.5 * (out[0, self._k:] + out[1, self._k:])
-        d = self.driven
-        wanted = np.clip(joint_out[d] * self._scale + self._offset, self.low[d], self.high[d])
+        readings = np.concatenate([normalized_angle(angles, self.low, self.high), foot_inputs(feet_touching), up])
+        out = self.networks.activate(readings[self._gather] * self._sign).reshape(-1)
+        wanted = output_to_angle(0.5 * (out[self._first] + out[self._second]), self._d_low, self._d_high)
         goal = previous_goal.copy()
-        goal[d] = previous_goal[d] + np.clip(wanted - previous_goal[d], -self.max_step[d], self.max_step[d])
+        goal[self.driven] = rate_limit(wanted, previous_goal[self.driven], self._d_step)
         return goal

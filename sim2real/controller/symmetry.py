@@ -11,7 +11,7 @@ Each network reads its side's view of the robot and drives its side's joints:
   the walk preset of a biped with a waist, that is seed 000's eleven inputs.  The paper
   names its tilt inputs X and Z: the horizontal components of the up-vector in its y-up
   world, which are forward and sideways here.
-* two bias nodes: +1, and +1 on the right, -1 on the left.
+* two bias nodes (:data:`BIAS`): +1, and +1 on the right, -1 on the left.
 * outputs: its own leg's driven joints, then the centre joints; a centre joint gets the
   mean of the two networks' outputs (activations, as the paper says).
 
@@ -29,7 +29,12 @@ from sim2real.robot import RobotSpec
 SIDES = ("right", "left")
 
 
-@dataclass(frozen=True)
+BIAS = ((1.0, 1.0), (1.0, -1.0))  # the bias nodes of the (right, left) network: +1, and the side
+CENTER_OUTPUT = "mean of both networks"  # what a centre joint gets
+SENSOR_INPUTS = ("own_foot", "other_foot", "up_forward", "up_sideways")  # after the joint angles
+
+
+@dataclass(frozen=True, eq=False)
 class SymmetricLayout:
     driven: tuple[str, ...]  # driven joints, robot order
     leg_slots: tuple[tuple[str, str], ...]  # (location, axis) of each driven leg joint kind
@@ -39,7 +44,7 @@ class SymmetricLayout:
     input_names: tuple[str, ...]
     output_names: tuple[str, ...]
 
-    n_bias = 2  # +1, and +1 right / -1 left
+    n_bias = len(BIAS[0])
 
     @property
     def n_inputs(self) -> int:
@@ -53,8 +58,19 @@ class SymmetricLayout:
     def n_leg(self) -> int:
         return len(self.leg_slots)
 
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, SymmetricLayout):
+            return NotImplemented
+        return (self.driven == other.driven and self.leg_slots == other.leg_slots
+                and self.input_names == other.input_names and self.output_names == other.output_names
+                and all(np.array_equal(self.leg_index[s], other.leg_index[s]) for s in SIDES)
+                and np.array_equal(self.center_index, other.center_index)
+                and np.array_equal(self.center_mirror, other.center_mirror))
+
 
 def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...]) -> SymmetricLayout:
+    """The wiring the rule gives for ``driven`` joints: leg slots in robot order, both sides
+    of each; centre joints in robot order, yaw and roll mirrored for the left network."""
     joints = {j.name: j for j in robot.joints}
     unknown = [n for n in driven if n not in joints]
     if unknown:
@@ -66,7 +82,7 @@ def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...]) -> SymmetricLayo
         if j.side != "center" and (j.location, j.axis) not in slots:
             slots.append((j.location, j.axis))
     by_slot = {(j.side, j.location, j.axis): j.name for j in robot.joints}
-    leg_index = {}
+    legs = {}
     for side in SIDES:
         names = []
         for location, axis in slots:
@@ -74,22 +90,39 @@ def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...]) -> SymmetricLayo
             if name not in driven:
                 raise ValueError(f"driven joints must be symmetric: {name} is missing")
             names.append(name)
-        leg_index[side] = np.array([order[n] for n in names], dtype=np.intp)
-    centers = [n for n in sorted(driven, key=order.get) if joints[n].side == "center"]
-    mirror = np.array([-1.0 if joints[n].axis in ("yaw", "roll") else 1.0 for n in centers])
+        legs[side] = tuple(names)
+    centers = tuple(n for n in sorted(driven, key=order.get) if joints[n].side == "center")
+    mirror = tuple(-1.0 if joints[n].axis in ("yaw", "roll") else 1.0 for n in centers)
+    return wired_layout(robot, legs["right"], legs["left"], centers, mirror)
+
+
+def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...], center: tuple[str, ...],
+                 center_mirror: tuple[float, ...]) -> SymmetricLayout:
+    """The layout of given wiring - a controller file's symmetry block: each side's leg
+    joints slot by slot, the centre joints and their mirror signs for the left network."""
+    order = {j.name: i for i, j in enumerate(robot.joints)}
+    unknown = [n for n in (*right, *left, *center) if n not in order]
+    if unknown:
+        raise ValueError(f"joints not on robot {robot.name}: {unknown}")
+    slots = tuple((robot.joints[order[n]].location, robot.joints[order[n]].axis) for n in right)
     slot_names = [f"{loc}_{axis}" if loc != "knee" else "knee" for loc, axis in slots]
-    inputs = ([f"own_{s}" for s in slot_names] + [f"other_{s}" for s in slot_names] + centers
-              + ["own_foot", "other_foot", "up_forward", "up_sideways"])
-    outputs = [f"own_{s}" for s in slot_names] + centers
+    inputs = [f"own_{s}" for s in slot_names] + [f"other_{s}" for s in slot_names] + list(center) + list(SENSOR_INPUTS)
+    outputs = [f"own_{s}" for s in slot_names] + list(center)
     return SymmetricLayout(
-        driven=tuple(sorted(driven, key=order.get)),
-        leg_slots=tuple(slots),
-        leg_index=leg_index,
-        center_index=np.array([order[n] for n in centers], dtype=np.intp),
-        center_mirror=mirror,
+        driven=tuple(sorted((*right, *left, *center), key=order.get)),
+        leg_slots=slots,
+        leg_index={side: np.array([order[n] for n in names], dtype=np.intp)
+                   for side, names in (("right", right), ("left", left))},
+        center_index=np.array([order[n] for n in center], dtype=np.intp),
+        center_mirror=np.array(center_mirror, dtype=float),
         input_names=tuple(inputs),
         output_names=tuple(outputs),
     )
+
+
+def foot_inputs(touching: np.ndarray) -> np.ndarray:
+    """Foot contacts as network inputs: -1 touching, +1 not (seed 000 section 7.1)."""
+    return np.where(touching, -1.0, 1.0)
 
 
 def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray,
@@ -127,10 +160,8 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
 
 
 def bias_values(n_genomes: int) -> np.ndarray:
-    """(2 n, 2): the constant +1 and the side bias, +1 right and -1 left."""
-    bias = np.ones((n_genomes, 2, 2))
-    bias[:, 1, 1] = -1.0
-    return bias.reshape(2 * n_genomes, 2)
+    """(2 n, 2): :data:`BIAS` for each genome's right and left network."""
+    return np.tile(np.array(BIAS), (n_genomes, 1))
 
 
 def joint_outputs(layout: SymmetricLayout, outputs: np.ndarray, n_joints: int) -> np.ndarray:

@@ -32,6 +32,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from sim2real.controller.file import Controller
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, UsageError
@@ -252,7 +253,7 @@ class StopSignals:
         raise KeyboardInterrupt if signum == signal.SIGINT else Shutdown()
 
 
-def drive(bus: Bus, robot: RobotSpec, controller: dict[str, Any], duration_s: float | None = None,
+def drive(bus: Bus, robot: RobotSpec, controller: Controller, duration_s: float | None = None,
           trace_path: Path | str | None = None, disabled_modules: tuple[str, ...] = (),
           log: Callable[[str], None] = print, clock: Callable[[], float] = time.monotonic,
           sleep: Callable[[float], None] = time.sleep, ramp_s: float = RAMP_S,
@@ -260,9 +261,9 @@ def drive(bus: Bus, robot: RobotSpec, controller: dict[str, Any], duration_s: fl
     """Start up, ramp, run the loop, and always end with torque off, read back; returns what
     happened (``report.torque_off`` lists servos confirmed off and those that are not).
     ``realtime``: ask the OS for real-time treatment first (None: do not ask)."""
-    if duration_s is not None and not (math.isfinite(duration_s) and round(duration_s / controller["tick_s"]) >= 1):
+    if duration_s is not None and not (math.isfinite(duration_s) and round(duration_s / controller.tick_s) >= 1):
         raise UsageError(f"duration {duration_s!r} s: not a finite time of at least one control tick "
-                         f"({controller['tick_s']} s)")  # before any servo moves
+                         f"({controller.tick_s} s)")  # before any servo moves
     report = RunReport()
     chain = ServoChain(bus, robot)
     mapping = ServoMapping(robot)
@@ -280,8 +281,8 @@ def drive(bus: Bus, robot: RobotSpec, controller: dict[str, Any], duration_s: fl
             start_up(chain, mapping, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S, warn=log)
             if trace_path is not None:
                 trace = TraceWriter(trace_path, robot.joint_names, {
-                    "robot": robot.name, "controller_hash": controller["robot"]["joint_map_hash"],
-                    "controller_provenance": controller.get("provenance", {}), "tick_s": policy.tick_s,
+                    "robot": robot.name, "controller_hash": controller.joint_map_hash,
+                    "controller_provenance": controller.to_dict()["provenance"], "tick_s": policy.tick_s,
                     "software": "servo-biped-evolve"})
             present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION, None, PATIENT_ATTEMPTS, PATIENCE_S))
             chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)

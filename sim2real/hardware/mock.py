@@ -27,6 +27,7 @@ from sim2real.hardware.dynamixel.errors import (
     status_error,
 )
 from sim2real.hardware.dynamixel.registers import Reg
+from sim2real.hardware.dynamixel.chain import decode
 from sim2real.robot import RobotSpec
 from sim2real.robot.profiles import DeviceProfile
 
@@ -94,14 +95,12 @@ class MockDevice:
         if reg.area == "EEPROM" and torque_on and self.profile.protocol == 2.0:
             return ACCESS_ERROR | self.alert()  # X series: EEPROM is locked while torque is on
         if reg.range is not None:
-            signed = value - (1 << (8 * size)) if reg.signed and value >= 1 << (8 * size - 1) else value
-            if not reg.range[0] <= signed <= reg.range[1]:
+            if not reg.range[0] <= decode(reg, value) <= reg.range[1]:
                 return DATA_RANGE_ERROR | self.alert()
         if reg.name == Reg.TORQUE_ENABLE and value and self.alert():
             return self.alert()  # refused until REBOOT, and the alert bit says why
         if reg.name == Reg.GOAL_POSITION and Reg.MIN_POSITION_LIMIT in self.profile.control_table:
-            signed = value - (1 << 32) if value >= 1 << 31 else value
-            if not self.get_named(Reg.MIN_POSITION_LIMIT) <= signed <= self.get_named(Reg.MAX_POSITION_LIMIT):
+            if not self.get_named(Reg.MIN_POSITION_LIMIT) <= decode(reg, value) <= self.get_named(Reg.MAX_POSITION_LIMIT):
                 return DATA_LIMIT_ERROR | self.alert()  # outside the position limits: not applied
         self.set(address, size, value)
         if reg.name == Reg.TORQUE_ENABLE and value:
@@ -131,9 +130,7 @@ class MockDevice:
         if not self.profile.is_servo or not self.get_named(Reg.TORQUE_ENABLE):
             return
         goal_reg = self.profile.register(Reg.GOAL_POSITION)
-        goal = self.get(goal_reg.address, goal_reg.size)
-        if goal_reg.signed and goal >= 1 << (8 * goal_reg.size - 1):
-            goal -= 1 << (8 * goal_reg.size)
+        goal = decode(goal_reg, self.get(goal_reg.address, goal_reg.size))
         speed = self.profile.motor.no_load_speed_rad_s / self.profile.position.rad_per_tick  # [tick/s]
         step = max(-speed * dt, min(speed * dt, goal - self.position))
         self.position += step

@@ -15,6 +15,7 @@ from sim2real.robot.paths import robots_dir
 from sim2real.robot.profiles import DeviceProfile, load_profile
 from sim2real.robot.spec import (
     AXES,
+    DEFAULT_CONTACT_SHARE,
     DEFAULT_ROBOT,
     LOCATIONS,
     SIDES,
@@ -231,11 +232,12 @@ def _read_servo(node: Node, default_model: str | None, range_deg: tuple[float, f
 
 
 def _read_sensor_board(node: Node) -> SensorBoard:
-    node.mapping(required=("profile", "id"))
+    node.mapping(required=("profile", "id"), optional=("contact_share",))
     profile = _profile(node["profile"])
     if profile.kind != "sensor_board":
         raise node.error(f"{profile.model} is not a sensor board", key="profile")
-    return SensorBoard(id=node["id"].integer(0, 252), profile=profile)
+    share = node["contact_share"].number(positive=True, hi=1.0) if node.has("contact_share") else DEFAULT_CONTACT_SHARE
+    return SensorBoard(id=node["id"].integer(0, 252), profile=profile, contact_share=share)
 
 
 def _read_bus(node: Node) -> BusSettings:

@@ -106,7 +106,7 @@ class DeviceProfile:
     position: PositionSpec | None = None
     motor: MotorSpec | None = None
     gains: GainSpec | None = None
-    units: dict[str, float] = field(default_factory=dict)  # velocity_unit_rpm, ...
+    units: dict[str, float] = field(default_factory=dict)  # velocity_unit_rpm, ...; a board's up_vector_unit
     variants: tuple[str, ...] = ()
     sensors: dict[str, Any] = field(default_factory=dict)
     baud_rates: tuple[int, ...] = ()  # [bit/s] the rates it can be set to (empty: not listed)
@@ -147,6 +147,18 @@ def _read_register(node: Node) -> Register:
         encoding=node["encoding"].string() if node.has("encoding") else None,
         range=_register_range(node["range"]) if node.has("range") else None,
     )
+
+
+def _lsb(node: Node) -> float:
+    """The physical size of one LSB: a number, or a fraction written ``1/N`` (``1/16384``: Q14)."""
+    value = node.value
+    if isinstance(value, str) and value.count("/") == 1:
+        num, den = (part.strip() for part in value.split("/"))
+        if num.isdigit() and den.isdigit() and int(num) > 0 and int(den) > 0:
+            return int(num) / int(den)
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and 0 < value < math.inf:
+        return float(value)
+    raise node.error(f"must be a positive number or a fraction like 1/16384, got {value!r}")
 
 
 def _register_range(node: Node) -> tuple[int, int]:
@@ -194,7 +206,15 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
         baud_rates=tuple(sorted({b.integer(lo=1) for b in root.get("baud_rates", []).list()})),
     )
     if kind == "sensor_board":
-        return DeviceProfile(**profile, sensors=dict(root["sensors"].free_mapping()))
+        sensors = root["sensors"]
+        up_unit = _lsb(sensors["up_vector_unit"]) if sensors.has("up_vector_unit") else None
+        for axis in "xyz":
+            reg = table.get(f"up_vector_{axis}")
+            if reg is not None and (up_unit is None or reg.unit is None or _lsb(Node(reg.unit, str(path))) != up_unit):
+                raise sensors.error(f"up_vector_unit ({sensors.get('up_vector_unit').value}) must be given and be "
+                                    f"up_vector_{axis}'s unit ({reg.unit})", key="up_vector_unit")
+        units = {"up_vector_unit": up_unit} if up_unit is not None else {}
+        return DeviceProfile(**profile, sensors=dict(sensors.free_mapping()), units=units)
 
     pos = root["position"].mapping(
         required=("resolution", "min_tick", "max_tick", "center_tick", "range_deg")

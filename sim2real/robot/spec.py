@@ -28,6 +28,11 @@ SIDES = ("left", "right", "center")
 LOCATIONS = ("waist", "hip", "knee", "ankle")
 AXES = ("yaw", "roll", "pitch")
 DEFAULT_ROBOT = "xl430_biped"
+GRAVITY = 9.81  # [m/s^2], as in the MuJoCo model (its default)
+# A foot switch closes when its sole carries this share of the body weight: the sensor
+# board's threshold (``sensor_board.contact_share`` in a robot config), which evolution,
+# the simulated bus and compare all read; robots without a board (simulation-only) use it too.
+DEFAULT_CONTACT_SHARE = 0.05
 
 
 @dataclass(frozen=True)
@@ -112,6 +117,7 @@ class PDGains:
 class SensorBoard:
     id: int
     profile: DeviceProfile
+    contact_share: float = DEFAULT_CONTACT_SHARE  # a foot switch closes at this share of the body weight
 
 
 @dataclass(frozen=True)
@@ -147,6 +153,17 @@ class RobotSpec:
     @property
     def is_servo_robot(self) -> bool:
         return self.pd is None
+
+    @property
+    def contact_share(self) -> float:
+        """Share of the body weight on a sole at which its foot switch closes."""
+        return self.sensor_board.contact_share if self.sensor_board else DEFAULT_CONTACT_SHARE
+
+    @property
+    def foot_contact_n(self) -> float:
+        """Sole force at which a foot switch closes [N]: what evolution, the simulated bus
+        and compare all compare a foot's touch sensor with."""
+        return self.contact_share * self.body.mass * GRAVITY
 
     @property
     def devices(self) -> dict[int, str]:

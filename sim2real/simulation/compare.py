@@ -16,7 +16,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from sim2real.controller.file import load_controller
+from sim2real.controller.file import Controller
 from sim2real.controller.mapping import ServoMapping, quantize
 from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, ConfigError
@@ -25,7 +25,6 @@ from sim2real.robot import RobotSpec, load_robot
 from sim2real.simulation.model_builder import build_model
 
 MAX_LAG_S = 0.5
-CONTACT_SHARE = 0.05
 
 
 def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray,
@@ -41,13 +40,12 @@ def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray,
     touch = [model.sensor_adr[model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
     up_adr = model.sensor_adr[model.sensor("torso_up").id]
     resolution = ServoMapping(robot).rad_per_tick
-    weight = robot.body.mass * 9.81
     angles = np.zeros((len(times), len(names)))
     feet = np.zeros((len(times), 2), dtype=bool)
     goal = policy.reset() if policy is not None else None
     for k, t in enumerate(times):
         angles[k] = quantize(data.qpos[qadr], resolution)
-        feet[k] = [data.sensordata[a] > CONTACT_SHARE * weight for a in touch]
+        feet[k] = [data.sensordata[a] > robot.foot_contact_n for a in touch]
         if policy is not None:
             goal = policy.step(angles[k], feet[k], data.sensordata[up_adr:up_adr + 3], goal)
             data.ctrl[:] = goal
@@ -91,7 +89,7 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
     feet_real = trace.feet
     policy = None
     if controller_path is not None:
-        policy = Policy(load_controller(controller_path, robot), robot)
+        policy = Policy(Controller.load(controller_path, robot), robot)
     sim, feet_sim = _simulate(robot, times, trace.goals(names), policy)
     dt = float(np.median(np.diff(times))) if len(times) > 1 else 0.0
     joints = {}

@@ -16,12 +16,12 @@ import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
-from sim2real.controller.file import load_controller
+from sim2real.controller.file import Controller
 from sim2real.errors import BipedError, ConfigError
 from sim2real.hardware.deploy import drive
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.hardware.realtime import RealtimeRequest
-from sim2real.robot import RobotSpec, load_robot
+from sim2real.robot import RobotSpec
 from sim2real.robot.validation import Node, load_yaml
 
 FAULT_KINDS = ("silent", "overload", "drop", "corrupt")
@@ -165,10 +165,8 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
         load_reality,  # MuJoCo: only a dry run needs it, not `biped run`
     )
 
-    data = load_controller(controller_path)
-    robot_arg = robot_name or data["robot"]["name"]
-    robot = load_robot(robot_arg)
-    data = load_controller(controller_path, robot)
+    data, robot = Controller.load_for_robot(controller_path, robot_name)
+    robot_arg = robot_name or data.robot_name
     profile = load_reality(reality)  # every input checked before anything starts
     check_fault_times(parse_faults(faults, robot), duration_s)
     args = ["--robot", robot_arg, "--seed", str(seed), "--fault-delay", str(ramp_s),

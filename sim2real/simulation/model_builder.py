@@ -207,14 +207,6 @@ def home_ctrl(robot: RobotSpec, model: mujoco.MjModel) -> np.ndarray:
     return np.array([robot.joints[i].home_rad for i in range(model.nu)])
 
 
-def hold_ctrl(robot: RobotSpec, driven: set[str] | frozenset[str]) -> np.ndarray:
-    """Targets for joints a controller does not drive: the centre of their range [rad].
-
-    Driven joints get their home angle as a starting target.
-    """
-    return np.array([j.home_rad if j.name in driven else j.center_rad for j in robot.joints])
-
-
 def finished_spec(robot: RobotSpec, actuator_history_s: float = 0.0) -> mujoco.MjSpec:
     """:func:`build_spec` with PD gains scaled by joint inertia and the ``home`` keyframe.
 

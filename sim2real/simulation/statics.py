@@ -17,9 +17,10 @@ import mujoco
 import numpy as np
 
 from sim2real.robot import Joint, RobotSpec
+from sim2real.robot.spec import GRAVITY
 
 CROUCH_KNEE_DEG = 60.0
-GRAVITY = np.array([0.0, 0.0, -9.81])
+GRAVITY_VECTOR = np.array([0.0, 0.0, -GRAVITY])  # [m/s^2], world frame
 
 
 @dataclass(frozen=True)
@@ -86,7 +87,7 @@ def holding_torques(
         jid = model.joint(joint.name).id
         anchor, axis = data.xanchor[jid], data.xaxis[jid]
         torque = sum(
-            np.dot(np.cross(data.xipos[b] - anchor, model.body_mass[b] * GRAVITY), axis)
+            np.dot(np.cross(data.xipos[b] - anchor, model.body_mass[b] * GRAVITY_VECTOR), axis)
             for b in carried_bodies(model, joint)
         )
         if joint.servo is not None:

@@ -22,6 +22,7 @@ T = TypeVar("T")
 
 
 def decode(reg: Register, raw: int) -> int:
+    """A register's raw unsigned value as the number it holds (two's complement when signed)."""
     if reg.encoding == "sign_magnitude_bit10":
         return -(raw & 0x3FF) if raw & 0x400 else raw & 0x3FF
     if reg.signed and raw >= 1 << (8 * reg.size - 1):
@@ -135,5 +136,6 @@ class ServoChain:
 
         touching = profile.sensors.get("foot_switch", {}).get("touching", 1)
         feet = np.array([field(Reg.FOOT_SWITCH_LEFT) == touching, field(Reg.FOOT_SWITCH_RIGHT) == touching])
-        up = np.array([field("up_vector_x"), field("up_vector_y"), field("up_vector_z")], dtype=float) / 16384.0
+        up = np.array([field("up_vector_x"), field("up_vector_y"), field("up_vector_z")], dtype=float) \
+            * profile.units["up_vector_unit"]
         return feet, up

@@ -5,8 +5,8 @@ simulation catches up with the wall clock, each servo driven toward its Goal Pos
 (torque on) or limp (torque off).  Then the control tables get what the servos would
 report - Present Position quantized to the encoder, Present Velocity, Present Load (or
 Present Current on servos that sense it) - and
-the sensor board its foot switches (from the soles' contact forces) and the torso's
-up-vector (Q14).  A servo that holds its stall torque for ``overload_s`` latches an
+the sensor board its foot switches (closed above the robot's ``foot_contact_n``) and the
+torso's up-vector (in its profile's ``up_vector_unit``).  A servo that holds its stall torque for ``overload_s`` latches an
 overload: alert bit, Hardware Error Status, torque off until REBOOT.
 
 A reality profile (:mod:`sim2real.simulation.reality`) perturbs the robot behind the bus: masses,
@@ -28,6 +28,7 @@ import numpy as np
 from sim2real.controller.mapping import ServoMapping
 from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
 from sim2real.hardware.dynamixel.registers import Reg
+from sim2real.hardware.dynamixel.chain import decode
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing
@@ -42,7 +43,6 @@ from sim2real.simulation.reality import (
 )
 
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
-CONTACT_SHARE = 0.05  # a foot switch closes at this share of the body weight
 FALL_HEIGHT = 0.7  # as in evolution: pelvis below 70 % of its start height
 FALL_TILT_DEG = 60.0
 
@@ -73,7 +73,6 @@ class PhysicsChain:
         self.touch = [self.model.sensor_adr[self.model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
         self.up = self.model.sensor_adr[self.model.sensor("torso_up").id]
         self.board = robot.sensor_board.id if robot.sensor_board else None
-        self.weight = robot.body.mass * 9.81
         self.saturated = np.zeros(len(names))
         self.overload_at: dict[int, float] = {}  # fault injection: servo id -> simulated time
         self.lock = threading.Lock()
@@ -93,10 +92,7 @@ class PhysicsChain:
         for k, dxl_id in enumerate(self.ids):
             device = self.devices[dxl_id]
             reg = device.profile.register(Reg.GOAL_POSITION)
-            raw = device.get(reg.address, reg.size)
-            if reg.signed and raw >= 1 << (8 * reg.size - 1):
-                raw -= 1 << (8 * reg.size)
-            goal[k] = raw
+            goal[k] = decode(reg, device.get(reg.address, reg.size))
             on[k] = bool(device.get_named(Reg.TORQUE_ENABLE))
         return self.mapping.angles(goal), on
 
@@ -154,13 +150,13 @@ class PhysicsChain:
                 device.set_named(Reg.PRESENT_CURRENT, int(round(self.mapping.direction[k] * amps * 1000 / lsb_ma)))
         if self.board is not None:
             board = self.devices[self.board]
-            touching = [(self.data.sensordata[a] > CONTACT_SHARE * self.weight) != (self.rng.random() < p.foot_flip_p[0])
+            touching = [(self.data.sensordata[a] > self.robot.foot_contact_n) != (self.rng.random() < p.foot_flip_p[0])
                         for a in self.touch]
             board.set_named(Reg.FOOT_SWITCH_LEFT, int(touching[0]))
             board.set_named(Reg.FOOT_SWITCH_RIGHT, int(touching[1]))
             up = self.data.sensordata[self.up:self.up + 3] + self.rng.normal(0.0, 1.0, 3) * p.up_noise_sd[0]
             for axis, value in zip("xyz", up):
-                board.set_named(f"up_vector_{axis}", int(round(float(value) * 16384)))
+                board.set_named(f"up_vector_{axis}", int(round(float(value) / board.profile.units["up_vector_unit"])))
 
     # -- ground truth, for dry-run reports ---------------------------------------------------------
     def sole_x(self) -> np.ndarray:
