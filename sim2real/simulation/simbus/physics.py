@@ -26,9 +26,9 @@ import mujoco
 import numpy as np
 
 from sim2real.controller.mapping import ServoMapping
+from sim2real.hardware.dynamixel.chain import decode
 from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
 from sim2real.hardware.dynamixel.registers import Reg
-from sim2real.hardware.dynamixel.chain import decode
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing

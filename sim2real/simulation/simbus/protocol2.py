@@ -7,6 +7,8 @@ FF FF FD FD.  Source: ROBOTIS e-manual, "Protocol 2.0".
 
 from __future__ import annotations
 
+from sim2real.simulation.simbus.framing import SKIP, Packet, StreamParser
+
 HEADER = b"\xff\xff\xfd\x00"
 MAX_LENGTH = 1024  # longer than any packet a chain of 253 devices exchanges with us
 BROADCAST = 0xFE
@@ -70,37 +72,24 @@ def fast_status(replies: list[tuple[int, int, bytes]]) -> bytes:
     return bytes(out)
 
 
-class Parser:
+class Parser(StreamParser):
     """Splits a byte stream into packets: yields (id, instruction, params) of each intact one;
     packets with a bad CRC are counted in ``crc_errors`` and dropped."""
 
-    def __init__(self) -> None:
-        self.buffer = bytearray()
-        self.crc_errors = 0
-        self.bad_crc_ids: list[int] = []  # IDs of packets dropped for their CRC, for a status
+    header = HEADER
 
-    def feed(self, data: bytes) -> list[tuple[int, int, bytes]]:
-        self.buffer += data
-        out = []
-        while True:
-            start = self.buffer.find(HEADER)
-            if start < 0:
-                del self.buffer[:-3]  # keep a possible partial header
-                return out
-            del self.buffer[:start]
-            if len(self.buffer) < 7:
-                return out
-            length = self.buffer[5] | (self.buffer[6] << 8)
-            if not 3 <= length <= MAX_LENGTH:  # not a packet: resynchronize on the next header
-                del self.buffer[:1]
-                continue
-            if len(self.buffer) < 7 + length:
-                return out
-            raw = bytes(self.buffer[:7 + length])
-            del self.buffer[:7 + length]
-            if crc16(raw[:-2]) != (raw[-2] | (raw[-1] << 8)):
-                self.crc_errors += 1
-                self.bad_crc_ids.append(raw[4])
-                continue
-            body = unstuff(raw[7:-2])
-            out.append((raw[4], body[0], body[1:]))
+    def _take(self) -> Packet | object | None:
+        if len(self.buffer) < 7:
+            return None
+        length = self.buffer[5] | (self.buffer[6] << 8)
+        if not 3 <= length <= MAX_LENGTH:  # not a packet: resynchronize on the next header
+            del self.buffer[:1]
+            return SKIP
+        if len(self.buffer) < 7 + length:
+            return None
+        raw = bytes(self.buffer[:7 + length])
+        del self.buffer[:7 + length]
+        if crc16(raw[:-2]) != (raw[-2] | (raw[-1] << 8)):
+            return self._reject(raw[4])
+        body = unstuff(raw[7:-2])
+        return raw[4], body[0], body[1:]

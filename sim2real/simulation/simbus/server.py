@@ -20,7 +20,11 @@ import time
 import tty
 from typing import Callable
 
-from sim2real.hardware.dynamixel.errors import DATA_LENGTH_ERROR, ERROR_NUMBER_MASK, INSTRUCTION_ERROR
+from sim2real.hardware.dynamixel.errors import (
+    DATA_LENGTH_ERROR,
+    ERROR_NUMBER_MASK,
+    INSTRUCTION_ERROR,
+)
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockDevice
 from sim2real.simulation.simbus import protocol1 as p1
