@@ -93,13 +93,6 @@ def non_negative_finite_float(text: str) -> float:
     return value
 
 
-def rate_0_1(text: str) -> float:
-    value = _finite(text)
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"must be a rate within [0, 1], got {text!r}")
-    return value
-
-
 def baud_rate(text: str) -> int:
     """A Dynamixel baud rate [bit/s]: one that some profile in ``firmware_profiles/`` lists."""
     from sim2real.robot.profiles import supported_baud_rates
