@@ -136,6 +136,6 @@ class ServoChain:
 
         touching = profile.sensors.get("foot_switch", {}).get("touching", 1)
         feet = np.array([field(Reg.FOOT_SWITCH_LEFT) == touching, field(Reg.FOOT_SWITCH_RIGHT) == touching])
-        up = np.array([field("up_vector_x"), field("up_vector_y"), field("up_vector_z")], dtype=float) \
+        up = np.array([field(Reg.UP_VECTOR_X), field(Reg.UP_VECTOR_Y), field(Reg.UP_VECTOR_Z)], dtype=float) \
             * profile.units["up_vector_unit"]
         return feet, up

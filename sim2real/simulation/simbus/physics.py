@@ -155,8 +155,8 @@ class PhysicsChain:
             board.set_named(Reg.FOOT_SWITCH_LEFT, int(touching[0]))
             board.set_named(Reg.FOOT_SWITCH_RIGHT, int(touching[1]))
             up = self.data.sensordata[self.up:self.up + 3] + self.rng.normal(0.0, 1.0, 3) * p.up_noise_sd[0]
-            for axis, value in zip("xyz", up):
-                board.set_named(f"up_vector_{axis}", int(round(float(value) / board.profile.units["up_vector_unit"])))
+            for reg, value in zip((Reg.UP_VECTOR_X, Reg.UP_VECTOR_Y, Reg.UP_VECTOR_Z), up):
+                board.set_named(reg, int(round(float(value) / board.profile.units["up_vector_unit"])))
 
     # -- ground truth, for dry-run reports ---------------------------------------------------------
     def sole_x(self) -> np.ndarray:
