@@ -30,7 +30,6 @@ if TYPE_CHECKING:
     from sim2real.simulation.simbus.physics import PhysicsChain
     from sim2real.simulation.simbus.server import EmulatedChain
 
-SIMBUS_PRIORITY = DEFAULT_PRIORITY  # the servos answer as promptly as the runtime asks
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
