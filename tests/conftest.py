@@ -25,3 +25,25 @@ def all_robot_names() -> list[str]:
 @pytest.fixture
 def robots_dir() -> Path:
     return ROOT / "configs" / "robots"
+
+
+@pytest.fixture(scope="session")
+def grown_controller():
+    """A controller for the default robot with some grown structure (hidden nodes, recurrent
+    links): five NEAT generations on random fitness, seeded."""
+    import numpy as np
+
+    from evolve.locomotion.evaluator import neat_layout
+    from evolve.locomotion.export import controller_from_genome
+    from evolve.locomotion.task import TaskConfig
+    from evolve.neat import NeatConfig, Population
+    from sim2real.controller.symmetry import symmetric_layout
+    from sim2real.robot import load_robot
+
+    robot = load_robot()
+    layout = symmetric_layout(robot, robot.control_sets["walk"])
+    pop = Population(NeatConfig(population_size=10, target_species=2, add_node_prob=0.4), neat_layout(layout), seed=1)
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        pop.step(lambda gs: rng.random(len(gs)))
+    return controller_from_genome(pop.genomes[0], robot, layout, TaskConfig(), 1.0, {"seed": 1})

@@ -8,12 +8,7 @@ import numpy as np
 import pytest
 
 from benchmarks.loop import random_controller
-from evolve.locomotion.evaluator import neat_layout
-from evolve.locomotion.export import controller_from_genome
-from evolve.locomotion.task import TaskConfig
-from evolve.neat import NeatConfig, Population
 from sim2real.controller.mapping import ServoMapping
-from sim2real.controller.symmetry import symmetric_layout
 from sim2real.hardware import MockBus
 from sim2real.hardware.deploy import drive
 from sim2real.hardware.dynamixel.startup import StartupError
@@ -24,13 +19,8 @@ ROBOT = load_robot()
 
 
 @pytest.fixture(scope="module")
-def controller():
-    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
-    pop = Population(NeatConfig(population_size=10, target_species=2, add_node_prob=0.4), neat_layout(layout), seed=1)
-    rng = np.random.default_rng(1)
-    for _ in range(5):
-        pop.step(lambda gs: rng.random(len(gs)))
-    return controller_from_genome(pop.genomes[0], ROBOT, layout, TaskConfig(), 1.0, {"seed": 1})
+def controller(grown_controller):
+    return grown_controller
 
 
 def torque(bus):

@@ -18,12 +18,7 @@ import time
 import numpy as np
 import pytest
 
-from evolve.locomotion.evaluator import neat_layout
-from evolve.locomotion.export import controller_from_genome
-from evolve.locomotion.task import TaskConfig
-from evolve.neat import NeatConfig, Population
 from sim2real.controller.policy import Policy
-from sim2real.controller.symmetry import symmetric_layout
 from sim2real.hardware import MockBus
 from sim2real.hardware.deploy import RAMP_TICK_S, drive
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
@@ -36,13 +31,8 @@ RAMP_S = 0.1  # 5 ramp steps of RAMP_TICK_S
 
 
 @pytest.fixture(scope="module")
-def controller():
-    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
-    pop = Population(NeatConfig(population_size=10, target_species=2, add_node_prob=0.4), neat_layout(layout), seed=1)
-    rng = np.random.default_rng(1)
-    for _ in range(3):
-        pop.step(lambda gs: rng.random(len(gs)))
-    return controller_from_genome(pop.genomes[0], ROBOT, layout, TaskConfig(), 1.0, {"seed": 1})
+def controller(grown_controller):
+    return grown_controller
 
 
 @pytest.fixture
