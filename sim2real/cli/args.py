@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
 from sim2real.errors import BipedError, UsageError
+from sim2real.hardware.realtime import DEFAULT_PRIORITY, RealtimeRequest
 
 if TYPE_CHECKING:
     from sim2real.robot import RobotSpec
@@ -140,6 +141,34 @@ def cpu_index(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r}: not a CPU this process may use "
                                          f"({sorted(os.sched_getaffinity(0))})")
     return value
+
+
+# -- real-time treatment --------------------------------------------------------------------
+def add_realtime_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--no-realtime``, ``--rt-priority``, ``--cpu``, ``--no-mlock``: shared by every command
+    that runs something in real time."""
+    group = parser.add_argument_group("real-time treatment (Linux; each refusal is reported, never fatal)")
+    group.add_argument("--no-realtime", action="store_true",
+                       help="do not ask for a real-time scheduling class, locked memory or a CPU")
+    group.add_argument("--rt-priority", type=rt_priority, default=DEFAULT_PRIORITY, metavar="P",
+                       help=f"SCHED_FIFO priority 1-99 (default {DEFAULT_PRIORITY})")
+    group.add_argument("--cpu", type=cpu_index, metavar="N", help="pin to this CPU (default: any)")
+    group.add_argument("--no-mlock", action="store_true", help="do not lock memory")
+
+
+def realtime_request(args: argparse.Namespace) -> RealtimeRequest | None:
+    """What the flags ask for (None: nothing, with ``--no-realtime``)."""
+    if args.no_realtime:
+        return None
+    return RealtimeRequest(priority=args.rt_priority, cpu=args.cpu, lock_memory=not args.no_mlock)
+
+
+def realtime_flags(args: argparse.Namespace) -> list[str]:
+    """The same choices as command-line flags, for a child process."""
+    if args.no_realtime:
+        return ["--no-realtime"]
+    flags = ["--rt-priority", str(args.rt_priority)] + (["--cpu", str(args.cpu)] if args.cpu is not None else [])
+    return flags + (["--no-mlock"] if args.no_mlock else [])
 
 
 # -- names of data files ---------------------------------------------------------------------

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from sim2real.cli.args import (
+    add_realtime_arguments,
     baud_rate,
     check_baud,
     check_duration,
@@ -16,6 +17,8 @@ from sim2real.cli.args import (
     positive_finite_float,
     print_result,
     reality_name,
+    realtime_flags,
+    realtime_request,
     require_module,
     robot_name,
     run_failed,
@@ -26,7 +29,6 @@ from sim2real.hardware.deploy import LOST_AFTER_S
 from sim2real.hardware.trace import sidecar_path
 from sim2real.robot import DEFAULT_ROBOT, load_robot
 from sim2real.simulation.simbus import service as simbus_service
-from sim2real.simulation.simbus.service import add_realtime_arguments
 
 TRACE_FILE = output_file(exclude=(".json",))  # a trace's sidecar takes its name with .json
 
@@ -190,8 +192,8 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
     result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults, log=log,
                      reality=args.reality, seed=args.seed, disabled_modules=tuple(args.disable_module),
-                     realtime=simbus_service.realtime_request(args),
-                     simbus_realtime=simbus_service.realtime_flags(args))
+                     realtime=realtime_request(args),
+                     simbus_realtime=realtime_flags(args))
     print_result(result, args.json)
     return run_exit_code(result["stop_reason"], result["torque_off"], log)
 
@@ -203,7 +205,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     data, robot = Controller.load_for_robot(args.controller, args.robot)
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
-    realtime = simbus_service.realtime_request(args)
+    realtime = realtime_request(args)
     if args.port or args.bus == "mock":
         if args.port:
             from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
@@ -221,7 +223,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         log("no --port: running on the simulated bus (MuJoCo behind a pseudo-terminal)")
         result = dry_run(args.controller, robot.name if args.robot else None, args.duration or 10.0,
                          args.trace, log=log, disabled_modules=tuple(args.disable_module), realtime=realtime,
-                         simbus_realtime=simbus_service.realtime_flags(args))
+                         simbus_realtime=realtime_flags(args))
     print_result(result, args.json)
     return run_exit_code(result["stop_reason"], result["torque_off"], log)
 

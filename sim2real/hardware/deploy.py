@@ -95,10 +95,6 @@ class RunReport:
     compute_s: list[float] = field(default_factory=list)
     jitter_s: list[float] = field(default_factory=list)
 
-    @property
-    def torque_confirmed_off(self) -> bool:
-        return self.torque_off is not None and not self.torque_off.unconfirmed
-
     def summary(self) -> dict[str, Any]:
         def pct(values, q, scale):
             return float(np.percentile(values, q) * scale) if values else None

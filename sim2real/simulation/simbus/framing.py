@@ -4,7 +4,6 @@ whose addressed servo answers with an error status."""
 
 from __future__ import annotations
 
-
 Packet = tuple[int, int, bytes]  # (id, instruction, params)
 SKIP = object()  # _take's answer for bytes that were dropped (not a packet, or a bad checksum)
 

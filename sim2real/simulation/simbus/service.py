@@ -22,7 +22,8 @@ import sys
 import threading
 from typing import TYPE_CHECKING
 
-from sim2real.hardware.realtime import DEFAULT_PRIORITY, RealtimeRequest
+from sim2real.cli.args import add_realtime_arguments, realtime_request
+from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import RobotSpec
 from sim2real.simulation.dry_run import parse_faults
 
@@ -56,35 +57,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also stop when standard input closes (for a parent process)")
     parser.add_argument("--report", action="store_true",
                         help="print the simulator's ground truth as one JSON line at the end")
-
-
-def add_realtime_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--no-realtime``, ``--rt-priority``, ``--cpu``, ``--no-mlock``: shared by every command
-    that runs something in real time."""
-    from sim2real.cli.args import cpu_index, rt_priority
-
-    group = parser.add_argument_group("real-time treatment (Linux; each refusal is reported, never fatal)")
-    group.add_argument("--no-realtime", action="store_true",
-                       help="do not ask for a real-time scheduling class, locked memory or a CPU")
-    group.add_argument("--rt-priority", type=rt_priority, default=DEFAULT_PRIORITY, metavar="P",
-                       help=f"SCHED_FIFO priority 1-99 (default {DEFAULT_PRIORITY})")
-    group.add_argument("--cpu", type=cpu_index, metavar="N", help="pin to this CPU (default: any)")
-    group.add_argument("--no-mlock", action="store_true", help="do not lock memory")
-
-
-def realtime_request(args: argparse.Namespace) -> RealtimeRequest | None:
-    """What the flags ask for (None: nothing, with ``--no-realtime``)."""
-    if args.no_realtime:
-        return None
-    return RealtimeRequest(priority=args.rt_priority, cpu=args.cpu, lock_memory=not args.no_mlock)
-
-
-def realtime_flags(args: argparse.Namespace) -> list[str]:
-    """The same choices as command-line flags, for a child process."""
-    if args.no_realtime:
-        return ["--no-realtime"]
-    flags = ["--rt-priority", str(args.rt_priority)] + (["--cpu", str(args.cpu)] if args.cpu is not None else [])
-    return flags + (["--no-mlock"] if args.no_mlock else [])
 
 
 def serve(args: argparse.Namespace) -> int:
