@@ -14,8 +14,6 @@ waiting for replies.  Loads the machine on purpose: run nothing else meanwhile.
 from __future__ import annotations
 
 import resource
-import subprocess
-import sys
 import time
 
 import numpy as np
@@ -24,8 +22,13 @@ from benchmarks.common import parser, progress, report
 from benchmarks.loop import hogs
 from sim2real.hardware import CommunicationError, ServoChain
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
-from sim2real.hardware.realtime import RealtimeRequest, ordinary_scheduling, request_realtime
+from sim2real.hardware.realtime import (
+    RealtimeRequest,
+    ordinary_scheduling,
+    request_realtime,
+)
 from sim2real.robot import load_robot
+from sim2real.simulation.dry_run import SimulatedBusProcess
 
 
 def cycles(port: str, baud: int, robot, n: int, busy: bool) -> dict:
@@ -70,18 +73,12 @@ def main(argv=None) -> None:
     write_bytes = 14 + n * 5  # SYNC_WRITE of 4-byte goals
     read_bytes = (14 + n) + n * 15  # SYNC_READ + a 4-byte status each
     wire_s = (write_bytes + read_bytes) * 10 / args.baud
-    server = subprocess.Popen([sys.executable, "-m", "sim2real.simulation.simbus", "--baud", str(args.baud),
-                               "--exit-on-stdin-eof"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     rows = {}
-    try:
-        port = server.stdout.readline().strip()
+    with SimulatedBusProcess(["--baud", str(args.baud)]) as simbus:
         for busy in (False, True):
             name = "hogs" if busy else "idle"
             progress(f"{args.cycles} cycles, {name}...", args.json)
-            rows[name] = cycles(port, args.baud, robot, args.cycles, busy)
-    finally:
-        server.stdin.close()
-        server.wait(timeout=30)
+            rows[name] = cycles(simbus.port, args.baud, robot, args.cycles, busy)
     report({"servos": n, "baud": args.baud, "wire_ms": wire_s * 1e3, **rows,
             "ratio_idle": rows["idle"]["cycle_ms_p50"] / (wire_s * 1e3),
             "ratio_hogs": rows["hogs"]["cycle_ms_p50"] / (wire_s * 1e3)}, args.json)

@@ -43,6 +43,7 @@ from sim2real.hardware import MockBus
 from sim2real.hardware.deploy import drive
 from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import load_robot
+from sim2real.simulation.dry_run import SimulatedBusProcess
 
 
 def random_controller(robot, connections: int, hidden: int, seed: int) -> Controller:
@@ -105,17 +106,10 @@ def mock_part(robot, ticks: int, tick_ms: float, connections: int, realtime: boo
 
 def sim_part(controller_path: Path, seconds: float, busy: bool) -> dict:
     """``biped run --port`` against ``biped simbus``, two processes, as a user would."""
-    simbus = subprocess.Popen([sys.executable, "-m", "sim2real.simulation.simbus", "--exit-on-stdin-eof"],
-                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    try:
-        port = simbus.stdout.readline().strip()
-        with hogs(busy) as n_hogs:
-            out = subprocess.run([sys.executable, "-m", "evolve.cli", "run", str(controller_path), "--port", port,
-                                  "--duration", str(seconds), "--json"], capture_output=True, text=True,
-                                 timeout=seconds + 120)
-    finally:
-        simbus.stdin.close()
-        simbus.wait(timeout=30)
+    with SimulatedBusProcess([]) as simbus, hogs(busy) as n_hogs:
+        out = subprocess.run([sys.executable, "-m", "evolve.cli", "run", str(controller_path), "--port", simbus.port,
+                              "--duration", str(seconds), "--json"], capture_output=True, text=True,
+                             timeout=seconds + 120)
     s = json.loads(out.stdout.splitlines()[-1])
     return {"hogs": n_hogs, "seconds": seconds, "exit_code": out.returncode, "ticks": s["ticks"],
             "stop_reason": s["stop_reason"], "overruns": s["overruns"], "jitter_ms_p99": s["jitter_ms_p99"],
