@@ -20,13 +20,14 @@ from __future__ import annotations
 
 import statistics
 from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 
 from benchmarks.common import parser, progress, report
 from evolve.evaluation import EvaluatorSpec, build_evaluator
 from evolve.neat import Population
-from evolve.replay import WALK_LEG_LENGTHS, evaluate_controller
+from evolve.replay import evaluate_controller
 from evolve.run import Best, Run
 from sim2real.simulation.dry_run import dry_run
 
@@ -43,11 +44,10 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
     keys = np.array([[10_000 + i, e] for i in range(n) for e in range(episodes)])
     sims = [g for g in genomes for _ in range(episodes)]
     varied = evaluator.evaluate(sims, config.neat.sigmoid_steepness, perturbation=evaluator.sample(keys))
-    required = WALK_LEG_LENGTHS * run.robot.body.leg_length
-    full = evaluator.n_ticks * evaluator.tick_s - 1e-9
+    leg, seconds = run.robot.body.leg_length, evaluator.n_ticks * evaluator.tick_s
 
     def walks(e):
-        return (e.upright_s >= full) & ~e.fell & (e.distance_m >= required)
+        return e.walked(leg, seconds)
 
     share = (walks(nominal)[:, None].astype(float) + walks(varied).reshape(n, episodes).sum(axis=1, keepdims=True)) \
         / (episodes + 1)
@@ -59,6 +59,31 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
                         float(nominal.upright_s[best]), pop.generation, 0.0, genome)).save(path)
     return path, {"genome": genome.key, "walks_share": float(share[best, 0]), "worst_distance_m": float(worst[best]),
                   "population_walks_share_mean": float(share.mean()), "selected_from": n, "episodes": episodes + 1}
+
+
+def transfer_check(controller: Path, reality: str = "default", runs: int = 3, keep: float = 0.8,
+                   log: Callable[[str], None] = print) -> dict[str, Any]:
+    """The controller's simulated distance against ``runs`` dry runs of the same length on
+    the simulated bus under ``reality`` (noise seeds 0..runs-1); see the module docstring."""
+    sim = evaluate_controller(controller)
+    log(f"simulation: {sim['distance_m']:.3f} m in {sim['seconds']:.1f} s, fell={sim['fell']}")
+    dry = []
+    for seed in range(runs):
+        r = dry_run(controller, duration_s=sim["seconds"], reality=reality, seed=seed, log=lambda line: None)
+        log(f"dry run {seed} ({reality}): {r['distance_m']:.3f} m, fell={r['fell']}, "
+            f"stop: {r['stop_reason']}, bus errors {r['bus_errors']}, overruns {r['overruns']}")
+        dry.append({k: r[k] for k in ("distance_m", "fell", "ticks", "overruns", "bus_errors", "stop_reason")})
+    mean = statistics.mean(r["distance_m"] for r in dry)
+    ratio = mean / sim["distance_m"] if sim["distance_m"] > 0 else 0.0
+    walked = sim["walked_share"] == 1.0  # without a walk in simulation there is no distance to keep
+    return {
+        "controller": str(controller), "reality": reality,
+        "sim_distance_m": sim["distance_m"], "sim_fell": sim["fell"], "seconds": sim["seconds"],
+        "dry_run_distance_m": mean, "dry_run_min_m": min(r["distance_m"] for r in dry),
+        "ratio": ratio, "keep": keep, "sim_walked": walked,
+        "passed": walked and ratio >= keep and not any(r["fell"] for r in dry),
+        "runs": dry,
+    }
 
 
 def main(argv=None) -> None:
@@ -77,28 +102,8 @@ def main(argv=None) -> None:
     elif args.controller is None:
         p.error("give a CONTROLLER or --select-from RUN")
 
-    sim = evaluate_controller(args.controller)
-    progress(f"simulation: {sim['distance_m']:.3f} m in {sim['seconds']:.1f} s, fell={sim['fell']}", args.json)
-    runs = []
-    for seed in range(args.runs):
-        r = dry_run(args.controller, duration_s=sim["seconds"], reality=args.reality, seed=seed,
-                    log=lambda line: None)
-        progress(f"dry run {seed} ({args.reality}): {r['distance_m']:.3f} m, fell={r['fell']}, "
-                 f"stop: {r['stop_reason']}, bus errors {r['bus_errors']}, overruns {r['overruns']}", args.json)
-        runs.append({k: r[k] for k in ("distance_m", "fell", "ticks", "overruns", "bus_errors", "stop_reason")})
-    mean = statistics.mean(r["distance_m"] for r in runs)
-    ratio = mean / sim["distance_m"] if sim["distance_m"] > 0 else 0.0
-    walked = sim["walked_share"] == 1.0  # without a walk in simulation there is no distance to keep
-    report({
-        "controller": str(args.controller), "reality": args.reality,
-        "sim_distance_m": sim["distance_m"], "sim_fell": sim["fell"], "seconds": sim["seconds"],
-        "dry_run_distance_m": mean, "dry_run_min_m": min(r["distance_m"] for r in runs),
-        "ratio": ratio, "keep": args.keep, "sim_walked": walked,
-        "passed": walked and ratio >= args.keep and not any(r["fell"] for r in runs),
-        "runs": runs,
-        "selection": selection,
-    }, args.json)
-
+    result = transfer_check(args.controller, args.reality, args.runs, args.keep, lambda line: progress(line, args.json))
+    report({**result, "selection": selection}, args.json)
 
 if __name__ == "__main__":
     main()

@@ -20,7 +20,7 @@ from benchmarks.common import parser, progress, report
 from evolve.cli_commands import resolve_config
 from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
-from evolve.replay import WALK_LEG_LENGTHS
+from evolve.locomotion.objectives import WALK_LEG_LENGTHS
 from evolve.run import Run
 
 
@@ -44,7 +44,7 @@ def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: i
         distance, upright = float(result.distance_m[0]), float(result.upright_s[0])
         full = upright >= judge.n_ticks * judge.tick_s - 1e-9
         state["best_distance_m"] = max(state["best_distance_m"], distance if full else 0.0)
-        if full and not result.fell[0] and distance >= WALK_LEG_LENGTHS * leg:
+        if result.walked(leg, judge.n_ticks * judge.tick_s)[0]:
             state.update(walked=True, minutes_to_walk=(time.perf_counter() - start) / 60.0,
                          generation=row["generation"], walk_distance_m=distance)
             run.controller(champion).save(out / "walker.json")  # judged without the harness

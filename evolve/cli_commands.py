@@ -176,8 +176,10 @@ def cmd_evolve(args: argparse.Namespace) -> int:
               f"continue with: biped evolve --resume --out {run.out}", file=sys.stderr)
         return 130
     if best is not None:
+        v = best.validation
+        where = f"mean of {v['draws']} validation robots, walked on {v['walked']}; " if v else ""
         log(f"best: fitness {best.fitness:.3f}, {best.distance_m:.3f} m, upright {best.upright_s:.1f} s "
-            f"(generation {best.generation}{', harness' if best.harness else ''}) -> {run.out / 'controller.json'}")
+            f"({where}generation {best.generation}{', harness' if best.harness else ''}) -> {run.out / 'controller.json'}")
     return 0
 
 

@@ -11,6 +11,11 @@
       reality: randomize      # ranges: a name from configs/reality/, a path, or a mapping
       episodes: 4             # randomized episodes per genome
       score: mean             # mean | worst of them
+      ramp_generations: 0     # ranges grow from nominal to full over this many generations
+      validation:             # optional: choose the champion on fixed draws selection never sees
+        draws: 10             # robots drawn once from the full ranges
+        every: 5              # generations between validations (once the harness is off)
+        candidates: 8         # that generation's best genomes by selection score
     stages: [...]             # optional: a developmental hierarchy (evolve.stages)
 """
 
@@ -36,11 +41,37 @@ INTEGER_KEYS = {"seed": (0, 2**32 - 1), "generations": (1, None), "threads": (0,
 
 
 @dataclass(frozen=True)
+class ValidationConfig:
+    """Champions chosen on fixed randomized draws that selection never sees.
+
+    With randomized episodes a generation's top score is mostly luck (issue 14 measured a
+    run's best by mean of two draws, 2.69 m on its own draws, falling on 9 of 10 new ones),
+    so ``best.json`` and the exported controller come from here instead.
+    """
+
+    draws: int = 0  # 0: no validation
+    every: int = 5  # generations between validations
+    candidates: int = 8  # a validated generation's best genomes by selection score
+
+    @property
+    def active(self) -> bool:
+        return self.draws > 0
+
+    def due(self, generation: int, last: int) -> bool:
+        """Whether generation ``generation`` (0-based) of a stage of ``last + 1`` is validated."""
+        return self.active and ((generation + 1) % self.every == 0 or generation == last)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"draws": self.draws, "every": self.every, "candidates": self.candidates}
+
+
+@dataclass(frozen=True)
 class RandomizeConfig:
     reality: str | dict = "nominal"  # configs/reality/ name, path or inline mapping
     episodes: int = 1  # episodes per genome
     score: str = "mean"  # mean | worst
     ramp_generations: int = 0  # ranges grow from nominal to full over this many generations
+    validation: ValidationConfig = field(default_factory=ValidationConfig)
 
     @property
     def active(self) -> bool:
@@ -52,14 +83,19 @@ class RandomizeConfig:
         return 1.0 if self.ramp_generations <= 0 else min(1.0, generation / self.ramp_generations)
 
     def to_dict(self) -> dict[str, Any]:
-        out = {"reality": self.reality, "episodes": self.episodes, "score": self.score}
-        return {**out, "ramp_generations": self.ramp_generations} if self.ramp_generations else out
+        out: dict[str, Any] = {"reality": self.reality, "episodes": self.episodes, "score": self.score}
+        if self.ramp_generations:
+            out["ramp_generations"] = self.ramp_generations
+        if self.validation.active:
+            out["validation"] = self.validation.to_dict()
+        return out
 
 
 def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     if doc is None:
         return RandomizeConfig()
-    node = Node(doc, source, "randomize").mapping(optional=("reality", "episodes", "score", "ramp_generations"))
+    node = Node(doc, source, "randomize").mapping(optional=("reality", "episodes", "score", "ramp_generations",
+                                                            "validation"))
     reality = node.value.get("reality", "nominal")
     if not isinstance(reality, (str, dict)):
         raise node["reality"].error(f"must be a reality name, path or mapping, got {reality!r}")
@@ -70,7 +106,16 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     episodes = node["episodes"].integer(lo=1) if node.has("episodes") else 1
     score = node["score"].string(("mean", "worst")) if node.has("score") else "mean"
     ramp = node["ramp_generations"].integer(lo=0) if node.has("ramp_generations") else 0
-    return RandomizeConfig(reality, episodes, score, ramp)
+    validation = ValidationConfig()
+    if node.has("validation"):
+        v = node["validation"].mapping(required=("draws",), optional=("every", "candidates"))
+        validation = ValidationConfig(
+            draws=v["draws"].integer(lo=1),
+            every=v["every"].integer(lo=1) if v.has("every") else ValidationConfig.every,
+            candidates=v["candidates"].integer(lo=1) if v.has("candidates") else ValidationConfig.candidates)
+        if reality == "nominal":
+            raise v.error("validates on randomized draws: give randomize.reality (ranges to draw from)")
+    return RandomizeConfig(reality, episodes, score, ramp, validation)
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,10 @@ from evolve.stages import Stage
 from sim2real.robot import load_robot
 from sim2real.simulation.reality import load_reality
 
+# The generation field of a validation draw's key: no training generation ever has it, so the
+# validation robots are never among the ones selection saw.
+VALIDATION_GENERATION = 2**32 - 1
+
 
 @dataclass(frozen=True)
 class EvaluatorSpec:
@@ -118,3 +122,14 @@ def score_population(backend: Backend, genomes: list[Genome], *, steepness: floa
         fell=per_sim.fell.reshape(n, episodes).any(axis=1),
         unstable=per_sim.unstable.reshape(n, episodes).any(axis=1), steps=per_sim.steps,
         terms={name: terms_by_genome(values) for name, values in per_sim.terms.items()})
+
+
+def validation_episodes(backend: Backend, genomes: list[Genome], *, steepness: float, stage: Stage | None,
+                        draws: int, seed: int, stage_index: int, capacity: int) -> Episodes:
+    """Every genome on the same ``draws`` robots, drawn at full strength from keys that no
+    training episode uses; per simulation, genome-major (genome i's draws at ``i * draws``)."""
+    sims = [g for g in genomes for _ in range(draws)]
+    keys = np.array([[seed, stage_index, VALIDATION_GENERATION, 0, d] for _ in genomes for d in range(draws)],
+                    dtype=np.int64)
+    return concatenate([backend.run(Job(sims[lo:lo + capacity], keys[lo:lo + capacity], steepness, 0.0, stage, 1.0))
+                        for lo in range(0, len(sims), capacity)])

@@ -12,9 +12,6 @@ from typing import Any
 
 import numpy as np
 
-# "walked": 2.2 leg lengths forward, upright to the end (seed 000's 2 m for a 0.9 m human leg)
-WALK_LEG_LENGTHS = 2.2
-
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import genome_from_controller
 from evolve.locomotion.task import TaskConfig
@@ -25,13 +22,16 @@ from sim2real.simulation.reality import NOMINAL, Reality, load_reality
 
 
 def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
-           keep_going: bool = False, reality: Reality = NOMINAL, disabled_modules: tuple[str, ...] = ()):
+           keep_going: bool = False, reality: Reality = NOMINAL, disabled_modules: tuple[str, ...] = (),
+           stagnation_stop: bool = True):
     data, spec = Controller.load_for_robot(path, robot)
     check_disabled_modules(data, disabled_modules)
     task = TaskConfig.from_mapping(dict(data.task), str(path), "task.")
     changes = {"episode_s": float(seconds)} if seconds is not None else {}
     if keep_going:
-        changes.update(fall_height=1e-6, fall_tilt_deg=180.0, stagnation_s=1e9)
+        changes.update(fall_height=1e-6, fall_tilt_deg=180.0)
+    if keep_going or not stagnation_stop:
+        changes.update(stagnation_s=1e9)
     task = dataclasses.replace(task, **changes)
     evaluator = LocomotionEvaluator(spec, task, max(1, episodes), threads=1, reality=reality)
     if evaluator.n_ticks < 1:
@@ -46,19 +46,20 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
 
 def evaluate_controller(path: Path | str, robot: str | None = None, seconds: float | None = None,
                         episodes: int = 1, disabled_modules: tuple[str, ...] = (),
-                        randomize: str | Reality | None = None, seed: int = 0) -> dict[str, Any]:
+                        randomize: str | Reality | None = None, seed: int = 0,
+                        stagnation_stop: bool = True) -> dict[str, Any]:
     """Measure a controller on ``episodes`` episodes, each drawn from ``randomize`` (a reality
-    file's ranges or fixed profile; None: the nominal robot) with seed ``seed``."""
+    file's ranges or fixed profile; None: the nominal robot) with seed ``seed``; without
+    ``stagnation_stop`` only a fall (or the clock) ends an episode."""
     reality = load_reality(randomize)
     data, spec, evaluator, genome = _setup(path, robot, seconds, episodes, reality=reality,
-                                           disabled_modules=disabled_modules)
+                                           disabled_modules=disabled_modules, stagnation_stop=stagnation_stop)
     keys = np.array([[seed, e] for e in range(episodes)])
     perturbation = None if reality.is_nominal else evaluator.sample(keys)
     result = evaluator.evaluate([genome] * episodes, data.sigmoid_steepness, harness=0.0,
                                 disabled_modules=disabled_modules, perturbation=perturbation)
     leg = spec.body.leg_length
-    full = result.upright_s >= evaluator.n_ticks * evaluator.tick_s - 1e-9
-    walked = full & ~result.fell & (result.distance_m >= WALK_LEG_LENGTHS * leg)
+    walked = result.walked(leg, evaluator.n_ticks * evaluator.tick_s)
     return {
         "distance_m": float(np.mean(result.distance_m)),
         "min_distance_m": float(np.min(result.distance_m)),
@@ -67,6 +68,9 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         "fell": bool(result.fell.any()),
         "falls": int(result.fell.sum()),
         "walked_share": float(walked.mean()),
+        "walked": int(walked.sum()),
+        "per_episode": [{"distance_m": float(d), "upright_s": float(u), "fell": bool(f)}
+                        for d, u, f in zip(result.distance_m, result.upright_s, result.fell)],
         "fitness": float(np.mean(result.fitness)),
         "leg_length_m": leg,
         "episodes": episodes,

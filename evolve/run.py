@@ -41,6 +41,7 @@ from evolve.evaluation import (
     LocalBackend,
     build_evaluator,
     score_population,
+    validation_episodes,
 )
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.objectives import DEFAULT_OBJECTIVE, OBJECTIVES, ObjectiveType
@@ -55,6 +56,8 @@ from sim2real.robot.validation import load_yaml
 STATS_COLUMNS = ("generation", "stage", "best_fitness", "mean_fitness", "best_distance_m", "best_upright_s",
                  "species", "mean_connections", "mean_hidden", "evaluations", "evaluations_per_s",
                  "steps_per_s", "wall_s", "harness", "threshold")  # then the fitness terms (term_columns)
+# with validation draws: the validated champion's walks and mean fitness there (empty between validations)
+VALIDATION_COLUMNS = ("validation_walked", "validation_fitness")
 
 
 @dataclass
@@ -65,10 +68,18 @@ class Best:
     generation: int
     harness: float  # strength of the harness it was measured with
     genome: Genome
+    # its outcome on the run's validation draws: draws, walked (how many), fitness and
+    # distance_m (means); None if it was never validated
+    validation: dict | None = None
 
     def better_than(self, other: "Best | None") -> bool:
         if other is None:
             return True
+        if (self.validation is None) != (other.validation is None):
+            return self.validation is not None  # a validated champion beats any that was not
+        if self.validation is not None:
+            mine, theirs = self.validation, other.validation
+            return (mine["walked"], mine["fitness"]) > (theirs["walked"], theirs["fitness"])
         if (self.harness > 0) != (other.harness > 0):
             return self.harness == 0  # a champion without the harness beats any with it
         return self.fitness > other.fitness
@@ -96,6 +107,7 @@ class Run:
         else:
             raise ValueError(f"unknown backend {backend!r} (local or ray)")
         self.randomized = not self.evaluator.reality.is_nominal
+        self.capacity = spec.capacity
         check_stage_joints(config.stages, self.evaluator.layout.driven, str(self.out / "config.yaml"))
         self.finished: list[dict] = read_json(self.out / "stages.json") if (self.out / "stages.json").exists() else []
         first_module = (config.stages[0].name,) if config.stages else ("main",)
@@ -118,8 +130,10 @@ class Run:
 
     @property
     def columns(self) -> tuple[str, ...]:
-        """stats.csv's columns: :data:`STATS_COLUMNS`, then :func:`term_columns`."""
-        return STATS_COLUMNS + term_columns(self.config)
+        """stats.csv's columns: :data:`STATS_COLUMNS`, then :func:`term_columns`, then the
+        validation's (with validation draws)."""
+        validation = VALIDATION_COLUMNS if self.config.randomize.validation.active else ()
+        return STATS_COLUMNS + term_columns(self.config) + validation
 
     @property
     def generation_offset(self) -> int:
@@ -161,7 +175,8 @@ class Run:
         if (out / "best.json").exists():
             data = read_json(out / "best.json")
             run.best = Best(data["fitness"], data["distance_m"], data["upright_s"], data["generation"],
-                            data["harness"], Genome.from_dict(data["genome"], population.layout))
+                            data["harness"], Genome.from_dict(data["genome"], population.layout),
+                            data.get("validation"))
         rows = _read_stats(out / "stats.csv")
         kept = [r for r in rows if int(r["generation"]) < run.generation_offset + population.generation]
         with open(out / "stats.csv", "w", newline="") as f:  # a run from before the term columns gets them
@@ -213,9 +228,13 @@ class Run:
             candidate = Best(float(e.fitness[i]), float(e.distance_m[i]), float(e.upright_s[i]),
                              self.generation_offset + pop.generation, harness, pop.genomes[i].copy(pop.genomes[i].key))
             self.champion = candidate  # this generation's
-            if candidate.better_than(self.best):
-                self.best = candidate
-                self._save_best()
+            validated = None
+            if harness == 0 and config.randomize.validation.due(pop.generation, budget - 1):
+                validated = self._validate(e.selection, index, harness)
+            for better in (candidate, validated):
+                if better is not None and better.better_than(self.best):
+                    self.best = better
+                    self._save_best()
             pop.reproduce()
             gen_s = time.perf_counter() - t0
             self.wall_s += gen_s
@@ -229,7 +248,7 @@ class Run:
                        mean_connections=stats.mean_connections, mean_hidden=stats.mean_hidden,
                        evaluations=stats.evaluations, evaluations_per_s=len(e.fitness) * config.randomize.episodes / eval_s,
                        steps_per_s=e.steps / eval_s, wall_s=self.wall_s, harness=harness,
-                       threshold=stats.threshold, **terms)
+                       threshold=stats.threshold, **terms, **self._validation_row(validated))
             self._append_stats(row)
             eta = (budget - pop.generation) * float(np.mean(recent))
             self.log(_progress_line(row, pop.generation, budget, eta, stage, intensity))
@@ -242,6 +261,31 @@ class Run:
             if stop is not None and stop(self, row):
                 return True
         return False
+
+    def _validate(self, selection: np.ndarray, stage_index: int, harness: float) -> Best:
+        """The best of this generation's top candidates on the validation draws."""
+        v, pop = self.config.randomize.validation, self.population
+        top = np.argsort(-selection, kind="stable")[:v.candidates]
+        genomes = [pop.genomes[i] for i in top]
+        e = validation_episodes(self.backend, genomes, steepness=self.config.neat.sigmoid_steepness,
+                                stage=self.stage, draws=v.draws, seed=self.config.seed, stage_index=stage_index,
+                                capacity=self.capacity)
+        walked = e.walked(self.robot.body.leg_length, self.config.task.episode_s).reshape(len(top), v.draws)
+        fitness = e.fitness.reshape(len(top), v.draws).mean(axis=1)
+        j = int(np.lexsort((fitness, walked.sum(axis=1)))[-1])  # most walks, then mean fitness
+        rows = slice(j * v.draws, (j + 1) * v.draws)
+        i = int(top[j])
+        return Best(float(e.fitness[rows].mean()), float(e.distance_m[rows].mean()), float(e.upright_s[rows].mean()),
+                    self.generation_offset + pop.generation, harness, pop.genomes[i].copy(pop.genomes[i].key),
+                    validation={"draws": v.draws, "walked": int(walked[j].sum()), "fitness": float(fitness[j]),
+                                "distance_m": float(e.distance_m[rows].mean())})
+
+    def _validation_row(self, validated: Best | None) -> dict:
+        if not self.config.randomize.validation.active:
+            return {}
+        if validated is None:
+            return dict.fromkeys(VALIDATION_COLUMNS, "")
+        return {"validation_walked": validated.validation["walked"], "validation_fitness": validated.fitness}
 
     def _file_stage(self) -> None:
         """Keep the finished stage's best in stages/<name>/ and note it in stages.json."""
@@ -277,7 +321,8 @@ class Run:
         b = self.best
         write_json_atomic(self.out / "best.json", {
             "fitness": b.fitness, "distance_m": b.distance_m, "upright_s": b.upright_s,
-            "generation": b.generation, "harness": b.harness, "genome": b.genome.to_dict()})
+            "generation": b.generation, "harness": b.harness, "genome": b.genome.to_dict(),
+            **({"validation": b.validation} if b.validation else {})})
         self.controller().save(self.out / "controller.json")
 
     def controller(self, best: Best | None = None) -> Controller:
@@ -288,7 +333,8 @@ class Run:
                       "distance_m": b.distance_m, "upright_s": b.upright_s, "harness": b.harness,
                       "config_hash": hashlib.sha256(config_yaml.encode()).hexdigest()[:16],
                       "code_version": code_version(), "run": str(self.out.resolve()),
-                      "config": self.config.to_dict()}
+                      "config": self.config.to_dict(),
+                      **({"validation": b.validation} if b.validation else {})}
         return controller_from_genome(b.genome, self.robot, self.evaluator.layout, self.config.task,
                                       self.config.neat.sigmoid_steepness, provenance)
 

@@ -215,3 +215,55 @@ def test_quickstart_runs_the_whole_job(tmp_path, capsys):
         assert (out / name).exists(), name
     text = capsys.readouterr().out
     assert "[5/5]" in text and "contact agreement" in text and str(out) in text
+
+
+VALIDATED = {**SMALL, "generations": 5, "task": {**SMALL["task"], "harness_generations": 0},
+             "randomize": {"reality": "randomize", "episodes": 2,
+                           "validation": {"draws": 3, "every": 2, "candidates": 3}}}
+
+
+def test_champions_are_chosen_on_validation_draws_selection_never_saw(tmp_path):
+    from evolve.config import parse_evolve_config
+    from evolve.evaluation import LocalBackend, validation_episodes
+    from evolve.run import Run
+
+    config = parse_evolve_config(VALIDATED, "validated.yaml")
+    run = Run.create(config, tmp_path / "run", log=lambda line: None)
+    run.evolve()
+    best = json.loads((tmp_path / "run" / "best.json").read_text())
+    assert best["validation"]["draws"] == 3 and best["generation"] in (1, 3, 4)  # generations 2, 4 and the last
+    with open(tmp_path / "run" / "stats.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [bool(r["validation_walked"]) for r in rows] == [False, True, False, True, True]
+    # the recorded outcome is the champion's on those draws, measured again from its genome
+    champion = run.best
+    again = validation_episodes(run.backend, [champion.genome], steepness=config.neat.sigmoid_steepness, stage=None,
+                                draws=3, seed=config.seed, stage_index=0, capacity=run.capacity)
+    assert again.fitness.mean() == pytest.approx(best["validation"]["fitness"])
+    # and validated champions are not replaced by a generation's lucky training score
+    controller = Controller.load(tmp_path / "run" / "controller.json", load_robot())
+    assert controller.provenance["validation"] == best["validation"]
+
+
+def test_validation_needs_ranges_to_draw_from(tmp_path):
+    from evolve.config import parse_evolve_config
+
+    doc = {**VALIDATED, "randomize": {"episodes": 2, "validation": {"draws": 3}}}
+    with pytest.raises(ConfigError, match="randomize.validation.*randomize.reality"):
+        parse_evolve_config(doc, "bad.yaml")
+    doc = {**VALIDATED, "randomize": {"reality": "randomize", "validation": {"draws": 0}}}
+    with pytest.raises(ConfigError, match="draws"):
+        parse_evolve_config(doc, "bad.yaml")
+
+
+def test_a_validated_champion_beats_any_unvalidated_one_and_walks_count_first():
+    from evolve.run import Best
+
+    def best(fitness, validation=None, harness=0.0):
+        return Best(fitness, 0.0, 0.0, 0, harness, genome=None, validation=validation)
+
+    validated = best(1.0, {"draws": 10, "walked": 3, "fitness": 1.0, "distance_m": 0.1})
+    assert validated.better_than(best(50.0)) and not best(50.0).better_than(validated)
+    more_walks = best(0.5, {"draws": 10, "walked": 4, "fitness": 0.5, "distance_m": 0.1})
+    assert more_walks.better_than(validated)
+    assert best(2.0).better_than(best(1.0)) and best(1.0).better_than(best(9.0, harness=1.0))

@@ -20,6 +20,10 @@ from typing import Any, Callable, Mapping, Protocol
 import numpy as np
 
 
+# "walked": 2.2 leg lengths forward, upright to the end (seed 000's 2 m for a 0.9 m human leg)
+WALK_LEG_LENGTHS = 2.2
+
+
 @dataclass(frozen=True)
 class Episodes:
     """Per-simulation outcome of one evaluation, arrays of shape (n,)."""
@@ -32,6 +36,12 @@ class Episodes:
     unstable: np.ndarray  # bool: numerical instability
     steps: int  # physics steps simulated in all
     terms: Mapping[str, np.ndarray]  # the objective's fitness terms by name, unweighted, each (n,)
+
+    def walked(self, leg_length_m: float, episode_s: float) -> np.ndarray:
+        """Which episodes walked: upright for all ``episode_s`` [s] and at least
+        :data:`WALK_LEG_LENGTHS` leg lengths forward, bool (n,)."""
+        full = self.upright_s >= episode_s - 1e-9
+        return full & ~self.fell & (self.distance_m >= WALK_LEG_LENGTHS * leg_length_m)
 
 
 class Objective(Protocol):

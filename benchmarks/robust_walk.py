@@ -1,0 +1,162 @@
+"""Minutes to a robust walker on the default robot, and how it does behind the bus.
+
+    python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --json
+    python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --minutes 60 --config walk_robust
+
+Per seed, one evolution of ``--config`` (the robust-walk recipe by default) until its first
+*robust* walker or the budget.  Whenever the run's champion (``best.json``: with validation
+draws, chosen on them) changes, it is tested on robots that neither selection nor
+validation ever saw; it is robust when, in 10 s episodes,
+
+* on ``--draws`` (10) robots drawn from ``configs/reality/randomize.yaml`` (episode seeds
+  ``[TEST_SEED, e]``, a key shape no training or validation draw has), it stays upright and
+  walks at least 2.2 leg lengths in ``--need`` (8) or more, and
+* on ``configs/reality/default.yaml`` (3 noise seeds) it does so in 3 of 3.
+
+Then, for each robust walker: the transfer check (``benchmarks.transfer``: 3 dry runs on the
+simulated bus under ``default.yaml``, distance kept against the simulation) and a 60 s walk
+in simulation without the stagnation stop, on the nominal and on the ``default.yaml`` robot
+(seconds upright, distance, speed).
+
+Wall minutes are the evolution's own (``stats.csv``'s ``wall_s``: every generation with its
+validation), measured with nothing else running; the tests of champions come on top and are
+reported apart (``test_s``).  With ``--out`` each seed keeps its folder and ``result.json``:
+a finished seed is not run again, an interrupted one resumes from its checkpoint (a seed
+fixes the run, so the resumed run is the one that was cut).
+"""
+
+from __future__ import annotations
+
+import statistics
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from benchmarks.common import parser, progress, report
+from benchmarks.transfer import transfer_check
+from evolve.cli_commands import resolve_config
+from evolve.config import load_evolve_config
+from evolve.replay import evaluate_controller
+from evolve.run import Run
+from sim2real.atomic_json import read_json, write_json_atomic
+
+TEST_SEED = 314_159  # the robustness test's episode seeds are [TEST_SEED, e]
+EPISODE_S = 10.0
+SUSTAINED_S = 60.0
+
+
+def robustness(controller: Path, draws: int, default_episodes: int = 3) -> dict[str, Any]:
+    """The controller on ``draws`` unseen randomized robots and on ``default.yaml``."""
+    keep = ("walked", "distance_m", "min_distance_m", "falls", "upright_s")
+    randomized = evaluate_controller(controller, seconds=EPISODE_S, episodes=draws, randomize="randomize",
+                                     seed=TEST_SEED)
+    default = evaluate_controller(controller, seconds=EPISODE_S, episodes=default_episodes, randomize="default",
+                                  seed=TEST_SEED)
+    return {"randomized": {k: randomized[k] for k in keep}, "default": {k: default[k] for k in keep}}
+
+
+def sustained(controller: Path, reality: str | None, episodes: int) -> dict[str, Any]:
+    """A 60 s walk without the stagnation stop: seconds upright, distance, speed (means)."""
+    r = evaluate_controller(controller, seconds=SUSTAINED_S, episodes=episodes, randomize=reality,
+                            seed=TEST_SEED, stagnation_stop=False)
+    return {"upright_s": r["upright_s"], "distance_m": r["distance_m"], "falls": r["falls"],
+            "speed_m_s": r["distance_m"] / r["upright_s"] if r["upright_s"] > 0 else 0.0,
+            "per_episode": r["per_episode"]}
+
+
+def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws: int, need: int,
+                quiet: bool = False) -> dict[str, Any]:
+    """One seed: evolve until a robust walker (or the budget), then measure it."""
+    log = lambda line: progress(line, quiet)  # noqa: E731
+    if (folder / "checkpoint.json.gz").exists():
+        run = Run.resume(folder, log=log)
+        log(f"seed {seed}: resuming {folder} at generation {run.population.generation}")
+    else:
+        config = load_evolve_config(resolve_config(config_name)).replace(seed=seed)
+        run = Run.create(config, folder, log=log)
+    state: dict[str, Any] = {"robust": False, "tests": [], "test_s": 0.0}
+    tested: set[tuple[int, int]] = set()
+    candidate = folder / "champion.json"
+
+    def stop(run: Run, row: dict) -> bool:
+        best = run.best
+        if best is not None and not best.harness and (best.generation, best.genome.key) not in tested:
+            tested.add((best.generation, best.genome.key))
+            t0 = time.perf_counter()
+            run.controller(best).save(candidate)
+            test = robustness(candidate, draws)
+            state["test_s"] += time.perf_counter() - t0
+            robust = test["randomized"]["walked"] >= need and test["default"]["walked"] == 3
+            state["tests"].append({"generation": best.generation, **test, "robust": robust})
+            log(f"seed {seed}: champion of generation {best.generation}: walked on {test['randomized']['walked']}"
+                f"/{draws} unseen robots, {test['default']['walked']}/3 default{' - robust' if robust else ''}")
+            if robust:
+                candidate.replace(folder / "robust_walker.json")
+                state.update(robust=True, generation=best.generation, minutes=run.wall_s / 60.0,
+                             generations=row["generation"] + 1)
+                return True
+        return run.wall_s > minutes * 60.0
+
+    run.evolve(stop=stop)
+    result: dict[str, Any] = {
+        "seed": seed, "robust": state["robust"], "minutes": state.get("minutes"),
+        "generations": state.get("generations"), "champion_generation": state.get("generation"),
+        "evolution_minutes": run.wall_s / 60.0, "generations_run": run.generation_offset + run.population.generation,
+        "test_s": state["test_s"], "tests": state["tests"], "run_dir": str(folder),
+    }
+    if state["robust"]:
+        walker = folder / "robust_walker.json"
+        result["transfer"] = transfer_check(walker, "default", 3, 0.8, log)
+        result["sustained"] = {"nominal": sustained(walker, None, 1), "default": sustained(walker, "default", 3)}
+    write_json_atomic(folder / "result.json", result)
+    return result
+
+
+def summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
+    robust = [r for r in runs if r["robust"]]
+
+    def median(values):
+        values = list(values)
+        return statistics.median(values) if values else None
+
+    return {
+        "seeds": len(runs), "robust_seeds": len(robust),
+        "median_minutes": median(r["minutes"] for r in robust),
+        "median_generations": median(r["generations"] for r in robust),
+        "transfer_ratio_median": median(r["transfer"]["ratio"] for r in robust),
+        "sustained_s_median": median(r["sustained"]["default"]["upright_s"] for r in robust),
+        "sustained_m_median": median(r["sustained"]["default"]["distance_m"] for r in robust),
+        "speed_m_s_median": median(r["sustained"]["nominal"]["speed_m_s"] for r in robust),
+        "runs": runs,
+    }
+
+
+def main(argv=None) -> None:
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--seeds", type=int, default=5, help="independent runs, seeds --first-seed.. (default 5)")
+    p.add_argument("--first-seed", type=int, default=1)
+    p.add_argument("--minutes", type=float, default=60.0, help="evolution wall-time budget per seed (default 60)")
+    p.add_argument("--config", default="walk_robust", help="evolution config (default: the robust-walk recipe)")
+    p.add_argument("--draws", type=int, default=10, help="unseen randomized robots a champion is tested on")
+    p.add_argument("--need", type=int, default=8, help="of them it must walk on")
+    p.add_argument("--out", type=Path, help="keep every run here; finished seeds are reused, cut ones resumed")
+    args = p.parse_args(argv)
+    if not 0 < args.need <= args.draws:
+        p.error(f"--need {args.need}: must be within 1..--draws ({args.draws})")
+    out = args.out or Path(tempfile.mkdtemp(prefix="robust-walk-"))
+    runs = []
+    for seed in range(args.first_seed, args.first_seed + args.seeds):
+        folder = out / f"seed{seed}"
+        if (folder / "result.json").exists():
+            runs.append(read_json(folder / "result.json"))
+            progress(f"seed {seed}: done before ({folder / 'result.json'})", args.json)
+            continue
+        runs.append(robust_once(args.config, seed, folder, args.minutes, args.draws, args.need, args.json))
+        r = runs[-1]
+        progress(f"seed {seed}: robust={r['robust']} minutes={r['minutes']}", args.json)
+    report(summary(runs), args.json)
+
+
+if __name__ == "__main__":
+    main()
