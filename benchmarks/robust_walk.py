@@ -141,6 +141,8 @@ def main(argv=None) -> None:
     p.add_argument("--draws", type=int, default=10, help="unseen randomized robots a champion is tested on")
     p.add_argument("--need", type=int, default=8, help="of them it must walk on")
     p.add_argument("--out", type=Path, help="keep every run here; finished seeds are reused, cut ones resumed")
+    p.add_argument("--ship", type=Path, metavar="FILE", help="write the best robust walker (highest transfer "
+                   "ratio, then seconds upright in the 60 s walks) here, with this command in its provenance")
     args = p.parse_args(argv)
     if not 0 < args.need <= args.draws:
         p.error(f"--need {args.need}: must be within 1..--draws ({args.draws})")
@@ -155,7 +157,33 @@ def main(argv=None) -> None:
         runs.append(robust_once(args.config, seed, folder, args.minutes, args.draws, args.need, args.json))
         r = runs[-1]
         progress(f"seed {seed}: robust={r['robust']} minutes={r['minutes']}", args.json)
-    report(summary(runs), args.json)
+    result = summary(runs)
+    if args.ship:
+        result["shipped"] = ship(runs, args.ship, argv)
+    report(result, args.json)
+
+
+def ship(runs: list[dict[str, Any]], path: Path, argv: list[str] | None) -> str | None:
+    """The best robust walker of ``runs`` as ``path``, its making and measures in its provenance."""
+    import shlex
+    import sys
+
+    from sim2real.controller.file import Controller
+
+    robust = [r for r in runs if r["robust"]]
+    if not robust:
+        progress("--ship: no robust walker to ship", False)
+        return None
+    best = max(robust, key=lambda r: (r["transfer"]["ratio"], r["sustained"]["default"]["upright_s"]))
+    walker = Controller.load(Path(best["run_dir"]) / "robust_walker.json")
+    command = "python -m benchmarks.robust_walk " + shlex.join(sys.argv[1:] if argv is None else argv)
+    made = {"made_by": command, "benchmark_seed": best["seed"], "robustness": best["tests"][-1],
+            "transfer_ratio": best["transfer"]["ratio"], "sustained": {
+                where: {k: v for k, v in s.items() if k != "per_episode"} for where, s in best["sustained"].items()}}
+    data = walker.to_dict()
+    data["provenance"] = {**data["provenance"], **made}
+    Controller.from_dict(data, str(path)).save(path)
+    return str(path)
 
 
 if __name__ == "__main__":

@@ -1,10 +1,13 @@
 """``biped quickstart``: the whole job once, on the default robot, in a few minutes.
 
-A short evolution (``configs/evolve/walk.yaml``, fewer generations), the best controller
-exported and filmed, a dry run of it through the real runtime on the simulated Dynamixel
-bus under a reality profile, and that trace compared with the simulation - ending with
-where every file is and what to do next.  A short run does not walk yet: run
-``biped evolve --resume`` on its folder to continue it.
+The process and the result: a short evolution (``configs/evolve/walk.yaml``, fewer
+generations) and its best controller exported; then the project's own walker for the robot
+(``configs/controllers/<robot>.json``, evolved by the robust-walk benchmark) filmed,
+dry-run through the real runtime on the simulated Dynamixel bus under a reality profile - a
+robot that is not the model - and that trace compared with the simulation, ending with where
+every file is and what to do next.  A short run does not walk yet: run ``biped evolve
+--resume`` on its folder to continue it.  A robot without a shipped walker films and
+dry-runs the short run's best instead.
 """
 
 from __future__ import annotations
@@ -53,6 +56,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     from evolve.run import Run
     from sim2real.controller.file import Controller
     from sim2real.hardware.realtime import RealtimeRequest
+    from sim2real.robot.paths import shipped_controller
     from sim2real.simulation.compare import compare, plot
     from sim2real.simulation.dry_run import dry_run
 
@@ -72,10 +76,18 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     run.evolve()
 
     step(2, "exporting the best controller")
-    controller = out / "controller.json"
-    Controller.load(run_dir / "controller.json").save(controller)
-    sim = evaluate_controller(controller)
-    print(f"{controller}: {sim['distance_m']:+.3f} m in {sim['seconds']:.1f} s in simulation, fell={sim['fell']}")
+    evolved = out / "controller.json"
+    Controller.load(run_dir / "controller.json").save(evolved)
+    sim = evaluate_controller(evolved)
+    print(f"{evolved}: {sim['distance_m']:+.3f} m in {sim['seconds']:.1f} s in simulation, fell={sim['fell']} "
+          f"(a short run; a walker takes longer)")
+    controller, shipped = evolved, shipped_controller(config.robot)
+    if shipped.exists():
+        controller = out / "walker.json"
+        Controller.load(shipped).save(controller)
+        sim = evaluate_controller(controller)
+        print(f"the project's walker for {config.robot} ({shipped}) -> {controller}: {sim['distance_m']:+.3f} m in "
+              f"{sim['seconds']:.1f} s in simulation, fell={sim['fell']}; the next steps use it")
 
     video = out / "walk.mp4"
     if args.no_video:
@@ -105,14 +117,19 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     print(f"contact agreement {compared['contact_agreement']:.1%}; largest joint RMSE {worst[1]['rmse_deg']:.2f} deg "
           f"({worst[0]})")
 
+    files = [("controller.json", "the short run's controller (versioned JSON; Controller.load / biped run)")]
+    if controller != evolved:
+        files.append(("walker.json", "the project's walker: filmed, dry-run and compared above"))
+    files += [("run/", f"the evolution: stats.csv, fitness.png, checkpoints (continue: biped evolve --resume "
+                       f"--out {run_dir} --generations 400)"),
+              ("walk.mp4", f"{controller.name} in simulation") if video else ("(no video)", ""),
+              ("dry_run.csv", "the dry run's trace (+ .json sidecar)"),
+              ("compare.png", f"real-vs-simulated joint angles; the numbers: biped compare {trace} --json")]
+    listing = "\n".join(f"  {name:<17} {what}" for name, what in files)
     print(f"""
 done.  In {out}/:
-  controller.json   the controller (versioned JSON; Controller.load / biped run)
-  run/              the evolution: stats.csv, fitness.png, checkpoints (continue: biped evolve --resume --out {run_dir} --generations 400)
-  {'walk.mp4          the controller in simulation' if video else '(no video)'}
-  dry_run.csv       the dry run's trace (+ .json sidecar)
-  compare.png       real-vs-simulated joint angles; the numbers: biped compare {trace} --json
-next: a longer run walks (biped evolve walk --out runs/walk, 10-15 minutes to a walker on 2 cores),
-then biped dry-run runs/walk/controller.json --reality default, then on the robot:
-      biped run runs/walk/controller.json --port /dev/ttyUSB0 --trace real.csv && biped compare real.csv --plot real.png""")
+{listing}
+next: a longer run (biped evolve walk_robust --out runs/robust; see the README for how long),
+then biped dry-run runs/robust/controller.json --reality default, then on the robot:
+      biped run {controller} --port /dev/ttyUSB0 --trace real.csv && biped compare real.csv --plot real.png""")
     return 0

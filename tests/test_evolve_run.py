@@ -208,13 +208,26 @@ def test_controller_matches_its_json_schema_and_stays_small(config_file, tmp_pat
     assert (tmp_path / "big.json").stat().st_size < 20_000
 
 
-def test_quickstart_runs_the_whole_job(tmp_path, capsys):
+@pytest.mark.parametrize("shipped", [True, False], ids=["shipped-walker", "none-shipped"])
+def test_quickstart_runs_the_whole_job(tmp_path, capsys, monkeypatch, grown_controller, shipped):
+    """The short evolution, then the robot's shipped walker dry-run and compared (or, for a
+    robot without one, the short run's best)."""
+    import sim2real.robot.paths
+
+    walker = tmp_path / "shipped.json"
+    if shipped:
+        grown_controller.save(walker)
+    monkeypatch.setattr(sim2real.robot.paths, "shipped_controller", lambda robot: walker)
     out = tmp_path / "qs"
     assert main(["quickstart", "--out", str(out), "--generations", "1", "--population", "8", "--no-video"]) == 0
     for name in ("controller.json", "dry_run.csv", "dry_run.json", "compare.png", "run/stats.csv"):
         assert (out / name).exists(), name
+    assert (out / "walker.json").exists() == shipped
+    dry_run_of = json.loads((out / "dry_run.json").read_text())["controller_provenance"]
+    assert ("run" not in dry_run_of) == shipped  # the shipped walker was dry-run, not the short run's best
     text = capsys.readouterr().out
     assert "[5/5]" in text and "contact agreement" in text and str(out) in text
+    assert ("the project's walker" in text) == shipped
 
 
 VALIDATED = {**SMALL, "generations": 5, "task": {**SMALL["task"], "harness_generations": 0},

@@ -34,3 +34,9 @@ def profiles_dir() -> Path:
 
 def robots_dir() -> Path:
     return data_root() / "configs" / "robots"
+
+
+def shipped_controller(robot_name: str) -> Path:
+    """Where the project's own walker for a robot lives (``configs/controllers/<robot>.json``;
+    it may not exist: only robots with a robust walker have one)."""
+    return data_root() / "configs" / "controllers" / f"{robot_name.replace(':', '_')}.json"
