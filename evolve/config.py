@@ -12,6 +12,7 @@
       episodes: 4             # randomized episodes per genome
       score: mean             # mean | worst of them
       ramp_generations: 0     # ranges grow from nominal to full over this many generations
+      start_generation: 0     # the nominal robot before this generation (the ramp starts here)
       validation:             # optional: choose the champion on fixed draws selection never sees
         draws: 10             # robots drawn once from the full ranges
         every: 5              # generations between validations (once the harness is off)
@@ -71,6 +72,7 @@ class RandomizeConfig:
     episodes: int = 1  # episodes per genome
     score: str = "mean"  # mean | worst
     ramp_generations: int = 0  # ranges grow from nominal to full over this many generations
+    start_generation: int = 0  # the nominal robot before this generation; the ramp starts here
     validation: ValidationConfig = field(default_factory=ValidationConfig)
 
     @property
@@ -78,14 +80,20 @@ class RandomizeConfig:
         return self.reality != "nominal" or self.episodes > 1
 
     def intensity(self, generation: int) -> float:
-        """Randomization strength at ``generation`` of a stage: 0 (nominal) at the first,
-        growing linearly to 1 (the reality file's ranges) at ``ramp_generations``."""
-        return 1.0 if self.ramp_generations <= 0 else min(1.0, generation / self.ramp_generations)
+        """Randomization strength at ``generation`` of a stage: 0 (nominal) before
+        ``start_generation``, then growing linearly from 0 to 1 (the reality file's ranges)
+        over ``ramp_generations`` (at once without a ramp)."""
+        since = generation - self.start_generation
+        if since < 0:
+            return 0.0
+        return 1.0 if self.ramp_generations <= 0 else min(1.0, since / self.ramp_generations)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"reality": self.reality, "episodes": self.episodes, "score": self.score}
         if self.ramp_generations:
             out["ramp_generations"] = self.ramp_generations
+        if self.start_generation:
+            out["start_generation"] = self.start_generation
         if self.validation.active:
             out["validation"] = self.validation.to_dict()
         return out
@@ -95,7 +103,7 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     if doc is None:
         return RandomizeConfig()
     node = Node(doc, source, "randomize").mapping(optional=("reality", "episodes", "score", "ramp_generations",
-                                                            "validation"))
+                                                            "start_generation", "validation"))
     reality = node.value.get("reality", "nominal")
     if not isinstance(reality, (str, dict)):
         raise node["reality"].error(f"must be a reality name, path or mapping, got {reality!r}")
@@ -106,6 +114,7 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     episodes = node["episodes"].integer(lo=1) if node.has("episodes") else 1
     score = node["score"].string(("mean", "worst")) if node.has("score") else "mean"
     ramp = node["ramp_generations"].integer(lo=0) if node.has("ramp_generations") else 0
+    start = node["start_generation"].integer(lo=0) if node.has("start_generation") else 0
     validation = ValidationConfig()
     if node.has("validation"):
         v = node["validation"].mapping(required=("draws",), optional=("every", "candidates"))
@@ -115,7 +124,7 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
             candidates=v["candidates"].integer(lo=1) if v.has("candidates") else ValidationConfig.candidates)
         if reality == "nominal":
             raise v.error("validates on randomized draws: give randomize.reality (ranges to draw from)")
-    return RandomizeConfig(reality, episodes, score, ramp, validation)
+    return RandomizeConfig(reality, episodes, score, ramp, start, validation)
 
 
 @dataclass(frozen=True)

@@ -89,6 +89,13 @@ def concatenate(parts: list[Episodes]) -> Episodes:
     return Episodes(**arrays, steps=sum(p.steps for p in parts), terms=terms)
 
 
+def repeated(e: Episodes, times: int) -> Episodes:
+    """Each simulation's outcome ``times`` times in a row (its physics steps once)."""
+    arrays = {name: np.repeat(getattr(e, name), times)
+              for name in ("fitness", "selection", "distance_m", "upright_s", "fell", "unstable")}
+    return Episodes(**arrays, steps=e.steps, terms={name: np.repeat(v, times) for name, v in e.terms.items()})
+
+
 def score_population(backend: Backend, genomes: list[Genome], *, steepness: float, harness: float,
                      stage: Stage | None, episodes: int, score: str, intensity: float,
                      key: tuple[int, int, int]) -> Episodes:
@@ -97,14 +104,18 @@ def score_population(backend: Backend, genomes: list[Genome], *, steepness: floa
     Per genome, fitness and the other measures are the ``score`` (mean or worst) of its
     episodes; it fell if it fell in any.  Its fitness terms are their mean over its episodes
     (score mean) or its worst episode's (score worst: the one of lowest fitness).
-    ``intensity`` scales the randomization (0: none).
+    ``intensity`` scales the randomization (0: none; then every episode of a genome would be
+    the same simulation, so one is run and counted ``episodes`` times - the same numbers).
     """
     n = len(genomes)
-    sims = [g for g in genomes for _ in range(episodes)]
-    keys = np.array([[*key, i, e] for i in range(n) for e in range(episodes)], dtype=np.int64)
+    runs = episodes if intensity > 0 else 1
+    sims = [g for g in genomes for _ in range(runs)]
+    keys = np.array([[*key, i, e] for i in range(n) for e in range(runs)], dtype=np.int64)
     per_sim = backend.run(Job(sims, keys, steepness, harness, stage, intensity))
     if episodes == 1:
         return per_sim
+    if runs == 1:
+        per_sim = repeated(per_sim, episodes)
     combine = np.mean if score == "mean" else np.min
 
     worst = np.argmin(per_sim.fitness.reshape(n, episodes), axis=1)

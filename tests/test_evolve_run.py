@@ -5,6 +5,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 import yaml
 
@@ -280,3 +281,31 @@ def test_a_validated_champion_beats_any_unvalidated_one_and_walks_count_first():
     more_walks = best(0.5, {"draws": 10, "walked": 4, "fitness": 0.5, "distance_m": 0.1})
     assert more_walks.better_than(validated)
     assert best(2.0).better_than(best(1.0)) and best(1.0).better_than(best(9.0, harness=1.0))
+
+
+def test_randomization_starts_at_its_generation_and_ramps_from_there():
+    from evolve.config import RandomizeConfig
+
+    r = RandomizeConfig("randomize", 3, "mean", ramp_generations=4, start_generation=10)
+    assert [r.intensity(g) for g in (0, 9, 10, 12, 14, 99)] == [0.0, 0.0, 0.0, 0.5, 1.0, 1.0]
+    assert RandomizeConfig("randomize", 3, start_generation=5).intensity(5) == 1.0  # no ramp: at once
+
+
+def test_nominal_episodes_are_simulated_once_and_counted_as_many_times():
+    from evolve.evaluation import score_population
+    from evolve.locomotion.evaluator import neat_layout
+    from evolve.neat import NeatConfig, Population
+    from sim2real.controller.symmetry import symmetric_layout
+
+    robot = load_robot()
+    spec = EvaluatorSpec("xl430_biped", {"episode_s": 1.0}, "randomize", 12, 1)
+    backend = LocalBackend(spec)
+    layout = neat_layout(symmetric_layout(robot, robot.control_sets["walk"]))
+    genomes = Population(NeatConfig(population_size=4, target_species=2), layout, seed=3).genomes
+    options = dict(steepness=1.0, harness=0.0, stage=None, score="mean", intensity=0.0, key=(1, 0, 0))
+    once = score_population(backend, genomes, episodes=1, **options)
+    thrice = score_population(backend, genomes, episodes=3, **options)
+    # the mean of three equal numbers, to its last bit as when all three were simulated
+    assert thrice.fitness == pytest.approx(once.fitness, rel=1e-15)
+    assert thrice.distance_m == pytest.approx(once.distance_m, rel=1e-15)
+    assert thrice.steps == once.steps  # not simulated three times
