@@ -6,6 +6,9 @@ Same model (the default robot), same population, same threads, one process: firs
 ``mujoco.batch`` stepping of every simulation with zero controls, one control tick a call;
 then real evolution generations (networks, sensors, mapping, fitness, termination and the
 support harness included), counting the physics steps actually simulated.  Goal: ratio >= 0.9.
+With ``--reality`` (a reality file's name or path) every simulation is perturbed by its own
+draw, as in randomized evolution, and the model is the one that reality needs (with backlash
+joints if it draws backlash).
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population
 from sim2real.robot import load_robot
+from sim2real.simulation.reality import load_reality, needs_backlash_joints
 
 
 def main(argv=None) -> None:
@@ -26,11 +30,13 @@ def main(argv=None) -> None:
     p.add_argument("--threads", type=int, default=0, help="0: every core")
     p.add_argument("--generations", type=int, default=4)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--reality", default="nominal", help="perturb each simulation by a draw of this reality file")
     args = p.parse_args(argv)
 
     robot = load_robot(args.robot)
     task = TaskConfig()
-    evaluator = LocomotionEvaluator(robot, task, args.population, args.threads)
+    reality = load_reality(args.reality)
+    evaluator = LocomotionEvaluator(robot, task, args.population, args.threads, reality=reality)
     batch, n = evaluator.batch, args.population
 
     ticks = 100
@@ -46,12 +52,14 @@ def main(argv=None) -> None:
     config = NeatConfig(population_size=n, target_species=max(1, n // 10), compat_threshold=0.6)
     pop = Population(config, evaluator.neat_layout, seed=args.seed)
     steps, eval_s, ga_s = 0, 0.0, 0.0
-    for _ in range(args.generations):
+    for generation in range(args.generations):
         t0 = time.perf_counter()
         holder = {}
 
         def evaluate(genomes):
-            holder["e"] = evaluator.evaluate(genomes, config.sigmoid_steepness, harness=1.0)
+            keys = [[args.seed, generation, i] for i in range(len(genomes))]
+            perturbation = None if reality.is_nominal else evaluator.sample(keys)
+            holder["e"] = evaluator.evaluate(genomes, config.sigmoid_steepness, harness=1.0, perturbation=perturbation)
             return holder["e"].selection
 
         pop.evaluate(evaluate)
@@ -64,6 +72,8 @@ def main(argv=None) -> None:
     progress(f"evolution: {evolution:,.0f} steps/s", args.json)
     report({
         "robot": robot.name,
+        "reality": reality.name,
+        "backlash_joints": needs_backlash_joints(reality),
         "population": n,
         "threads": batch.nthread,
         "substeps_per_tick": evaluator.substeps,

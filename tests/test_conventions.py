@@ -20,6 +20,7 @@ import sim2real.controller.symmetry as symmetry
 import sim2real.hardware.dynamixel.chain as chain
 import sim2real.hardware.mock as mock
 import sim2real.simulation.compare as compare_module
+import sim2real.simulation.model_builder as model_builder
 import sim2real.simulation.simbus.physics as physics
 from evolve.locomotion.evaluator import LocomotionEvaluator, neat_layout
 from evolve.locomotion.export import controller_from_genome
@@ -33,6 +34,7 @@ from sim2real.hardware.dynamixel.chain import ServoChain
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import load_robot
 from sim2real.robot.spec import DEFAULT_CONTACT_SHARE
+from sim2real.simulation.reality import load_reality
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOT = load_robot()
@@ -55,6 +57,20 @@ def robot_file(tmp_path: Path, **board) -> Path:
     doc["sensor_board"].update(board)
     path = tmp_path / "robot.yaml"
     path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+def standing_trace(path: Path, feet: list[int]) -> Path:
+    """A trace of the default robot at home, goals and angles, for ``len(feet)`` ticks with both
+    foot switches at ``feet[k]``, and its sidecar."""
+    names = ROBOT.joint_names
+    home = [j.home_rad for j in ROBOT.joints]
+    rows = [",".join(["time_s", "tick", *(f"{n}_goal_rad" for n in names), *(f"{n}_present_rad" for n in names),
+                      "foot_left", "foot_right", "up_x", "up_y", "up_z", "compute_ms", "bus_ms", "overrun"])]
+    for k, touching in enumerate(feet):
+        rows.append(",".join(map(str, [k * 0.034, k, *home, *home, touching, touching, 0.0, 0.0, 1.0, 0.1, 0.1, 0])))
+    path.write_text("\n".join(rows) + "\n")
+    path.with_suffix(".json").write_text(json.dumps({"robot": ROBOT.name}))
     return path
 
 
@@ -119,6 +135,36 @@ def test_the_bias_values_have_one_owner():
     assert np.array_equal(ControllerNetworks(controller)._bias_values, np.array(symmetry.BIAS))
 
 
+# -- joint angles: servo joint + gear play, read in one place -------------------------------------
+def test_evolution_the_simulated_bus_and_compare_read_joint_angles_through_one_reader(monkeypatch, tmp_path):
+    assert evaluator_module.JointAngles is physics.JointAngles is compare_module.JointAngles is model_builder.JointAngles
+    reality = load_reality({"backlash_deg": 2.0})
+    now = [0.0]
+    sim = physics.PhysicsChain(ROBOT, clock=lambda: now[0], reality=reality)
+    for dxl_id in sim.ids:
+        sim.devices[dxl_id].set_named("torque_enable", 1)
+    now[0] = 0.5
+    sim.advance()  # standing: loaded joints lean on one side of their 2-deg play
+    play = sim.data.qpos[sim.angles.play_qpos]
+    assert np.abs(play).max() > np.radians(0.9)
+    present = [sim.devices[i].get_named("present_position") for i in sim.ids]
+    assert present == list(sim._ticks(sim.angles.read(sim.data.qpos)))  # what the encoder sees: servo + play
+    assert present != list(sim._ticks(sim.angles.servo(sim.data.qpos)))
+
+    readers = []  # every reader goes through JointAngles.read
+    read = model_builder.JointAngles.read
+    monkeypatch.setattr(model_builder.JointAngles, "read", lambda self, qpos: readers.append(self) or read(self, qpos))
+    ev = LocomotionEvaluator(ROBOT, TaskConfig(episode_s=0.1), 1, threads=1, reality=reality)
+    ev.evaluate([Genome(0, ev.neat_layout)], 1.0, perturbation=ev.sample(np.zeros((1, 1))))
+    assert any(r is ev.angles for r in readers) and ev.angles.has_play
+    now[0] = 0.6
+    sim.advance()
+    assert any(r is sim.angles for r in readers)
+    count = len(readers)
+    compare_module.compare(standing_trace(tmp_path / "standing.csv", [1, 1, 1]))
+    assert len(readers) == count + 3  # one read a tick
+
+
 # -- the foot-contact threshold ------------------------------------------------------------------
 def test_the_robots_sensor_board_decides_when_a_foot_touches_everywhere(tmp_path):
     assert ROBOT.contact_share == DEFAULT_CONTACT_SHARE == 0.05
@@ -137,16 +183,7 @@ def test_the_robots_sensor_board_decides_when_a_foot_touches_everywhere(tmp_path
         assert (board.get_named("foot_switch_left"), board.get_named("foot_switch_right")) == (touching, touching)
     # compare: a trace whose feet touch from the second tick on (the soles start 0.5 mm up) agrees with
     # the simulation on the nominal board, and on the strict one only where nothing touches
-    names = ROBOT.joint_names
-    home = [j.home_rad for j in ROBOT.joints]
-    trace = tmp_path / "standing.csv"
-    rows = [",".join(["time_s", "tick", *(f"{n}_goal_rad" for n in names), *(f"{n}_present_rad" for n in names),
-                      "foot_left", "foot_right", "up_x", "up_y", "up_z", "compute_ms", "bus_ms", "overrun"])]
-    for k in range(10):
-        feet = int(k > 0)
-        rows.append(",".join(map(str, [k * 0.034, k, *home, *home, feet, feet, 0.0, 0.0, 1.0, 0.1, 0.1, 0])))
-    trace.write_text("\n".join(rows) + "\n")
-    trace.with_suffix(".json").write_text(json.dumps({"robot": ROBOT.name}))
+    trace = standing_trace(tmp_path / "standing.csv", [int(k > 0) for k in range(10)])
     assert compare_module.compare(trace)["contact_agreement"] == 1.0
     assert compare_module.compare(trace, str(robot_file(tmp_path, contact_share=1.0)))["contact_agreement"] == 0.1
 

@@ -110,6 +110,15 @@ def test_the_simulated_bus_takes_a_reality_profile():
     assert real.kp == pytest.approx(nominal.kp * 0.9)
     assert real.model.actuator_delay == pytest.approx(0.5 * 0.034)
     assert real.perturbation.backlash_rad[0] == pytest.approx(np.radians(0.3))
+    play = real.model.jnt_range[real.angles.play_joint]  # backlash joints, opened to the profile's width
+    assert np.degrees(play[:, 1] - play[:, 0]) == pytest.approx(0.3) and not nominal.angles.has_play
+    assert real.kv == pytest.approx(real.kp * 0.0125)  # the D term at derivative_ms 12.5
+    now = [0.0]
+    limp = PhysicsChain(ROBOT, clock=lambda: now[0], reality=load_reality("default"))
+    now[0] = 0.01
+    limp.advance()  # torque off (its power-on default): no force, the D term's included
+    assert limp.model.actuator_gainprm[:, 0] == pytest.approx(0.0) and limp.model.actuator_biasprm[:, 2] == pytest.approx(0.0)
+    assert limp.data.actuator_force == pytest.approx(0.0)
 
 
 def test_a_dry_run_under_the_default_reality_profile(standing_controller):

@@ -20,15 +20,20 @@ ROBOT = load_robot()
 TASK = TaskConfig(episode_s=1.5)
 
 
-@pytest.fixture(scope="module")
-def genomes():
+def random_genomes(n: int) -> list:
+    """``n`` genomes grown for four generations on random fitness, seeded."""
     layout = neat_layout(symmetric_layout(ROBOT, ROBOT.control_sets["walk"]))
-    pop = Population(NeatConfig(population_size=12, target_species=3, add_node_prob=0.3, add_link_prob=0.5),
+    pop = Population(NeatConfig(population_size=n, target_species=3, add_node_prob=0.3, add_link_prob=0.5),
                      layout, seed=3)
     rng = np.random.default_rng(0)
     for _ in range(4):
         pop.step(lambda gs: rng.random(len(gs)))
     return pop.genomes
+
+
+@pytest.fixture(scope="module")
+def genomes():
+    return random_genomes(12)
 
 
 def test_walk_preset_gives_seed_000s_eleven_inputs():
@@ -104,7 +109,10 @@ def test_a_network_without_connections_stands_still_and_stops_for_stagnation():
     assert result.fitness[0] == pytest.approx(expected)
 
 
-def test_falls_end_the_trial_and_the_harness_holds_the_robot_up(genomes):
+def test_falls_end_the_trial_and_the_harness_holds_the_robot_up():
+    # 48 controllers: over 12 the mean time upright with and without the harness was within a
+    # few percent (random controllers also fall forward, which the harness does not stop)
+    genomes = random_genomes(48)
     task = TaskConfig(episode_s=3.0)
     evaluator = LocomotionEvaluator(ROBOT, task, len(genomes), threads=2)
     free = evaluator.evaluate(genomes, 1.0)

@@ -7,7 +7,7 @@ from conftest import all_robot_names
 
 from sim2real.controller.mapping import hold_pose
 from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model, to_mjcf
+from sim2real.simulation.model_builder import BACKLASH_SUFFIX, CLOSED_PLAY_RAD, JointAngles, build_model, to_mjcf
 from sim2real.simulation.statics import holding_torques
 
 
@@ -116,3 +116,34 @@ def test_torso_up_reads_world_up_in_the_torso_frame_as_an_imu_does():
     mujoco.mj_forward(model, data)
     up = data.sensor("torso_up").data
     assert up == pytest.approx([-np.sin(tilt), 0, np.cos(tilt)], abs=1e-9)
+
+
+def test_backlash_joints_only_when_asked_each_right_behind_its_joint():
+    robot = load_robot()
+    nominal, geared = build_model(robot), build_model(robot, backlash=True)
+    assert nominal.nq == 7 + len(robot.joints)  # the free root and one hinge per joint
+    assert not any(nominal.joint(i).name.endswith(BACKLASH_SUFFIX) for i in range(nominal.njnt))
+    assert not JointAngles.of(nominal).has_play
+    assert geared.nq == nominal.nq + len(robot.joints) and geared.nu == nominal.nu
+    angles = JointAngles.of(geared)
+    for joint, servo, play in zip(robot.joints, angles.servo_joint, angles.play_joint):
+        assert geared.joint(play).name == joint.name + BACKLASH_SUFFIX
+        assert play == servo + 1 and geared.jnt_bodyid[play] == geared.jnt_bodyid[servo]  # in series
+        assert geared.jnt_axis[play] == pytest.approx(geared.jnt_axis[servo])
+        assert geared.jnt_range[play] == pytest.approx([-CLOSED_PLAY_RAD / 2, CLOSED_PLAY_RAD / 2])
+    assert set(geared.actuator_trnid[:, 0]) == set(angles.servo_joint)  # the motors drive the servo joints
+
+
+def test_closed_backlash_joints_stand_as_the_rigid_model():
+    robot = load_robot()
+    held = []
+    for backlash in (False, True):
+        model = build_model(robot, backlash=backlash)
+        data = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+        for _ in range(int(2.0 / model.opt.timestep)):
+            mujoco.mj_step(model, data)
+        held.append((data.qpos[2], JointAngles.of(model).read(data.qpos)))
+    (rigid_z, rigid_q), (closed_z, closed_q) = held
+    assert closed_z == pytest.approx(rigid_z, abs=2e-4)  # pelvis height [m]
+    assert np.degrees(closed_q) == pytest.approx(np.degrees(rigid_q), abs=0.05)  # joints [deg]

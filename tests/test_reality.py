@@ -5,16 +5,18 @@ import pytest
 
 from evolve.locomotion.evaluator import LocomotionEvaluator, neat_layout
 from evolve.locomotion.task import TaskConfig
-from evolve.neat import NeatConfig, Population
+from evolve.neat import Genome, NeatConfig, Population
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot
+from sim2real.simulation.model_builder import CLOSED_PLAY_RAD
 from sim2real.simulation.reality import (
     NOMINAL,
     PERTURBATIONS,
     load_reality,
+    needs_backlash_joints,
     parse_reality,
-    play,
+    sample,
 )
 
 ROBOT = load_robot()
@@ -48,14 +50,6 @@ def test_unknown_profile_lists_the_known_ones():
         load_reality("no-such-profile")
 
 
-def test_play_operator_takes_up_the_free_play_first():
-    width = np.array([0.2])
-    out = np.array([0.0])
-    for command, expected in ((0.05, 0.0), (0.15, 0.05), (0.10, 0.05), (-0.1, 0.0)):
-        out = play(out, np.array([command]), width)
-        assert out[0] == pytest.approx(expected)
-
-
 @pytest.fixture(scope="module")
 def evaluator():
     return LocomotionEvaluator(ROBOT, TASK, 6, threads=1, reality=load_reality("randomize"))
@@ -75,6 +69,19 @@ def test_draws_depend_on_the_key_only(evaluator):
     assert np.allclose(half.kp_scale - 1.0, (together.kp_scale - 1.0) / 2)
     assert np.allclose(half.backlash_rad, together.backlash_rad / 2)
     assert np.array_equal(evaluator.sample(keys, intensity=1.0).kp_scale, together.kp_scale)
+
+
+def test_only_realities_that_draw_backlash_get_backlash_joints():
+    for doc, geared in ((None, False), ({"kp_scale": 0.9}, False), ({"backlash_deg": 0.0}, False),
+                        ({"backlash_deg": [0.0, 0.6]}, True), ("default", True)):
+        reality = load_reality(doc)
+        assert needs_backlash_joints(reality) == geared
+        ev = LocomotionEvaluator(ROBOT, TASK, 1, threads=1, reality=reality)
+        assert ev.angles.has_play == geared
+    plain = LocomotionEvaluator(ROBOT, TASK, 1, threads=1)
+    drawn = sample(load_reality("default"), np.zeros((1, 1)), plain.model, 0, plain.tick_s)
+    with pytest.raises(ValueError, match="without backlash joints"):
+        plain.evaluate([Genome(0, plain.neat_layout)], 1.0, perturbation=drawn)
 
 
 def test_scaled_reality_goes_from_nominal_to_itself():
@@ -97,12 +104,21 @@ def test_each_simulation_gets_its_own_model_and_nominal_comes_back(evaluator):
         assert m.actuator_gainprm[:, 0] == pytest.approx(nominal.actuator_gainprm[:, 0] * p.kp_scale[i])
         assert m.geom_friction[floor, 0] == pytest.approx(nominal.geom_friction[floor, 0] * p.floor_friction_scale[i])
         assert m.actuator_delay == pytest.approx(np.full(nominal.nu, p.latency_s[i]))
+        kv = -m.actuator_biasprm[:, 2]  # the D term: kp Td inside the torque limit
+        assert kv == pytest.approx(m.actuator_gainprm[:, 0] * p.derivative_s[i]) and p.derivative_s[i] > 0
+        dofs = evaluator.angles.servo_dof
+        assert m.dof_armature[dofs] == pytest.approx(nominal.dof_armature[dofs] * p.armature_scale[i])
+        play = m.jnt_range[evaluator.angles.play_joint]  # each joint's gear play, as drawn
+        assert play[:, 1] - play[:, 0] == pytest.approx(np.maximum(p.backlash_rad[i], CLOSED_PLAY_RAD))
     assert evaluator.batch.get_model(0).body_mass[1] != evaluator.batch.get_model(1).body_mass[1]
     evaluator.evaluate(genomes, 1.0)  # back to the nominal robot
     for i in range(3):
         m = evaluator.batch.get_model(i)
         assert m.body_mass == pytest.approx(nominal.body_mass)
         assert m.actuator_delay == pytest.approx(0.0)
+        assert m.jnt_range == pytest.approx(nominal.jnt_range)  # the gears closed again
+        assert m.actuator_biasprm == pytest.approx(nominal.actuator_biasprm)
+        assert m.dof_armature == pytest.approx(nominal.dof_armature)
 
 
 def test_randomized_results_do_not_depend_on_batching(evaluator):

@@ -11,8 +11,9 @@ them; there is no Python loop over individuals.  MuJoCo's batch is bit-identical
 thread count, and so are the results.
 
 A simulation may carry a perturbation (:mod:`sim2real.simulation.reality`): its own masses, friction,
-gains and latency in the batch's per-simulation model fields, backlash and sensor noise on
-the control path.
+gains, latency and backlash in the batch's per-simulation model fields, sensor noise on what
+the networks read.  A reality that can draw backlash gets a model with backlash joints;
+joint angles are read from ``qpos`` by the model's :class:`JointAngles` either way.
 
 Sensor readings are the batch's derived fields, one physics substep (2 ms) older than
 the state - the robot, too, reads its servos a little before it writes.
@@ -47,7 +48,7 @@ from sim2real.controller.symmetry import (
 from sim2real.robot import RobotSpec
 from sim2real.robot.spec import GRAVITY
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.model_builder import JointAngles, build_model
 from sim2real.simulation.reality import (
     NOMINAL,
     PERTURBED_FIELDS,
@@ -55,7 +56,7 @@ from sim2real.simulation.reality import (
     Reality,
     apply,
     latency_capacity_s,
-    play,
+    needs_backlash_joints,
     sample,
 )
 
@@ -71,7 +72,8 @@ class LocomotionEvaluator:
     """Episodes of many controllers at once on one robot; see the module docstring.
 
     ``reality`` (randomization ranges or a fixed profile) sizes the model for its longest
-    control latency; each call's ``perturbation`` then gives every simulation its draw.
+    control latency and gives it backlash joints if it can draw backlash; each call's
+    ``perturbation`` then gives every simulation its draw.
     """
 
     def __init__(self, robot: RobotSpec, task: TaskConfig, max_population: int, threads: int = 0,
@@ -82,7 +84,8 @@ class LocomotionEvaluator:
         self.robot, self.task, self.reality = robot, task, reality
         timing = control_timing(robot)
         self.tick_s, self.substeps = timing.tick_s, timing.substeps
-        self.model = model = build_model(robot, latency_capacity_s(reality, self.tick_s))
+        self.model = model = build_model(robot, latency_capacity_s(reality, self.tick_s),
+                                         backlash=needs_backlash_joints(reality))
         self.n_ticks = int(round(task.episode_s / self.tick_s))
         self.layout = symmetric_layout(robot, robot.control_sets[task.control_set])
         names = [j.name for j in robot.joints]
@@ -93,7 +96,7 @@ class LocomotionEvaluator:
                                     else 0.0 for j in robot.joints])
         self.max_step = max_steps(robot, self.tick_s)
         self.hold = hold_pose(robot, self.layout.driven)
-        self.qadr = np.array([model.jnt_qposadr[model.joint(n).id] for n in names], dtype=np.intp)
+        self.angles = JointAngles.of(model, names)
         self.touch_adr = np.array([model.sensor_adr[model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")])
         self.up_adr = model.sensor_adr[model.sensor("torso_up").id]
         self.soles = np.array([model.site(f"{s}_sole").id for s in ("left", "right")])
@@ -109,6 +112,11 @@ class LocomotionEvaluator:
         self.site_xpos, self.xipos = self.batch.bind("site_xpos"), self.batch.bind("xipos")
         self.subtree_com = self.batch.bind("subtree_com")
         self._perturbed = np.zeros(max_population, dtype=bool)
+
+    def joint_angles(self, ids: np.ndarray) -> np.ndarray:
+        """Joint angles of simulations ``ids`` (len(ids), joints) [rad], unquantized and
+        noise-free: what their encoders see."""
+        return self.angles.read(self.qpos[ids])
 
     @property
     def neat_layout(self) -> Layout:
@@ -148,7 +156,6 @@ class LocomotionEvaluator:
         score = (objective or WalkObjective)(self, n)
         start_pelvis = self.xipos[:n, self.pelvis].copy()
         goal = self.hold[self.driven][None, :].repeat(n, axis=0)
-        played = goal.copy()  # the gear train's side of the backlash
         elapsed = np.zeros(n)
         unstable = np.zeros(n, dtype=bool)
         alive = ids
@@ -161,7 +168,7 @@ class LocomotionEvaluator:
         d_low, d_high, d_step = self.low[self.driven], self.high[self.driven], self.max_step[self.driven]
         for t in range(self.n_ticks):
             sensors = self.sensordata[alive]
-            q = self.qpos[alive[:, None], self.qadr]
+            q = self.joint_angles(alive)
             touch = sensors[:, self.touch_adr] > self.touch_threshold
             up = sensors[:, self.up_adr:self.up_adr + 3]
             if p is not None:
@@ -173,8 +180,6 @@ class LocomotionEvaluator:
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
             goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)
             goal[alive] = goal_alive
-            if p is not None:
-                goal_alive = played[alive] = play(played[alive], goal_alive, p.backlash_rad[alive][:, self.driven])
             self.ctrl[alive[:, None], self.driven] = goal_alive
             if harness:
                 self.xfrc[alive, self.pelvis, :3] = self._harness(alive, start_pelvis, k, c, cap)
@@ -210,7 +215,7 @@ class LocomotionEvaluator:
         fields = {name: self.batch.expand(name) for name in PERTURBED_FIELDS}
         nominal = sample(NOMINAL, np.zeros((len(ids), 1)), self.model, 0, self.tick_s) if p is None else None
         apply(fields, self.model, p if p is not None else nominal, ids)
-        self.batch.set_const(ids)  # masses feed derived constants
+        self.batch.set_const(ids)  # masses and armatures feed derived constants
         self._perturbed[ids] = p is not None
 
     def _harness(self, alive, start, k, c, cap) -> np.ndarray:

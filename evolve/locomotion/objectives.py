@@ -170,7 +170,7 @@ class PoseObjective:
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, limits = self.ev, self.limits
-        q = ev.qpos[alive[:, None], ev.qadr[ev.driven]]
+        q = ev.joint_angles(alive)[:, ev.driven]
         squared = ((q - self.target) ** 2).sum(axis=1)
         self.pose_error[alive] += squared
         fail = bad | ~(self.pose_error[alive] <= limits.rest_pose)

@@ -15,9 +15,16 @@ no-load speed: ``stall - coulomb - damping * w0 = 0``.  The datasheet's no-load 
 measured with the gearbox's own friction, so this reproduces it exactly, and the back-EMF
 part is what remains after the identified viscous friction.
 
-The D and I terms are left out: the e-manual does not give the D term's time base, and
-the I term defaults to 0.  The AX-12A's compliance slope is a proportional band:
-torque rises from 0 to the torque limit over ``slope`` ticks.
+The I term defaults to 0 and is left out.  The D term (KPD = D/16 PWM units per tick of
+error change in one loop period) is a velocity gain inside the torque limit, ``kv = kp *
+Td`` with the derivative time ``Td = (KPD / KPP) * loop period`` (:func:`derivative_time`);
+the e-manual does not publish the loop period, so the nominal model leaves the D term out
+and reality files draw ``Td`` (``derivative_ms``; docs/servo_model.md).  The AX-12A's
+compliance slope is a proportional band: torque rises from 0 to the torque limit over
+``slope`` ticks.
+
+Gear backlash is not a servo parameter here: it is a joint of the model
+(:mod:`sim2real.simulation.model_builder`), its width drawn by reality files.
 """
 
 from __future__ import annotations
@@ -52,6 +59,17 @@ def position_gain(profile: DeviceProfile) -> float:
     # compliance: full torque limit reached `slope` ticks away from the goal
     slope = 0.5 * (g["cw_compliance_slope"] + g["ccw_compliance_slope"])
     return stall * (g["torque_limit"] / 1023.0) / (slope / ticks_per_rad)
+
+
+def derivative_time(profile: DeviceProfile, loop_hz: float) -> float:
+    """The D term's derivative time ``Td`` (kv = kp * Td) at a firmware loop rate [s]: KPD
+    acts on the error's change over one loop period, KPP on the error."""
+    assert profile.gains is not None
+    g = profile.gains.values
+    if profile.gains.type != "pid" or not g["position_p"]:
+        return 0.0
+    kpd, kpp = g["position_d"] / g["d_divisor"], g["position_p"] / g["p_divisor"]
+    return kpd / kpp / loop_hz
 
 
 def servo_physics(profile: DeviceProfile) -> ServoPhysics:

@@ -22,7 +22,7 @@ from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, ConfigError
 from sim2real.hardware.trace import TIMING, Trace, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
-from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.model_builder import JointAngles, build_model
 
 MAX_LAG_S = 0.5
 
@@ -36,7 +36,7 @@ def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray,
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)
     names = list(robot.joint_names)
-    qadr = np.array([model.jnt_qposadr[model.joint(n).id] for n in names])
+    joint_angles = JointAngles.of(model, names)
     touch = [model.sensor_adr[model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
     up_adr = model.sensor_adr[model.sensor("torso_up").id]
     resolution = ServoMapping(robot).rad_per_tick
@@ -44,7 +44,7 @@ def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray,
     feet = np.zeros((len(times), 2), dtype=bool)
     goal = policy.reset() if policy is not None else None
     for k, t in enumerate(times):
-        angles[k] = quantize(data.qpos[qadr], resolution)
+        angles[k] = quantize(joint_angles.read(data.qpos), resolution)
         feet[k] = [data.sensordata[a] > robot.foot_contact_n for a in touch]
         if policy is not None:
             goal = policy.step(angles[k], feet[k], data.sensordata[up_adr:up_adr + 3], goal)

@@ -11,14 +11,29 @@ links overlap at the joints, and a servo bracket cannot pass through itself anyw
 
 Sensors: ``<side>_foot_touch`` (normal force under each sole [N]), ``torso_up`` (world up
 in the torso frame, x forward, y left, z up: what the sensor board's IMU reports) and
-``<joint>_pos`` (joint angles [rad], unquantized: the robot-side readers quantize them).
-The keyframe ``home`` holds the standing pose in ``qpos`` and ``ctrl``.
+``<joint>_pos`` (the servo joint's angle [rad], unquantized).  The keyframe ``home`` holds
+the standing pose in ``qpos`` and ``ctrl``.
+
+Gear backlash, when asked for (``backlash=True``), is a passive hinge ``<joint>_backlash``
+in series behind each joint: same body and axis, right after the servo joint (MuJoCo
+composes a body's joints in order), free between its limits ``+-width/2`` and without an
+actuator - Open Duck Mini v2's model (apirrone/Open_Duck_Playground@f82b5e7:playground/
+open_duck_mini_v2/xmls/open_duck_mini_v2_backlash.xml).  The position actuator drives the
+servo (motor-side) joint; the encoder sits on the output shaft, behind the gears, so the
+angle the robot reports is servo joint + backlash joint.  :class:`JointAngles` is the one
+reader of that angle from ``qpos``; the ``<joint>_pos`` sensors stay on the servo joint.
+Each simulation's width goes into the backlash joints' ``jnt_range``
+(:func:`sim2real.simulation.reality.apply`); the compiled model holds them closed.
 
     model = build_model(load_robot("xl430_biped"))
+    angles = JointAngles.of(model).read(data.qpos)  # [rad], robot.joints order
     xml = to_mjcf(load_robot("human:male_95"))
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
 
 import mujoco
 import numpy as np
@@ -53,6 +68,24 @@ COLORS = {"left": (0.85, 0.45, 0.2, 1), "right": (0.2, 0.5, 0.85, 1), "center": 
 SOLE_CLEARANCE_M = 0.0005  # the home keyframe starts the soles this far above the floor
 OFFSCREEN_SIZE = (1280, 720)  # [px] the offscreen framebuffer: the largest picture `biped render` makes
 
+BACKLASH_SUFFIX = "_backlash"  # <joint>_backlash: the gears' free play behind <joint>
+# A width-0 draw closes the play to this [rad] (a limited joint needs low < high): its two
+# limits then hold the joint at 0 as the nominal model's rigid gears do.
+CLOSED_PLAY_RAD = 1e-6
+# In the gap the link moves freely, so what the backlash joint adds must be small next to the
+# smallest link a servo moves (xl430_biped: a foot about its ankle roll, 1.9e-4 kg m^2) and to
+# a servo's own damping (0.04-0.8 N m s/rad); a little armature keeps the joint's row of the
+# mass matrix away from 0 whatever it carries.  Open Duck's 0.01 kg m^2 would be 50 feet and
+# set how a link crosses its gap.  Stable at the 2 ms implicitfast step: standing, knee
+# steps, and 64 random controllers x 3 s with play up to 3 deg (docs/servo_model.md).
+PLAY_ARMATURE = 1e-5  # [kg m^2]
+PLAY_DAMPING = 1e-3  # [N m s/rad]
+# Limits as stiff as MuJoCo lets them be at a 2 ms step (time constant 2 steps, critically
+# damped) with an impedance near 1: the standing robot's closed knee yields 0.01 deg, as
+# against 1.3 deg with MuJoCo's default solref and solimp, a compliance the gears do not have.
+PLAY_SOLREF_STEPS = 2.0
+PLAY_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
+
 
 def joint_axis(joint: Joint) -> tuple[float, float, float]:
     x, y, z = _AXES[(joint.location, joint.axis)]
@@ -77,7 +110,7 @@ def _box_geom(body, name, size, pos, mass, side):
     )
 
 
-def _add_joints(robot: RobotSpec, body, side: str, location: str) -> None:
+def _add_joints(robot: RobotSpec, body, side: str, location: str, backlash: bool, dt: float) -> None:
     here = [j for j in robot.joints if j.side == side and j.location == location]
     for axis in JOINT_ORDER[location]:
         for joint in here:
@@ -89,6 +122,20 @@ def _add_joints(robot: RobotSpec, body, side: str, location: str) -> None:
             )
             if joint.servo is not None:
                 configure_servo_joint(jnt, servo_physics(joint.servo.profile))
+            if backlash:  # right behind its servo joint: the gears between motor and link
+                add_backlash_joint(body, joint.name, joint_axis(joint), dt)
+
+
+def add_backlash_joint(body, servo_joint: str, axis, dt: float):
+    """The gears' free play behind joint ``servo_joint``: add it to ``body`` right after that
+    joint, with its ``axis``; closed (``jnt_range`` sets each simulation's width); ``dt`` is
+    the physics timestep [s]."""
+    return body.add_joint(
+        name=servo_joint + BACKLASH_SUFFIX, type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(axis),
+        range=[-CLOSED_PLAY_RAD / 2, CLOSED_PLAY_RAD / 2], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        armature=PLAY_ARMATURE, damping=[PLAY_DAMPING, 0.0, 0.0],
+        solref_limit=[PLAY_SOLREF_STEPS * dt, 1.0], solimp_limit=list(PLAY_SOLIMP),
+    )
 
 
 def configure_servo_joint(jnt, phys: ServoPhysics) -> None:
@@ -104,8 +151,9 @@ def configure_servo_actuator(act, phys: ServoPhysics) -> None:
     act.forcerange = [-phys.force_limit, phys.force_limit]
 
 
-def build_spec(robot: RobotSpec) -> mujoco.MjSpec:
-    """The robot as an editable :class:`mujoco.MjSpec` (gains of PD robots not yet scaled)."""
+def build_spec(robot: RobotSpec, backlash: bool = False) -> mujoco.MjSpec:
+    """The robot as an editable :class:`mujoco.MjSpec` (gains of PD robots not yet scaled),
+    with a backlash joint behind each joint if ``backlash``."""
     b = robot.body
     timing = control_timing(robot)
     spec = mujoco.MjSpec()
@@ -141,20 +189,21 @@ def build_spec(robot: RobotSpec) -> mujoco.MjSpec:
                       xyaxes=_look_at(-offset))
 
     trunk = pelvis.add_body(name="trunk", pos=[0, 0, b.pelvis.size[2]])
-    _add_joints(robot, trunk, "center", "waist")
+    dt = timing.physics_dt_s
+    _add_joints(robot, trunk, "center", "waist", backlash, dt)
     _box_geom(trunk, "trunk", b.trunk.size, [0, 0, b.trunk.size[2] / 2], b.trunk.mass, "center")
     trunk.add_site(name="imu", pos=[0, 0, b.trunk.size[2] / 2])
 
     f = b.foot
     for side, y in (("left", 1.0), ("right", -1.0)):
         thigh = pelvis.add_body(name=f"{side}_thigh", pos=[0, y * b.hip_spacing / 2, 0])
-        _add_joints(robot, thigh, side, "hip")
+        _add_joints(robot, thigh, side, "hip", backlash, dt)
         _box_geom(thigh, f"{side}_thigh", b.thigh.size, [0, 0, -b.thigh.size[2] / 2], b.thigh.mass, side)
         shank = thigh.add_body(name=f"{side}_shank", pos=[0, 0, -b.thigh.size[2]])
-        _add_joints(robot, shank, side, "knee")
+        _add_joints(robot, shank, side, "knee", backlash, dt)
         _box_geom(shank, f"{side}_shank", b.shank.size, [0, 0, -b.shank.size[2] / 2], b.shank.mass, side)
         foot = shank.add_body(name=f"{side}_foot", pos=[0, 0, -b.shank.size[2]])
-        _add_joints(robot, foot, side, "ankle")
+        _add_joints(robot, foot, side, "ankle", backlash, dt)
         sole_center = [f.length / 2 - f.heel, 0, -f.ankle_height + f.thickness / 2]
         _box_geom(foot, f"{side}_foot", (f.length, f.width, f.thickness), sole_center, f.mass, side)
         # The touch site covers the sole and a sliver below it, where contact points lie.
@@ -188,8 +237,7 @@ def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel)
     """Add keyframe ``home``: joints at home, root lowered until the soles touch the floor."""
     data = mujoco.MjData(model)
     home = home_ctrl(robot, model)
-    for i, joint in enumerate(robot.joints):
-        data.qpos[model.jnt_qposadr[model.joint(joint.name).id]] = home[i]
+    JointAngles.of(model).place(data.qpos, home)
     mujoco.mj_kinematics(model, data)
     lowest = np.inf
     for side in ("left", "right"):
@@ -207,13 +255,14 @@ def home_ctrl(robot: RobotSpec, model: mujoco.MjModel) -> np.ndarray:
     return np.array([robot.joints[i].home_rad for i in range(model.nu)])
 
 
-def finished_spec(robot: RobotSpec, actuator_history_s: float = 0.0) -> mujoco.MjSpec:
+def finished_spec(robot: RobotSpec, actuator_history_s: float = 0.0, backlash: bool = False) -> mujoco.MjSpec:
     """:func:`build_spec` with PD gains scaled by joint inertia and the ``home`` keyframe.
 
     ``actuator_history_s`` > 0 keeps that much control history per actuator, so that
-    ``actuator_delay`` can model a control latency of up to as long.
+    ``actuator_delay`` can model a control latency of up to as long; ``backlash`` adds the
+    backlash joints (closed: each simulation's width is set through ``jnt_range``).
     """
-    spec = build_spec(robot)
+    spec = build_spec(robot, backlash)
     model = spec.compile()
     if robot.pd is not None:
         _scale_pd_gains(robot, spec, model)
@@ -226,9 +275,65 @@ def finished_spec(robot: RobotSpec, actuator_history_s: float = 0.0) -> mujoco.M
     return spec
 
 
-def build_model(robot: RobotSpec, actuator_history_s: float = 0.0) -> mujoco.MjModel:
+def build_model(robot: RobotSpec, actuator_history_s: float = 0.0, backlash: bool = False) -> mujoco.MjModel:
     """The robot's compiled MuJoCo model (see :func:`finished_spec`)."""
-    return finished_spec(robot, actuator_history_s).compile()
+    return finished_spec(robot, actuator_history_s, backlash).compile()
+
+
+@dataclass(frozen=True)
+class JointAngles:
+    """Where a model keeps the robot's joint angles: the one reader of them from ``qpos``.
+
+    A joint's angle is what its encoder reports, on the servo's output shaft: the servo
+    (motor-side) joint's angle plus, in a model with backlash, the backlash joint's.
+    Index arrays are in the order of the names given (default: the actuated joints, in
+    actuator order = ``robot.joints`` order).
+    """
+
+    servo_joint: np.ndarray  # joint ids
+    servo_qpos: np.ndarray  # qpos addresses
+    servo_dof: np.ndarray  # qvel addresses
+    play_joint: np.ndarray | None  # the backlash joints' ids, or None in a model without
+    play_qpos: np.ndarray | None
+    play_dof: np.ndarray | None
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, names: Sequence[str] | None = None) -> "JointAngles":
+        if names is None:
+            names = [model.joint(model.actuator_trnid[i, 0]).name for i in range(model.nu)]
+        servo = np.array([model.joint(n).id for n in names], dtype=np.intp)
+        play_names = [n + BACKLASH_SUFFIX for n in names]
+        found = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) >= 0 for n in play_names]
+        if any(found) and not all(found):
+            raise ValueError(f"backlash joints behind only some of the joints {list(names)}")
+        play = np.array([model.joint(n).id for n in play_names], dtype=np.intp) if any(found) else None
+        return cls(servo, model.jnt_qposadr[servo], model.jnt_dofadr[servo], play,
+                   None if play is None else model.jnt_qposadr[play],
+                   None if play is None else model.jnt_dofadr[play])
+
+    @property
+    def has_play(self) -> bool:
+        return self.play_joint is not None
+
+    def read(self, qpos: np.ndarray) -> np.ndarray:
+        """The encoders' angles (..., joints) [rad] from ``qpos`` (..., nq)."""
+        q = qpos[..., self.servo_qpos]
+        return q if self.play_qpos is None else q + qpos[..., self.play_qpos]
+
+    def speeds(self, qvel: np.ndarray) -> np.ndarray:
+        """The output shafts' speeds (..., joints) [rad/s] from ``qvel`` (..., nv)."""
+        v = qvel[..., self.servo_dof]
+        return v if self.play_dof is None else v + qvel[..., self.play_dof]
+
+    def servo(self, qpos: np.ndarray) -> np.ndarray:
+        """The servo (motor-side) joints' angles (..., joints) [rad]: what the actuator sees."""
+        return qpos[..., self.servo_qpos]
+
+    def place(self, qpos: np.ndarray, angles: np.ndarray) -> None:
+        """Put the joints at ``angles`` [rad] in ``qpos``, the gears centred in their play."""
+        qpos[..., self.servo_qpos] = angles
+        if self.play_qpos is not None:
+            qpos[..., self.play_qpos] = 0.0
 
 
 def to_mjcf(robot: RobotSpec) -> str:
@@ -246,8 +351,7 @@ def _scale_pd_gains(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel
     """
     assert robot.pd is not None
     data = mujoco.MjData(model)
-    for joint in robot.joints:
-        data.qpos[model.jnt_qposadr[model.joint(joint.name).id]] = joint.home_rad
+    JointAngles.of(model, robot.joint_names).place(data.qpos, np.array([j.home_rad for j in robot.joints]))
     mujoco.mj_kinematics(model, data)
     for joint in robot.joints:
         inertia = axis_inertia(model, data, joint)

@@ -12,8 +12,9 @@ value (a fixed perturbation: a "reality profile" such as ``default.yaml``) or a
 Each simulation gets its own draws from its own seeded stream (:func:`sample`, keyed by
 run seed, generation, genome and episode), so results do not depend on how simulations are
 batched or distributed.  Physical parameters go into the model (per simulation through
-``mujoco.batch``, :func:`apply`); backlash, latency and sensor noise act on the control
-path, where the servo and its sensors sit.
+``mujoco.batch``, :func:`apply`): masses, friction, gains, latency (as actuator delay) and
+backlash (the width of each backlash joint's range, in a model built with them:
+:func:`needs_backlash_joints`); sensor noise acts on what the robot reads.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import mujoco
 import numpy as np
 
 from sim2real.robot.validation import Node, load_yaml
+from sim2real.simulation.model_builder import CLOSED_PLAY_RAD, JointAngles
 
 # name -> (nominal value, meaning with unit)
 PERTURBATIONS: dict[str, tuple[float, str]] = {
@@ -37,13 +39,17 @@ PERTURBATIONS: dict[str, tuple[float, str]] = {
     "torque_scale": (1.0, "each servo's stall torque, times (drawn per servo)"),
     "damping_scale": (1.0, "each servo's back-EMF damping, times (drawn per servo)"),
     "friction_scale": (1.0, "each servo's Coulomb friction, times (drawn per servo)"),
+    "armature_scale": (1.0, "each servo's reflected rotor inertia, times (drawn per servo)"),
+    "derivative_ms": (0.0, "the position loop's D term as derivative time Td [ms]: kv = kp Td inside the "
+                           "torque limit (an XL430 at D 4000, P 640: 50 firmware loop periods)"),
     "backlash_deg": (0.0, "free play of each joint's gears, full width [deg] (drawn per joint)"),
     "latency_ticks": (0.0, "delay from goal written to goal acted on [control ticks]"),
     "joint_noise_deg": (0.0, "standard deviation of the noise on joint readings [deg]"),
     "up_noise": (0.0, "standard deviation of the noise on each up-vector component"),
     "foot_flip": (0.0, "chance that a foot switch reads wrong at a tick"),
 }
-SCALES = ("mass_scale", "floor_friction_scale", "kp_scale", "torque_scale", "damping_scale", "friction_scale")
+SCALES = ("mass_scale", "floor_friction_scale", "kp_scale", "torque_scale", "damping_scale", "friction_scale",
+          "armature_scale")
 
 
 @dataclass(frozen=True)
@@ -158,6 +164,8 @@ class Perturbation:
     torque_scale: np.ndarray  # (n, nu)
     damping_scale: np.ndarray  # (n, nu)
     friction_scale: np.ndarray  # (n, nu)
+    armature_scale: np.ndarray  # (n, nu)
+    derivative_s: np.ndarray  # (n,)
     backlash_rad: np.ndarray  # (n, nu)
     latency_s: np.ndarray  # (n,)
     joint_noise_sd_rad: np.ndarray  # (n,)
@@ -203,7 +211,16 @@ def sample(reality: Reality, keys: np.ndarray, model: mujoco.MjModel, n_ticks: i
         out["joint_noise_rad"].append(rng.normal(0.0, 1.0, (n_ticks, nu)) * joint_sd)
         out["up_noise"].append(rng.normal(0.0, 1.0, (n_ticks, 3)) * up_sd)
         out["foot_flip"].append(rng.random((n_ticks, 2)) < flip)
+        # drawn last: the perturbations added later leave the earlier ones' draws as they were
+        out["armature_scale"].append(draw("armature_scale", nu))
+        out["derivative_s"].append(draw("derivative_ms") / 1e3)
     return Perturbation(**{k: np.array(v) for k, v in out.items()})
+
+
+def needs_backlash_joints(reality: Reality) -> bool:
+    """Whether a model for this reality needs backlash joints (``build_model(backlash=...)``):
+    only then, so that a reality without backlash runs the nominal model at its speed."""
+    return reality.range("backlash_deg")[1] > 0
 
 
 def latency_capacity_s(reality: Reality, tick_s: float) -> float:
@@ -216,8 +233,12 @@ def apply(fields: dict[str, np.ndarray], nominal: mujoco.MjModel, p: Perturbatio
     """Write ``p`` into per-simulation model fields (``fields[name]`` is ``(n, ...)``, as
     ``Batch.expand`` returns or a model's array with a leading axis), rows ``rows``.
 
-    The caller runs ``set_const`` afterwards (masses feed derived constants).
+    The caller runs ``set_const`` afterwards (masses and armatures feed derived constants).
     """
+    angles = JointAngles.of(nominal)
+    if not angles.has_play and np.any(p.backlash_rad > 0):
+        raise ValueError("backlash drawn for a model without backlash joints: build it with "
+                         "build_model(..., backlash=needs_backlash_joints(reality))")
     floor = nominal.geom("floor").id
     fields["body_mass"][rows] = nominal.body_mass * p.mass_scale
     fields["body_inertia"][rows] = nominal.body_inertia * p.mass_scale[..., None]
@@ -230,20 +251,30 @@ def apply(fields: dict[str, np.ndarray], nominal: mujoco.MjModel, p: Perturbatio
     kp = nominal.actuator_gainprm[:, 0] * p.kp_scale
     gain[:, :, 0] = kp
     bias[:, :, 1] = -kp
-    bias[:, :, 2] = nominal.actuator_biasprm[:, 2] * p.kp_scale  # kv of PD robots scales alike
+    # kv of PD robots scales alike; the D term (biasprm[2] = -kv) adds kp Td
+    bias[:, :, 2] = nominal.actuator_biasprm[:, 2] * p.kp_scale - kp * p.derivative_s[:, None]
     fields["actuator_gainprm"][rows], fields["actuator_biasprm"][rows] = gain, bias
     fields["actuator_forcerange"][rows] = nominal.actuator_forcerange * p.torque_scale[..., None]
-    dofs = nominal.jnt_dofadr[nominal.actuator_trnid[:, 0]]
+    dofs = angles.servo_dof
     damping = np.array(fields["dof_damping"][rows])
     frictionloss = np.array(fields["dof_frictionloss"][rows])
     damping[:, dofs] = nominal.dof_damping[dofs] * p.damping_scale
     frictionloss[:, dofs] = nominal.dof_frictionloss[dofs] * p.friction_scale
     fields["dof_damping"][rows], fields["dof_frictionloss"][rows] = damping, frictionloss
+    armature = np.array(fields["dof_armature"][rows])
+    armature[:, dofs] = nominal.dof_armature[dofs] * p.armature_scale
+    fields["dof_armature"][rows] = armature
     fields["actuator_delay"][rows] = np.repeat(p.latency_s[:, None], nominal.nu, axis=1)
+    if angles.has_play:
+        limits = np.array(fields["jnt_range"][rows])
+        half = np.maximum(p.backlash_rad, CLOSED_PLAY_RAD) / 2  # (n, nu), in actuator order as play_joint
+        limits[:, angles.play_joint, 0], limits[:, angles.play_joint, 1] = -half, half
+        fields["jnt_range"][rows] = limits
 
 
 PERTURBED_FIELDS = ("body_mass", "body_inertia", "body_ipos", "geom_friction", "actuator_gainprm",
-                    "actuator_biasprm", "actuator_forcerange", "dof_damping", "dof_frictionloss", "actuator_delay")
+                    "actuator_biasprm", "actuator_forcerange", "dof_damping", "dof_frictionloss", "dof_armature",
+                    "actuator_delay", "jnt_range")
 
 
 def apply_to_model(model: mujoco.MjModel, nominal: mujoco.MjModel, p: Perturbation) -> None:
@@ -251,10 +282,3 @@ def apply_to_model(model: mujoco.MjModel, nominal: mujoco.MjModel, p: Perturbati
     fields = {name: getattr(model, name)[None] for name in PERTURBED_FIELDS}
     apply(fields, nominal, p.rows(slice(0, 1)), slice(0, 1))
     mujoco.mj_setConst(model, mujoco.MjData(model))
-
-
-def play(previous: np.ndarray, command: np.ndarray, width: np.ndarray) -> np.ndarray:
-    """Backlash as a play operator: the gear train follows ``command`` only once it has taken
-    up the free play of ``width`` [rad]; returns the new output angle."""
-    half = width / 2
-    return np.minimum(np.maximum(previous, command - half), command + half)

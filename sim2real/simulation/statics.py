@@ -78,9 +78,11 @@ def holding_torques(
     robot: RobotSpec, model: mujoco.MjModel, knee_deg: float = CROUCH_KNEE_DEG
 ) -> list[HoldingTorque]:
     """Holding torque and margin of every joint, in ``robot.joints`` order."""
+    from sim2real.simulation.model_builder import JointAngles  # (model_builder imports this module)
+
     data = mujoco.MjData(model)
-    for name, angle in crouch_pose(robot, knee_deg).items():
-        data.qpos[model.jnt_qposadr[model.joint(name).id]] = angle
+    pose = crouch_pose(robot, knee_deg)
+    JointAngles.of(model, list(pose)).place(data.qpos, np.array(list(pose.values())))
     mujoco.mj_kinematics(model, data)
     result = []
     for joint in robot.joints:

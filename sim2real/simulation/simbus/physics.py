@@ -10,8 +10,9 @@ torso's up-vector (in its profile's ``up_vector_unit``).  A servo that holds its
 overload: alert bit, Hardware Error Status, torque off until REBOOT.
 
 A reality profile (:mod:`sim2real.simulation.reality`) perturbs the robot behind the bus: masses,
-friction and servo gains in the model, latency as actuator delay, backlash between the
-goal and the gears, noise on what the servos and the board report.
+friction and servo gains in the model, latency as actuator delay, backlash as the gears'
+free play (backlash joints, whose angle the encoders see and the motor does not), noise on
+what the servos and the board report.
 """
 
 from __future__ import annotations
@@ -32,13 +33,13 @@ from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.model_builder import JointAngles, build_model
 from sim2real.simulation.reality import (
     NOMINAL,
     Reality,
     apply_to_model,
     latency_capacity_s,
-    play,
+    needs_backlash_joints,
     sample,
 )
 
@@ -53,7 +54,7 @@ class PhysicsChain:
         self.robot, self.clock, self.overload_s = robot, clock, overload_s
         tick_s = control_timing(robot).tick_s
         history = latency_capacity_s(reality, tick_s)
-        self.model = build_model(robot, history)
+        self.model = build_model(robot, history, backlash=needs_backlash_joints(reality))
         self.perturbation = sample(reality, np.array([[seed]]), self.model, 0, tick_s)
         apply_to_model(self.model, copy.copy(self.model), self.perturbation)
         self.rng = np.random.default_rng(seed)
@@ -64,12 +65,11 @@ class PhysicsChain:
         self.mapping = ServoMapping(robot)
         self.ids = [int(i) for i in self.mapping.ids]
         names = list(robot.joint_names)
-        self.qadr = np.array([self.model.jnt_qposadr[self.model.joint(n).id] for n in names])
-        self.dadr = np.array([self.model.jnt_dofadr[self.model.joint(n).id] for n in names])
+        self.angles = JointAngles.of(self.model, names)
         self.kp = self.model.actuator_gainprm[:, 0].copy()
+        self.kv = -self.model.actuator_biasprm[:, 2].copy()  # the D term, if the reality draws one
         self.stall = np.array([j.servo.profile.motor.stall_torque_nm for j in robot.joints])  # datasheet
         self.torque_limit = self.model.actuator_forcerange[:, 1].copy()  # this robot's
-        self.played = self.data.ctrl.copy()  # the gears' side of the backlash
         self.touch = [self.model.sensor_adr[self.model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
         self.up = self.model.sensor_adr[self.model.sensor("torso_up").id]
         self.board = robot.sensor_board.id if robot.sensor_board else None
@@ -105,10 +105,12 @@ class PhysicsChain:
             if steps <= 0:
                 return
             goal, on = self._goals()
-            self.played = play(self.played, goal, self.perturbation.backlash_rad[0])
-            self.data.ctrl[:] = np.where(on, self.played, self.data.qpos[self.qadr])
+            # torque off: limp (kp 0 below), the goal at the motor's own angle (no stale goal
+            # waits in the latency history for torque on)
+            self.data.ctrl[:] = np.where(on, goal, self.angles.servo(self.data.qpos))
             self.model.actuator_gainprm[:, 0] = np.where(on, self.kp, 0.0)  # torque off: limp
             self.model.actuator_biasprm[:, 1] = -self.model.actuator_gainprm[:, 0]
+            self.model.actuator_biasprm[:, 2] = -np.where(on, self.kv, 0.0)
             for _ in range(steps):
                 mujoco.mj_step(self.model, self.data)
                 self._check_overload(on)
@@ -128,9 +130,10 @@ class PhysicsChain:
 
     def _publish(self) -> None:
         p = self.perturbation
-        q = self.data.qpos[self.qadr] + self.rng.normal(0.0, 1.0, len(self.qadr)) * p.joint_noise_sd_rad[0]
+        q = self.angles.read(self.data.qpos)
+        q = q + self.rng.normal(0.0, 1.0, len(q)) * p.joint_noise_sd_rad[0]
         ticks = self._ticks(q)
-        qdot = self.data.qvel[self.dadr]
+        qdot = self.angles.speeds(self.data.qvel)
         for k, dxl_id in enumerate(self.ids):
             device = self.devices[dxl_id]
             device.set_named(Reg.PRESENT_POSITION, int(ticks[k]))
