@@ -82,7 +82,7 @@ def test_a_genomes_terms_over_episodes_are_their_mean_or_its_worst_episodes(geno
     per_sim = Episodes(fitness, fitness, np.zeros(6), np.ones(6), np.zeros(6, bool), np.zeros(6, bool), 60,
                        {"a": a, "b": b})
     e = score_population(_Fixed(per_sim), genomes[:2], steepness=1.0, harness=0.0, stage=None, episodes=3,
-                         score=score, intensity=0.0, key=(0, 0, 0))
+                         score=score, intensity=1.0, key=(0, 0, 0))
     if score == "mean":
         assert e.fitness.tolist() == [2.0, 5.0] and e.terms["a"].tolist() == [1.0, 4.0]
     else:  # the terms of each genome's episode of lowest fitness: its 3rd, its 2nd
