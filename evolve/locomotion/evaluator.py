@@ -222,7 +222,7 @@ class LocomotionEvaluator:
         """Support from the sides, from behind and from below, never against going forward or
         up (seed 000 section 8.2): forces on the pelvis [N], held for one tick.
 
-        Sideways it is a spring-damper to the start line.  From behind it catches the robot
+        Sideways it is a spring-damper to the start line (times ``harness_sideways``).  From behind it catches the robot
         only behind its start, and from below only once the pelvis sinks under
         ``harness_height`` of its start height: a one-sided support that acted everywhere
         would turn any vibration into forward drift (a ratchet), which evolution finds.  Each
@@ -235,6 +235,6 @@ class LocomotionEvaluator:
         below = np.maximum(self.task.harness_height * start[alive, 2] - pos[:, 2], 0.0)
         force = np.empty((len(alive), 3))
         force[:, 0] = (k * behind - c * np.minimum(vel[:, 0], 0.0)) * (behind > 0)
-        force[:, 1] = -k * (pos[:, 1] - start[alive, 1]) - c * vel[:, 1]
+        force[:, 1] = self.task.harness_sideways * (-k * (pos[:, 1] - start[alive, 1]) - c * vel[:, 1])
         force[:, 2] = (k * below - c * np.minimum(vel[:, 2], 0.0)) * (below > 0)
         return np.clip(force, -cap, cap)

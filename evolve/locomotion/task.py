@@ -53,6 +53,8 @@ class TaskConfig:
     harness_damping: float = 0.5  # harness damping ratio
     harness_height: float = 0.85  # the harness catches the pelvis below this share of its start height
     harness_max_force: float = 0.5  # its force on each axis is capped at this share of the weight
+    harness_sideways: float = 1.0  # its sideways spring-damper, times (0: it never holds the robot upright
+    #                                sideways, so the lateral weight shift of stepping is learned with it on)
     quantize: bool = True  # joint angles at the servo's encoder resolution
 
     @classmethod
