@@ -3,6 +3,10 @@
 What every bus must do is in test_bus_contract.py; here is what only this one does (the
 wire's timeouts, protocol 1.0, the SDK's other instructions, CRC errors)."""
 
+import os
+import pty
+import threading
+import tty
 
 import numpy as np
 import pytest
@@ -11,7 +15,7 @@ from sim2real.hardware import CommunicationError, MockBus, ServoChain
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.robot import load_robot
 from sim2real.simulation.simbus import protocol1 as p1
-from sim2real.simulation.simbus.protocol2 import crc16
+from sim2real.simulation.simbus.protocol2 import crc16, status
 from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
 
 ROBOT = load_robot()
@@ -190,3 +194,32 @@ def test_a_packet_with_a_bad_crc_gets_a_crc_error_status(served):
     bus.port.setPacketTimeout(11)
     packet, result = bus.packets.rxPacket(bus.port, False)
     assert packet[8] == p2.CRC_ERROR and packet[4] == 3
+
+
+@pytest.mark.parametrize("what", ["read", "write"])
+def test_a_late_status_of_an_earlier_exchange_is_not_taken_for_the_reply(what):
+    """Under load the runtime repeats a sync read whose replies were late; they then arrive
+    during the next exchange.  A 4-byte Present Position of servo 7 (hardware alert set) must
+    not be read as the 1-byte Hardware Error Status asked next, nor as a write's status."""
+    master, slave = pty.openpty()
+    tty.setraw(slave)
+    late = status(7, 0x80, (2049).to_bytes(4, "little"))  # position 2049: low byte 1 = "input voltage"
+    reply = status(7, 0x80, bytes([32])) if what == "read" else status(7, 0)  # the write went through
+
+    def servo():
+        os.read(master, 64)  # the instruction
+        os.write(master, late + reply)
+
+    threading.Thread(target=servo, daemon=True).start()
+    bus = DynamixelBus(os.ttyname(slave), 1_000_000, ROBOT)
+    bus.open()
+    try:
+        if what == "read":
+            chain = ServoChain(bus, ROBOT)
+            assert chain.hardware_error(7) == 32  # overload, the true answer
+        else:
+            bus.write(7, 64, 1, 0)  # no error: the late packet's alert is not this write's
+    finally:
+        bus.close()
+        os.close(master)
+        os.close(slave)

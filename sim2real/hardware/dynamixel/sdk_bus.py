@@ -10,7 +10,11 @@ Works around the SDK 4.1.0 pitfalls listed in DESIGN.md section 6, in this layer
   each status's error byte (and its hardware-alert bit) is kept, and one silent servo is
   named instead of failing the whole read anonymously;
 * protocol 1.0 (AX-12A): no sync read exists and the SDK's protocol-1.0 bulk read is
-  broken, so reads go servo by servo.
+  broken, so reads go servo by servo;
+* a reply is the status packet of the servo asked *with the expected number of bytes*: the
+  SDK takes the first packet with the right ID, so a late status of an exchange given up on
+  (a sync read repeated under load) was read as the answer to the next question - a 4-byte
+  position's low byte decoded as a Hardware Error Status.  Such packets are now skipped.
 """
 
 from __future__ import annotations
@@ -23,6 +27,8 @@ from sim2real.hardware.bus import Bus, CommunicationError
 from sim2real.hardware.dynamixel.errors import ERROR_NUMBER_MASK, status_error
 from sim2real.robot import RobotSpec
 
+P2 = sdk.protocol2_packet_handler
+STATUS_OVERHEAD = 4  # protocol 2.0: LENGTH counts instruction, error and the 2 CRC bytes besides the data
 LATENCY_MS = 1.0  # the USB adapter's latency timer, once set to 1 ms (start-up warns otherwise)
 MARGIN_MS = 2.0  # scheduling slack on the host
 
@@ -88,15 +94,39 @@ class DynamixelBus(Bus):
         self._check([dxl_id], result, error & ERROR_NUMBER_MASK, "ping")
         return model
 
+    def _status(self, dxl_id: int, size: int) -> tuple[list[int], int, int]:
+        """Protocol 2.0: the status packet of ``dxl_id`` carrying ``size`` data bytes, skipping
+        any other that comes first (see the module docstring) -> (data, result, error)."""
+        while True:
+            packet, result = self.packets.rxPacket(self.port, False)
+            if result != sdk.COMM_SUCCESS:
+                return [], result, 0
+            length = sdk.DXL_MAKEWORD(packet[P2.PKT_LENGTH_L], packet[P2.PKT_LENGTH_H])
+            if packet[P2.PKT_ID] == dxl_id and length == size + STATUS_OVERHEAD:
+                first = P2.PKT_PARAMETER0 + 1
+                return packet[first:first + size], result, packet[P2.PKT_ERROR]
+
     def read(self, dxl_id: int, address: int, size: int) -> int:
-        data, result, error = self.packets.readTxRx(self.port, dxl_id, address, size)
+        if self.protocol == 1.0:
+            data, result, error = self.packets.readTxRx(self.port, dxl_id, address, size)
+        else:
+            result = self.packets.readTx(self.port, dxl_id, address, size)
+            data, error = [], 0
+            if result == sdk.COMM_SUCCESS:
+                data, result, error = self._status(dxl_id, size)
         value = int.from_bytes(bytes(data), "little") if result == sdk.COMM_SUCCESS else None
         self._check([dxl_id], result, error, f"read {size} bytes at {address}", value)
         return value
 
     def write(self, dxl_id: int, address: int, size: int, value: int) -> None:
         data = list(int(value).to_bytes(size, "little"))
-        result, error = self.packets.writeTxRx(self.port, dxl_id, address, size, data)
+        if self.protocol == 1.0:
+            result, error = self.packets.writeTxRx(self.port, dxl_id, address, size, data)
+        else:
+            result, error = self.packets.writeTxOnly(self.port, dxl_id, address, size, data), 0
+            if result == sdk.COMM_SUCCESS:
+                self.port.setPacketTimeout(11)  # the shortest status packet
+                _, result, error = self._status(dxl_id, 0)
         self._check([dxl_id], result, error, f"write at {address}")
 
     def sync_read(self, ids: list[int], address: int, size: int) -> dict[int, int]:
