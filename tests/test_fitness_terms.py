@@ -88,3 +88,17 @@ def test_a_genomes_terms_over_episodes_are_their_mean_or_its_worst_episodes(geno
     else:  # the terms of each genome's episode of lowest fitness: its 3rd, its 2nd
         assert e.fitness.tolist() == [1.0, 4.0] and e.terms["a"].tolist() == [2.0, 4.0]
         assert e.terms["b"].tolist() == [20.0, 40.0]
+
+
+def test_a_selection_distance_cap_leaves_the_reported_fitness_alone(genomes):
+    from sim2real.robot import load_robot
+
+    robot = load_robot()
+    plain = TaskConfig(episode_s=1.0, harness_generations=0)
+    capped = TaskConfig(episode_s=1.0, harness_generations=0, selection_distance_cap=0.01)
+    a = LocomotionEvaluator(robot, plain, len(genomes), threads=1).evaluate(genomes, 1.0, harness=1.0)
+    b = LocomotionEvaluator(robot, capped, len(genomes), threads=1).evaluate(genomes, 1.0, harness=1.0)
+    assert np.array_equal(a.fitness, b.fitness)  # eq. 3 as reported
+    excess = np.maximum(b.terms["distance"] - 0.01, 0.0)
+    assert excess.any()
+    assert b.selection == pytest.approx(b.fitness - plain.distance_coeff * excess)

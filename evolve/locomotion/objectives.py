@@ -66,7 +66,9 @@ class WalkObjective:
     Terms: ``distance`` = max(proj_j d, eps) [leg lengths] and ``time`` = t [s], weighted
     by the task's ``distance_coeff`` (c_d) and ``time_coeff`` (c_t); ``progress``, the
     pelvis' best forward progress [leg lengths] (0 if unstable), a tie-breaker weighted by
-    ``progress_coeff`` that selection sees and the reported fitness does not.
+    ``progress_coeff`` that selection sees and the reported fitness does not.  With the
+    task's ``selection_distance_cap`` > 0, selection counts distance only up to that many leg
+    lengths, so that beyond a walk a faster gait gains nothing over a steadier one.
     """
 
     TERMS = ("distance", "time", "progress")
@@ -115,6 +117,8 @@ class WalkObjective:
                  "progress": np.where(unstable, 0.0, self.pelvis_best)}
         fitness = task.distance_coeff * terms["distance"] + task.time_coeff * terms["time"]
         selection = fitness + task.progress_coeff * terms["progress"]
+        if task.selection_distance_cap > 0:
+            selection = selection - task.distance_coeff * np.maximum(terms["distance"] - task.selection_distance_cap, 0.0)
         return Episodes(fitness, selection, self.distance, upright, self.fell, unstable, steps, terms)
 
 

@@ -47,6 +47,7 @@ class TaskConfig:
     fall_tilt_deg: float = 60.0  # so does a torso tilted this far (a fall the harness hides)
     stagnation_s: float = 3.0  # no progress of epsilon leg lengths in this long ends a trial
     progress_coeff: float = 0.0  # selection tie-breaker: pelvis progress, per leg length
+    selection_distance_cap: float = 0.0  # > 0: selection counts distance up to this many leg lengths
     harness_generations: int = 100  # generations with the support harness (0: never)
     harness_fade_generations: int = 50  # over its last this many generations it weakens to nothing
     harness_stiffness: float = 10.0  # harness spring: this many body weights per leg length [m g / L]
