@@ -91,13 +91,10 @@ def test_a_genomes_terms_over_episodes_are_their_mean_or_its_worst_episodes(geno
 
 
 def test_a_selection_distance_cap_leaves_the_reported_fitness_alone(genomes):
-    from sim2real.robot import load_robot
-
-    robot = load_robot()
     plain = TaskConfig(episode_s=1.0, harness_generations=0)
     capped = TaskConfig(episode_s=1.0, harness_generations=0, selection_distance_cap=0.01)
-    a = LocomotionEvaluator(robot, plain, len(genomes), threads=1).evaluate(genomes, 1.0, harness=1.0)
-    b = LocomotionEvaluator(robot, capped, len(genomes), threads=1).evaluate(genomes, 1.0, harness=1.0)
+    a = LocomotionEvaluator(ROBOT, plain, len(genomes), threads=1).evaluate(genomes, 1.0, harness=1.0)
+    b = LocomotionEvaluator(ROBOT, capped, len(genomes), threads=1).evaluate(genomes, 1.0, harness=1.0)
     assert np.array_equal(a.fitness, b.fitness)  # eq. 3 as reported
     excess = np.maximum(b.terms["distance"] - 0.01, 0.0)
     assert excess.any()
