@@ -254,8 +254,13 @@ class Run:
             self.log(_progress_line(row, pop.generation, budget, eta, stage, intensity))
             if pop.generation % 10 == 0 or pop.generation >= budget:
                 self.plot()
-            if stage is not None and stage.solved(candidate.fitness):
-                self.log(f"stage {stage.name}: threshold reached ({candidate.fitness:.1f} >= "
+            # with validation draws the stage is solved by its champion there (the module that is
+            # filed and built on), not by one generation's lucky score
+            judged = candidate
+            if config.randomize.validation.active:
+                judged = self.best if self.best is not None and self.best.validation is not None else None
+            if stage is not None and judged is not None and stage.solved(judged.fitness):
+                self.log(f"stage {stage.name}: threshold reached ({judged.fitness:.1f} >= "
                          f"{stage.threshold:.0%} of {stage.max_fitness:.0f}) at its generation {stats.generation + 1}")
                 return False
             if stop is not None and stop(self, row):

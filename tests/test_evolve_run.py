@@ -309,3 +309,23 @@ def test_nominal_episodes_are_simulated_once_and_counted_as_many_times():
     assert thrice.fitness == pytest.approx(once.fitness, rel=1e-15)
     assert thrice.distance_m == pytest.approx(once.distance_m, rel=1e-15)
     assert thrice.steps == once.steps  # not simulated three times
+
+
+def test_with_validation_a_stage_ends_when_its_validated_champion_reaches_the_threshold(tmp_path):
+    """The module filed and built on is the validated champion, so that is what must solve the
+    stage (a generation's training score once ended a stage whose filed module had not)."""
+    from evolve.config import parse_evolve_config
+    from evolve.run import Run
+
+    doc = {**VALIDATED, "generations": None, "stages": [
+        {"name": "pose", "objective": "pose", "generations": 6, "threshold": 0.05},
+        {"name": "stand", "objective": "stand", "generations": 2}]}
+    doc.pop("generations")
+    config = parse_evolve_config(doc, "staged.yaml")
+    run = Run.create(config, tmp_path / "run", log=lambda line: None)
+    run.evolve()
+    pose = json.loads((tmp_path / "run" / "stages.json").read_text())[0]
+    filed = json.loads((tmp_path / "run" / "stages" / "pose" / "best.json").read_text())
+    assert filed["validation"] is not None
+    assert pose["solved"] == (filed["fitness"] >= 0.05 * pose["max_fitness"])
+    assert pose["solved"] or pose["generations"] == 6
