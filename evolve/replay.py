@@ -28,6 +28,7 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
     check_disabled_modules(data, disabled_modules)
     task = TaskConfig.from_mapping(dict(data.task), str(path), "task.")
     changes = {"episode_s": float(seconds)} if seconds is not None else {}
+    changes["phase_period_s"] = data.phase_period_s or 0.0  # the file's clock, whatever its task block says
     if keep_going:
         changes.update(fall_height=1e-6, fall_tilt_deg=180.0)
     if keep_going or not stagnation_stop:

@@ -635,3 +635,43 @@ def test_damaged_bytes_give_a_config_error_or_a_controller(cut, flips, insert, v
         Controller.load(path, ROBOT)
     except ConfigError as exc:
         assert "\n" not in str(exc)
+
+
+def _with_clock(valid: dict, period_s=0.6) -> dict:
+    data = copy.deepcopy(valid)
+    data["inputs"] = data["inputs"] + ["phase_sin", "phase_cos"]
+    data["phase_period_s"] = period_s
+    n_in = len(valid["inputs"])  # node ids past the inputs move up by the clock's two
+    data["hidden"] = [[node + 2, module] for node, module in data["hidden"]]
+    data["connections"] = [[s + 2 if s >= n_in else s, d + 2, w, m] for s, d, w, m in data["connections"]]
+    return data
+
+
+def test_a_controller_with_a_clock_round_trips_and_fits_its_robot(valid, tmp_path):
+    data = _with_clock(valid)
+    jsonschema.validate(data, SCHEMA)
+    path = tmp_path / "clock.json"
+    Controller.from_dict(data).save(path)
+    loaded = Controller.load(path, ROBOT)
+    assert loaded.phase_period_s == 0.6 and loaded.layout(ROBOT).phase
+    assert json.loads(path.read_text()) == data
+
+
+@pytest.mark.parametrize("mutate, expected", [
+    (lambda d: d.pop("phase_period_s"), r"inputs: has 13 names where .*a clock.s inputs need a phase_period_s.* has 11"),
+    (lambda d: d.update(phase_period_s=0.01), r"phase_period_s: must be within \[0.05, 10\], got 0.01"),
+    (lambda d: d.update(phase_period_s=True), "phase_period_s: must be a number"),
+    (lambda d: d.update(inputs=d["inputs"][:-2] + ["phase_cos", "phase_sin"]), r"inputs\[11\]: is .phase_cos."),
+], ids=["clock-inputs-without-period", "period-too-short", "period-not-a-number", "clock-inputs-swapped"])
+def test_a_broken_clock_is_refused_by_name(valid, mutate, expected):
+    data = _with_clock(valid)
+    mutate(data)
+    with pytest.raises(ConfigError, match=expected):
+        Controller.from_dict(data, "clock.json", ROBOT)
+
+
+def test_a_period_without_the_clock_inputs_is_refused(valid):
+    data = copy.deepcopy(valid)
+    data["phase_period_s"] = 0.6
+    with pytest.raises(ConfigError, match=r"inputs: has 11 names where .*the clock \(phase_period_s\).* has 13"):
+        Controller.from_dict(data, "clock.json")

@@ -97,7 +97,7 @@ def test_one_activation_step_for_evolution_and_the_runtime(monkeypatch):
 def test_evolution_and_the_runtime_wire_and_map_with_the_same_functions(monkeypatch):
     for name in ("normalized_angle", "output_to_angle", "rate_limit"):
         assert getattr(evaluator_module, name) is getattr(policy_module, name) is getattr(mapping, name), name
-    for name in ("network_inputs", "joint_outputs", "foot_inputs"):
+    for name in ("network_inputs", "joint_outputs", "foot_inputs", "phase_inputs"):
         assert getattr(evaluator_module, name) is getattr(policy_module, name) is getattr(symmetry, name), name
     assert compare_module.Policy is Policy
     controller = controller_from_genome(grown(), ROBOT, LAYOUT, TaskConfig(), 1.0, {})

@@ -143,9 +143,9 @@ def test_a_non_finite_output_holds_the_last_goals_and_stops(controller, monkeypa
     real_step = Policy.step
     calls = {"n": 0}
 
-    def step(self, *args):
+    def step(self, *args, **kwargs):
         calls["n"] += 1
-        goal = real_step(self, *args)
+        goal = real_step(self, *args, **kwargs)
         return goal * np.nan if calls["n"] == 5 else goal
 
     monkeypatch.setattr(Policy, "step", step)

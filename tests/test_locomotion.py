@@ -120,3 +120,11 @@ def test_falls_end_the_trial_and_the_harness_holds_the_robot_up():
     assert free.fell.sum() > len(genomes) // 2  # random controllers fall...
     assert held.upright_s.mean() > free.upright_s.mean()  # ...and the harness keeps them up longer
     assert np.all(free.upright_s[free.fell] < task.episode_s)
+
+
+def test_a_clock_period_outside_the_formats_bounds_is_refused_in_the_config():
+    from sim2real.errors import ConfigError
+
+    assert TaskConfig.from_mapping({"phase_period_s": 0.6}).phase_period_s == 0.6
+    with pytest.raises(ConfigError, match=r"task.phase_period_s: must be 0 \(no clock\) or within \[0.05, 10\] s"):
+        TaskConfig.from_mapping({"phase_period_s": 0.01}, "walk.yaml")

@@ -80,3 +80,57 @@ def test_policy_fast_path_equals_the_evolution_wiring():
         ref_goal = ref_goal.copy()
         ref_goal[d] = rate_limit(output_to_angle(out[d], policy.low[d], policy.high[d]), ref_goal[d], policy.max_step[d])
         assert np.array_equal(goal, ref_goal)
+
+
+def _clock_only_controller(period_s=0.6, weight=4.0):
+    """A network whose only link runs from the clock's sine to the own hip pitch."""
+    from evolve.neat import Genome
+    from evolve.neat.genome import ConnectionGene
+
+    robot = load_robot()
+    task = TaskConfig(phase_period_s=period_s, episode_s=1.0)
+    layout = symmetric_layout(robot, robot.control_sets["walk"], phase=True)
+    genome = Genome(0, neat_layout(layout))
+    src = layout.input_names.index("phase_sin")
+    dst = layout.n_inputs + layout.n_bias + layout.output_names.index("own_hip_pitch")
+    genome.add_connection(ConnectionGene(0, src, dst, weight, True, genome.active_module))
+    return robot, task, layout, genome, controller_from_genome(genome, robot, layout, task, 1.0, {})
+
+
+def test_the_clock_drives_evolution_and_the_runtime_alike_and_the_legs_in_antiphase():
+    from evolve.locomotion.evaluator import LocomotionEvaluator
+    from sim2real.controller.policy import Policy
+
+    robot, task, layout, genome, controller = _clock_only_controller()
+    assert controller.inputs[-2:] == ("phase_sin", "phase_cos") and controller.phase_period_s == 0.6
+    evaluator = LocomotionEvaluator(robot, task, 1, threads=1)
+    goals = []
+    evaluator.evaluate([genome], 1.0, harness=1.0, on_tick=lambda ev, alive: goals.append(ev.ctrl[0].copy()))
+    policy = Policy(Controller.from_dict(controller.to_dict()), robot)
+    goal = policy.reset()
+    names = list(robot.joint_names)
+    right, left = names.index("right_hip_pitch"), names.index("left_hip_pitch")
+    for k, simulated in enumerate(goals):  # the clock alone moves the hips: the same goals, tick for tick
+        goal = policy.step(np.zeros(len(names)), np.array([True, True]), np.array([0.0, 0.0, 1.0]), goal)
+        assert goal[right] == simulated[right] and goal[left] == simulated[left], k
+    swing = np.array(goals)[:, [right, left]] - policy.hold[[right, left]]
+    assert np.corrcoef(swing[5:, 0], swing[5:, 1])[0, 1] < -0.9  # antiphase, one genome
+
+
+def test_a_real_time_loop_that_skips_ticks_keeps_the_clock_on_the_wall():
+    from sim2real.controller.policy import Policy
+    from sim2real.controller.symmetry import phase_inputs
+
+    robot, _, _, _, controller = _clock_only_controller()
+    policy = Policy(controller, robot)
+    seen = []
+    activate = policy.networks.activate
+    policy.networks.activate = lambda x: (seen.append(x.reshape(2, -1)[:, -2:].copy()), activate(x))[1]
+    args = (np.zeros(len(robot.joints)), np.array([True, True]), np.array([0.0, 0.0, 1.0]))
+    goal = policy.reset()
+    goal = policy.step(*args, goal)  # tick 0
+    goal = policy.step(*args, goal, tick=5)  # ticks 1-4 were missed by the loop
+    goal = policy.step(*args, goal)  # then tick 6
+    for clock, tick in zip(seen, (0, 5, 6)):
+        right = phase_inputs(tick * controller.tick_s, controller.phase_period_s)
+        assert np.array_equal(clock, [right, -right]), tick

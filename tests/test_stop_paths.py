@@ -131,11 +131,11 @@ def test_an_exception_inside_the_loop(served, controller, monkeypatch, raised, r
     chain, port = served
     real_step, calls = Policy.step, {"n": 0}
 
-    def step(self, *args):
+    def step(self, *args, **kwargs):
         calls["n"] += 1
         if calls["n"] == 4:
             raise raised
-        return real_step(self, *args)
+        return real_step(self, *args, **kwargs)
 
     monkeypatch.setattr(Policy, "step", step)
     report = run(port, controller, duration_s=5)
@@ -146,7 +146,7 @@ def test_an_exception_inside_the_loop(served, controller, monkeypatch, raised, r
 def test_a_non_finite_output(served, controller, monkeypatch):
     chain, port = served
     real_step = Policy.step
-    monkeypatch.setattr(Policy, "step", lambda self, *a: real_step(self, *a) * np.nan)
+    monkeypatch.setattr(Policy, "step", lambda self, *a, **kw: real_step(self, *a, **kw) * np.nan)
     report = run(port, controller, duration_s=5)
     assert report.stop_reason.startswith("non-finite goal at tick 0")
     assert_all_off(chain, report)

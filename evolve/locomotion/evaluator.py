@@ -43,6 +43,7 @@ from sim2real.controller.symmetry import (
     foot_inputs,
     joint_outputs,
     network_inputs,
+    phase_inputs,
     symmetric_layout,
 )
 from sim2real.robot import RobotSpec
@@ -87,7 +88,7 @@ class LocomotionEvaluator:
         self.model = model = build_model(robot, latency_capacity_s(reality, self.tick_s),
                                          backlash=needs_backlash_joints(reality))
         self.n_ticks = int(round(task.episode_s / self.tick_s))
-        self.layout = symmetric_layout(robot, robot.control_sets[task.control_set])
+        self.layout = symmetric_layout(robot, robot.control_sets[task.control_set], task.phase_period_s > 0)
         names = [j.name for j in robot.joints]
         self.driven = np.array([names.index(n) for n in self.layout.driven], dtype=np.intp)
         self.low = np.array([j.range_rad[0] for j in robot.joints])
@@ -176,7 +177,11 @@ class LocomotionEvaluator:
                 touch = touch ^ p.foot_flip[alive, t]
                 up = up + p.up_noise[alive, t]
             q = quantize(q, self.resolution)
-            inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high), foot_inputs(touch), up)
+            clock = None
+            if task.phase_period_s > 0:  # every robot's clock reads the same: all started together
+                clock = np.broadcast_to(phase_inputs(t * tick, task.phase_period_s), (len(alive), 2))
+            inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high), foot_inputs(touch), up,
+                                    clock)
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
             goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)
             goal[alive] = goal_alive

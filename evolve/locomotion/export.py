@@ -22,7 +22,7 @@ def controller_from_genome(genome: Genome, robot: RobotSpec, layout: SymmetricLa
         robot, layout, sigmoid_steepness=steepness, modules=genome.modules,
         hidden=[(n, genome.hidden[n]) for n in nodes if n in genome.hidden],
         connections=[(s, d, w, module_of[(s, d)]) for s, d, w in conns],
-        task=task.to_dict(), provenance=provenance)
+        task=task.to_dict(), provenance=provenance, phase_period_s=task.phase_period_s or None)
 
 
 def genome_from_controller(controller: Controller) -> Genome:

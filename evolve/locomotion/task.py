@@ -27,6 +27,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from sim2real.controller.file import PHASE_RANGE_S
 from sim2real.errors import ConfigError
 from sim2real.robot.spec import DEFAULT_CONTACT_SHARE
 from sim2real.robot.validation import dataclass_from_mapping
@@ -48,6 +49,7 @@ class TaskConfig:
     stagnation_s: float = 3.0  # no progress of epsilon leg lengths in this long ends a trial
     progress_coeff: float = 0.0  # selection tie-breaker: pelvis progress, per leg length
     selection_distance_cap: float = 0.0  # > 0: selection counts distance up to this many leg lengths
+    phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (symmetry.PHASE_INPUTS)
     harness_generations: int = 100  # generations with the support harness (0: never)
     harness_fade_generations: int = 50  # over its last this many generations it weakens to nothing
     harness_stiffness: float = 10.0  # harness spring: this many body weights per leg length [m g / L]
@@ -83,6 +85,9 @@ class TaskConfig:
             if not lo < v <= hi:
                 bound = f"> {lo:g}" if hi == float("inf") else f"within ({lo:g}, {hi:g}]"
                 raise ConfigError(source, prefix + key, f"must be {bound}, got {v:g}")
+        if config.phase_period_s and not PHASE_RANGE_S[0] <= config.phase_period_s <= PHASE_RANGE_S[1]:
+            raise ConfigError(source, prefix + "phase_period_s", f"must be 0 (no clock) or within "
+                              f"[{PHASE_RANGE_S[0]:g}, {PHASE_RANGE_S[1]:g}] s, got {config.phase_period_s:g}")
         if not 0 < config.fall_height < 1:
             raise ConfigError(source, prefix + "fall_height", "must be within (0, 1)")
         return config

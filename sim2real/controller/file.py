@@ -53,6 +53,7 @@ from sim2real.controller.mapping import OUTPUT_RULE, hold_pose
 from sim2real.controller.symmetry import (
     BIAS,
     CENTER_OUTPUT,
+    PHASE_INPUTS,
     SENSOR_INPUTS,
     SIDES,
     SymmetricLayout,
@@ -70,6 +71,8 @@ _FIELDS, _DEFS = SCHEMA["properties"], SCHEMA["$defs"]
 FORMAT: str = _FIELDS["format"]["const"]
 VERSION: int = _FIELDS["version"]["const"]
 REQUIRED: tuple[str, ...] = tuple(SCHEMA["required"])
+OPTIONAL: tuple[str, ...] = tuple(k for k in _FIELDS if k not in REQUIRED)  # phase_period_s
+PHASE_RANGE_S = (float(_FIELDS["phase_period_s"]["minimum"]), float(_FIELDS["phase_period_s"]["maximum"]))
 MAX_WEIGHT = float(_FIELDS["connections"]["items"]["prefixItems"][2]["maximum"])  # NeatConfig clips to 20
 MAX_STEEPNESS = float(_FIELDS["sigmoid_steepness"]["maximum"])  # seed 000 uses 1, classic NEAT 4.9
 TICK_RANGE_S = (float(_FIELDS["tick_s"]["minimum"]), float(_FIELDS["tick_s"]["maximum"]))  # [s]; robots: 10-70 ms
@@ -193,6 +196,7 @@ class Controller:
     joints: JointMap
     task: Mapping[str, Any]  # the task it was evolved for (free-form)
     provenance: Mapping[str, Any]  # seed, generation, fitness, ... (free-form)
+    phase_period_s: float | None = None  # the gait clock's period [s]; None: no clock inputs
 
     format: ClassVar[str] = FORMAT
     version: ClassVar[int] = VERSION
@@ -220,14 +224,16 @@ class Controller:
                             MappingProxyType(dict(joints["hold_rad"])) if "hold_rad" in joints else None,
                             joints.get("output_rule")),
             task=_frozen(data["task"]), provenance=_frozen(data["provenance"]),
+            phase_period_s=data.get("phase_period_s"),
         )
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON values of the file, keys in the format's order."""
+        clock = {} if self.phase_period_s is None else {"phase_period_s": self.phase_period_s}
         return {
             "format": self.format, "version": self.version,
             "robot": {"name": self.robot_name, "joint_map_hash": self.joint_map_hash},
-            "tick_s": self.tick_s, "inputs": list(self.inputs), "outputs": list(self.outputs),
+            "tick_s": self.tick_s, **clock, "inputs": list(self.inputs), "outputs": list(self.outputs),
             "bias": _thawed(self.bias), "symmetry": self.symmetry.to_dict(),
             "sigmoid_steepness": self.sigmoid_steepness,
             "modules": [{"name": m, "enabled": True} for m in self.modules],
@@ -239,10 +245,11 @@ class Controller:
     def for_robot(cls, robot: RobotSpec, layout: SymmetricLayout, *, sigmoid_steepness: float,
                   modules: tuple[str, ...], hidden: list[tuple[int, int]],
                   connections: list[tuple[int, int, float, int]], task: Mapping[str, Any],
-                  provenance: Mapping[str, Any]) -> "Controller":
+                  provenance: Mapping[str, Any], phase_period_s: float | None = None) -> "Controller":
         """An evolved network (``hidden`` and ``connections`` in node ids) wired for
-        ``robot``'s joints by ``layout``: its tick, bias values, symmetry block, joint ranges
-        and hold pose are the robot's and the conventions' own."""
+        ``robot``'s joints by ``layout`` (with a clock of ``phase_period_s`` [s] when the
+        layout has one): its tick, bias values, symmetry block, joint ranges and hold pose are
+        the robot's and the conventions' own."""
         hold = hold_pose(robot, layout.driven)
         return cls(
             robot_name=robot.name, joint_map_hash=joint_map_hash(robot), tick_s=control_timing(robot).tick_s,
@@ -252,7 +259,7 @@ class Controller:
             joints=JointMap(layout.driven, _frozen({j.name: j.range_rad for j in robot.joints}),
                             MappingProxyType({j.name: float(hold[i]) for i, j in enumerate(robot.joints)
                                               if j.name not in layout.driven}), OUTPUT_RULE),
-            task=_frozen(dict(task)), provenance=_frozen(dict(provenance)),
+            task=_frozen(dict(task)), provenance=_frozen(dict(provenance)), phase_period_s=phase_period_s,
         )
 
     # -- files ---------------------------------------------------------------------------------
@@ -281,8 +288,9 @@ class Controller:
         s = self.symmetry
         source = f"controller for {self.robot_name}"
         try:
-            wired = wired_layout(robot, s.right, s.left, s.center, s.center_mirror_for_left)
-            rule = symmetric_layout(robot, self.joints.driven)
+            clock = self.phase_period_s is not None
+            wired = wired_layout(robot, s.right, s.left, s.center, s.center_mirror_for_left, clock)
+            rule = symmetric_layout(robot, self.joints.driven, clock)
         except ValueError as exc:
             raise ConfigError(source, "symmetry", str(exc)) from None
         if wired != rule or (rule.input_names, rule.output_names) != (self.inputs, self.outputs):
@@ -467,7 +475,10 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
     version = data.get("version")
     if type(version) is not int or version != VERSION:
         raise c.error("version", f"version {_show(version)} is not supported (this code reads {VERSION})")
-    c.obj(data, "", REQUIRED)
+    c.obj(data, "", REQUIRED, OPTIONAL)
+    clock = "phase_period_s" in data
+    if clock:
+        c.number(data["phase_period_s"], "phase_period_s", *PHASE_RANGE_S)
     rob = c.obj(data["robot"], "robot", ("name", "joint_map_hash"))
     c.string(rob["name"], "robot.name")
     if not isinstance(rob["joint_map_hash"], str) or not re.fullmatch(r"[0-9a-f]{16}", rob["joint_map_hash"]):
@@ -485,7 +496,7 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
         for k, value in enumerate(row):
             c.number(value, f"bias[{s}][{k}]", *BIAS_RANGE)
     driven = _check_joints(c, data["joints"])
-    _check_symmetry(c, data["symmetry"], driven, inputs, outputs)  # the interface first: it numbers the nodes
+    _check_symmetry(c, data["symmetry"], driven, inputs, outputs, clock)  # the interface first: it numbers the nodes
     n_in, n_bias, n_out = len(inputs), len(bias[0]), len(outputs)
     n_modules = _check_modules(c, data["modules"])
     hidden = _check_hidden(c, data["hidden"], n_in + n_bias + n_out, n_modules)
@@ -587,9 +598,11 @@ def _check_joints(c: _Checker, joints: Any) -> list[str]:
     return driven
 
 
-def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str], outputs: list[str]) -> None:
+def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str], outputs: list[str],
+                    clock: bool) -> None:
     """The symmetry block against the driven joints, and the inputs and outputs it implies
-    (:func:`sim2real.controller.symmetry.symmetric_layout` names them so)."""
+    (:func:`sim2real.controller.symmetry.symmetric_layout` names them so), the clock's last
+    when the file has a ``phase_period_s``."""
     c.obj(sym, "symmetry", ("networks", "leg_joints", "center_joints", "center_mirror_for_left"),
           ("center_output",))
     if sym["networks"] != NETWORKS:
@@ -621,8 +634,10 @@ def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str],
             raise c.error(f"outputs[{i}]", f"{_show(name)}: the first {k} outputs are the own leg's (own_...)")
     why = f"the symmetry block ({k} leg joints, centre joints {_show(center)})"
     c.same_names("outputs", outputs, own + center, why)
-    c.same_names("inputs", inputs, own + ["other_" + n[4:] for n in own] + center + list(SENSOR_INPUTS),
-                 why[:-1] + ", then 4 sensors)")
+    sensors = list(SENSOR_INPUTS) + (list(PHASE_INPUTS) if clock else [])
+    c.same_names("inputs", inputs, own + ["other_" + n[4:] for n in own] + center + sensors,
+                 why[:-1] + (", then 4 sensors and the clock (phase_period_s))" if clock
+                             else ", then 4 sensors; a clock's inputs need a phase_period_s)"))
 
 
 def _difference(what: str, extra: list[str], lacking: list[str]) -> str:
@@ -647,7 +662,7 @@ def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
                                                        "(task.control_set)", sorted(set(driven) - members),
                                                        sorted(members - set(driven))))
     try:
-        layout = symmetric_layout(robot, tuple(driven))
+        layout = symmetric_layout(robot, tuple(driven), "phase_period_s" in data)
     except (ValueError, KeyError) as exc:
         raise c.error("joints.driven", str(exc)) from None
     why = f"robot {robot.name} driving {_show(list(layout.driven))}"

@@ -25,7 +25,7 @@ from sim2real.controller.mapping import (
     output_to_angle,
     rate_limit,
 )
-from sim2real.controller.symmetry import foot_inputs, joint_outputs, network_inputs
+from sim2real.controller.symmetry import foot_inputs, joint_outputs, network_inputs, phase_inputs
 from sim2real.robot import RobotSpec
 
 
@@ -38,6 +38,8 @@ class Policy:
         self.low = np.array([j.range_rad[0] for j in robot.joints])
         self.high = np.array([j.range_rad[1] for j in robot.joints])
         self.tick_s = float(controller.tick_s)
+        self.phase_period_s = controller.phase_period_s  # None: no clock
+        self.ticks = 0  # since reset: the clock's time
         self.max_step = max_steps(robot, self.tick_s)
         self.hold = hold_pose(robot, self.layout.driven)
         self._gather, self._sign = self._input_gather()
@@ -49,8 +51,10 @@ class Policy:
         """Both networks' inputs as one gather from [angles, feet, up] and a sign: the same
         numbers as :func:`network_inputs` (its test oracle), in two numpy calls."""
         n = len(self.low)
-        probe = np.arange(n + 5, dtype=float) + 1.0  # distinct values reveal the wiring
-        rows = network_inputs(self.layout, probe[None, :n], probe[None, n:n + 2], probe[None, n + 2:])
+        clock = 2 if self.layout.phase else 0
+        probe = np.arange(n + 5 + clock, dtype=float) + 1.0  # distinct values reveal the wiring
+        rows = network_inputs(self.layout, probe[None, :n], probe[None, n:n + 2], probe[None, n + 2:n + 5],
+                              probe[None, n + 5:] if clock else None)
         index = np.abs(rows).astype(np.intp) - 1
         sign = np.sign(rows)
         return index, sign
@@ -66,15 +70,24 @@ class Policy:
         return weight.argmax(axis=0), entries - 1 - weight[::-1].argmax(axis=0)  # first and last entry read
 
     def reset(self) -> np.ndarray:
-        """Zero the networks' state; returns the start pose (home for driven joints) [rad]."""
+        """Zero the networks' state and the clock; returns the start pose (home for driven
+        joints) [rad]."""
         self.networks.reset()
+        self.ticks = 0
         return self.hold.copy()
 
     def step(self, angles: np.ndarray, feet_touching: np.ndarray, up: np.ndarray,
-             previous_goal: np.ndarray) -> np.ndarray:
+             previous_goal: np.ndarray, tick: int | None = None) -> np.ndarray:
         """One tick: joint angles [rad] (robot order), feet (left, right: touching), up-vector
-        (torso frame) and the last goals -> the next goals [rad] for every joint."""
-        readings = np.concatenate([normalized_angle(angles, self.low, self.high), foot_inputs(feet_touching), up])
+        (torso frame) and the last goals -> the next goals [rad] for every joint.  ``tick``:
+        this tick's number since the start, for the clock (default: the steps since reset; a
+        real-time loop that skips ticks gives its own, so the clock keeps to the wall)."""
+        tick = self.ticks if tick is None else tick
+        self.ticks = tick + 1
+        parts = [normalized_angle(angles, self.low, self.high), foot_inputs(feet_touching), up]
+        if self.phase_period_s is not None:
+            parts.append(phase_inputs(tick * self.tick_s, self.phase_period_s))
+        readings = np.concatenate(parts)
         out = self.networks.activate(readings[self._gather] * self._sign).reshape(-1)
         wanted = output_to_angle(0.5 * (out[self._first] + out[self._second]), self._d_low, self._d_high)
         goal = previous_goal.copy()

@@ -11,6 +11,10 @@ Each network reads its side's view of the robot and drives its side's joints:
   the walk preset of a biped with a waist, that is seed 000's eleven inputs.  The paper
   names its tilt inputs X and Z: the horizontal components of the up-vector in its y-up
   world, which are forward and sideways here.
+* optionally a clock (:data:`PHASE_INPUTS`): the sine and cosine of the gait phase
+  ``2 pi t / period``, the left network's half a period later (both negated), so that one
+  genome's two networks step in antiphase.  A recurrent network then need not find its own
+  oscillator: the rhythm is the clock's, whatever the body, and evolution tunes the feedback.
 * two bias nodes (:data:`BIAS`): +1, and +1 on the right, -1 on the left.
 * outputs: its own leg's driven joints, then the centre joints; a centre joint gets the
   mean of the two networks' outputs (activations, as the paper says).
@@ -32,6 +36,14 @@ SIDES = ("right", "left")
 BIAS = ((1.0, 1.0), (1.0, -1.0))  # the bias nodes of the (right, left) network: +1, and the side
 CENTER_OUTPUT = "mean of both networks"  # what a centre joint gets
 SENSOR_INPUTS = ("own_foot", "other_foot", "up_forward", "up_sideways")  # after the joint angles
+PHASE_INPUTS = ("phase_sin", "phase_cos")  # last, with a clock
+
+
+def phase_inputs(t_s: np.ndarray | float, period_s: float) -> np.ndarray:
+    """The right network's clock inputs at times ``t_s`` [s] since the start: (..., 2)
+    ``[sin, cos]`` of ``2 pi t / period``."""
+    angle = 2.0 * np.pi * np.asarray(t_s, dtype=float) / period_s
+    return np.stack([np.sin(angle), np.cos(angle)], axis=-1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,6 +55,7 @@ class SymmetricLayout:
     center_mirror: np.ndarray  # -1 where the left network sees the joint mirrored (yaw, roll)
     input_names: tuple[str, ...]
     output_names: tuple[str, ...]
+    phase: bool = False  # the clock's inputs come last
 
     n_bias = len(BIAS[0])
 
@@ -61,16 +74,17 @@ class SymmetricLayout:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, SymmetricLayout):
             return NotImplemented
-        return (self.driven == other.driven and self.leg_slots == other.leg_slots
+        return (self.driven == other.driven and self.leg_slots == other.leg_slots and self.phase == other.phase
                 and self.input_names == other.input_names and self.output_names == other.output_names
                 and all(np.array_equal(self.leg_index[s], other.leg_index[s]) for s in SIDES)
                 and np.array_equal(self.center_index, other.center_index)
                 and np.array_equal(self.center_mirror, other.center_mirror))
 
 
-def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...]) -> SymmetricLayout:
+def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...], phase: bool = False) -> SymmetricLayout:
     """The wiring the rule gives for ``driven`` joints: leg slots in robot order, both sides
-    of each; centre joints in robot order, yaw and roll mirrored for the left network."""
+    of each; centre joints in robot order, yaw and roll mirrored for the left network; with
+    ``phase``, the clock's inputs last."""
     joints = {j.name: j for j in robot.joints}
     unknown = [n for n in driven if n not in joints]
     if unknown:
@@ -93,11 +107,11 @@ def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...]) -> SymmetricLayo
         legs[side] = tuple(names)
     centers = tuple(n for n in sorted(driven, key=order.get) if joints[n].side == "center")
     mirror = tuple(-1.0 if joints[n].axis in ("yaw", "roll") else 1.0 for n in centers)
-    return wired_layout(robot, legs["right"], legs["left"], centers, mirror)
+    return wired_layout(robot, legs["right"], legs["left"], centers, mirror, phase)
 
 
 def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...], center: tuple[str, ...],
-                 center_mirror: tuple[float, ...]) -> SymmetricLayout:
+                 center_mirror: tuple[float, ...], phase: bool = False) -> SymmetricLayout:
     """The layout of given wiring - a controller file's symmetry block: each side's leg
     joints slot by slot, the centre joints and their mirror signs for the left network."""
     order = {j.name: i for i, j in enumerate(robot.joints)}
@@ -107,6 +121,8 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
     slots = tuple((robot.joints[order[n]].location, robot.joints[order[n]].axis) for n in right)
     slot_names = [f"{loc}_{axis}" if loc != "knee" else "knee" for loc, axis in slots]
     inputs = [f"own_{s}" for s in slot_names] + [f"other_{s}" for s in slot_names] + list(center) + list(SENSOR_INPUTS)
+    if phase:
+        inputs += PHASE_INPUTS
     outputs = [f"own_{s}" for s in slot_names] + list(center)
     return SymmetricLayout(
         driven=tuple(sorted((*right, *left, *center), key=order.get)),
@@ -117,6 +133,7 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
         center_mirror=np.array(center_mirror, dtype=float),
         input_names=tuple(inputs),
         output_names=tuple(outputs),
+        phase=phase,
     )
 
 
@@ -126,22 +143,27 @@ def foot_inputs(touching: np.ndarray) -> np.ndarray:
 
 
 def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray,
-                   up: np.ndarray) -> np.ndarray:
+                   up: np.ndarray, phase: np.ndarray | None = None) -> np.ndarray:
     """Inputs of both networks of every robot.
 
     Args:
       joints: (n, n_joints) normalized joint angles in robot order, in [-1, 1].
       feet: (n, 2) foot contacts, columns (left, right): -1 touching, +1 not.
       up: (n, 3) world up in the torso frame (an IMU's normalized gravity, negated).
+      phase: (n, 2) the right network's clock (:func:`phase_inputs`), if the layout has one.
 
     Returns:
       (2 n, n_inputs), rows interleaved right, left.
     """
+    if layout.phase != (phase is not None):
+        raise ValueError("clock inputs given to a layout without a clock" if phase is not None
+                         else "this layout has clock inputs: give the phase")
     n = joints.shape[0]
     right_leg, left_leg = joints[:, layout.leg_index["right"]], joints[:, layout.leg_index["left"]]
     center = joints[:, layout.center_index]
     out = np.empty((n, 2, len(layout.input_names)))
     k = layout.n_leg
+    m = 2 * k + len(layout.center_index)  # where the sensors start
     for s, (own, other, mirror, own_foot, other_foot, side_sign) in enumerate((
         (right_leg, left_leg, 1.0, feet[:, 1], feet[:, 0], 1.0),
         (left_leg, right_leg, layout.center_mirror, feet[:, 0], feet[:, 1], -1.0),
@@ -149,13 +171,15 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
         row = out[:, s]
         row[:, :k] = own
         row[:, k:2 * k] = other
-        row[:, 2 * k:2 * k + len(layout.center_index)] = center * mirror
-        row[:, -4] = own_foot
-        row[:, -3] = other_foot
-        row[:, -2] = -up[:, 0]  # leaning forward is positive
+        row[:, 2 * k:m] = center * mirror
+        row[:, m] = own_foot
+        row[:, m + 1] = other_foot
+        row[:, m + 2] = -up[:, 0]  # leaning forward is positive
         # leaning toward the network's own side is positive on both sides (leaning right
         # tilts world up toward the torso's +y)
-        row[:, -1] = up[:, 1] * side_sign
+        row[:, m + 3] = up[:, 1] * side_sign
+        if phase is not None:
+            row[:, m + 4:m + 6] = phase * side_sign  # the left network half a period later
     return out.reshape(2 * n, -1)
 
 

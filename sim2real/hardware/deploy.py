@@ -147,7 +147,7 @@ class RealTimeLoop:
             else:
                 angles, feet, up = readings
                 t0 = self.clock()
-                goal = self.policy.step(angles, feet, up, self.goal)
+                goal = self.policy.step(angles, feet, up, self.goal, tick=report.ticks)
                 compute_s = self.clock() - t0
                 if not np.all(np.isfinite(goal)):
                     raise UnsafeOutput(f"non-finite goal at tick {report.ticks}: held the last goals")
