@@ -4,7 +4,8 @@
 (``Controller.load``/``save``; ``from_dict``/``to_dict`` for the JSON values;
 ``for_robot`` writes the wiring of a robot's control set around an evolved network).  A
 controller names its robot (and a hash of the robot's joint map, so that a file for
-another robot is refused), its control tick, the network's inputs and outputs in order,
+another robot is refused), its control tick (and its gait clock's period, if it has one),
+the network's inputs and outputs in order,
 the bilateral-symmetry wiring, its modules, its nodes and enabled connections, how outputs
 map onto joints, and where it came from.  Its keys and bounds are those of the published
 schema, ``schemas/controller-v1.schema.json``, which this module reads them from.
