@@ -44,7 +44,7 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
     keys = np.array([[10_000 + i, e] for i in range(n) for e in range(episodes)])
     sims = [g for g in genomes for _ in range(episodes)]
     varied = evaluator.evaluate(sims, config.neat.sigmoid_steepness, perturbation=evaluator.sample(keys))
-    leg, seconds = run.robot.body.leg_length, evaluator.n_ticks * evaluator.tick_s
+    leg, seconds = run.robot.body.leg_length, evaluator.episode_s
 
     def walks(e):
         return e.walked(leg, seconds)

@@ -42,9 +42,9 @@ def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: i
         champion = run.champion
         result = judge.evaluate([champion.genome], config.neat.sigmoid_steepness, harness=0.0)
         distance, upright = float(result.distance_m[0]), float(result.upright_s[0])
-        full = upright >= judge.n_ticks * judge.tick_s - 1e-9
+        full = upright >= judge.episode_s - 1e-9
         state["best_distance_m"] = max(state["best_distance_m"], distance if full else 0.0)
-        if result.walked(leg, judge.n_ticks * judge.tick_s)[0]:
+        if result.walked(leg, judge.episode_s)[0]:
             state.update(walked=True, minutes_to_walk=(time.perf_counter() - start) / 60.0,
                          generation=row["generation"], walk_distance_m=distance)
             run.controller(champion).save(out / "walker.json")  # judged without the harness

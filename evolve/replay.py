@@ -60,7 +60,7 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
     result = evaluator.evaluate([genome] * episodes, data.sigmoid_steepness, harness=0.0,
                                 disabled_modules=disabled_modules, perturbation=perturbation)
     leg = spec.body.leg_length
-    walked = result.walked(leg, evaluator.n_ticks * evaluator.tick_s)
+    walked = result.walked(leg, evaluator.episode_s)
     return {
         "distance_m": float(np.mean(result.distance_m)),
         "min_distance_m": float(np.min(result.distance_m)),
@@ -77,7 +77,7 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         "episodes": episodes,
         "reality": reality.name,
         "disabled_modules": list(disabled_modules),
-        "seconds": evaluator.n_ticks * evaluator.tick_s,
+        "seconds": evaluator.episode_s,
     }
 
 

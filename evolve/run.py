@@ -275,7 +275,7 @@ class Run:
         e = validation_episodes(self.backend, genomes, steepness=self.config.neat.sigmoid_steepness,
                                 stage=self.stage, draws=v.draws, seed=self.config.seed, stage_index=stage_index,
                                 capacity=self.capacity)
-        walked = e.walked(self.robot.body.leg_length, self.config.task.episode_s).reshape(len(top), v.draws)
+        walked = e.walked(self.robot.body.leg_length, self.evaluator.episode_s).reshape(len(top), v.draws)
         fitness = e.fitness.reshape(len(top), v.draws).mean(axis=1)
         j = int(np.lexsort((fitness, walked.sum(axis=1)))[-1])  # most walks, then mean fitness
         rows = slice(j * v.draws, (j + 1) * v.draws)

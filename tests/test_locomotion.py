@@ -128,3 +128,16 @@ def test_a_clock_period_outside_the_formats_bounds_is_refused_in_the_config():
     assert TaskConfig.from_mapping({"phase_period_s": 0.6}).phase_period_s == 0.6
     with pytest.raises(ConfigError, match=r"task.phase_period_s: must be 0 \(no clock\) or within \[0.05, 10\] s"):
         TaskConfig.from_mapping({"phase_period_s": 0.01}, "walk.yaml")
+
+
+def test_an_episode_upright_to_its_end_counts_as_upright_for_the_whole_episode():
+    """Episodes are whole ticks (10 s at 34 ms is 9.996 s): "walked" is judged against that,
+    or no episode could ever walk (validation once counted 0 walks for this reason)."""
+    layout = neat_layout(symmetric_layout(ROBOT, ROBOT.control_sets["walk"]))
+    task = TaskConfig(episode_s=1.0, stagnation_s=1e9)
+    evaluator = LocomotionEvaluator(ROBOT, task, 1, threads=1)
+    assert evaluator.episode_s < task.episode_s
+    result = evaluator.evaluate([Genome(0, layout)], 1.0)
+    assert result.upright_s[0] == pytest.approx(evaluator.episode_s) and not result.fell[0]
+    assert result.walked(leg_length_m=-1.0, episode_s=evaluator.episode_s)[0]  # any distance counts here
+    assert not result.walked(leg_length_m=-1.0, episode_s=task.episode_s)[0]

@@ -120,6 +120,12 @@ class LocomotionEvaluator:
         return self.angles.read(self.qpos[ids])
 
     @property
+    def episode_s(self) -> float:
+        """An episode's simulated length: whole control ticks, so up to a tick short of the
+        task's ``episode_s`` [s] (a robot upright to the end is upright this long)."""
+        return self.n_ticks * self.tick_s
+
+    @property
     def neat_layout(self) -> Layout:
         return neat_layout(self.layout)
 

@@ -38,8 +38,9 @@ class Episodes:
     terms: Mapping[str, np.ndarray]  # the objective's fitness terms by name, unweighted, each (n,)
 
     def walked(self, leg_length_m: float, episode_s: float) -> np.ndarray:
-        """Which episodes walked: upright for all ``episode_s`` [s] and at least
-        :data:`WALK_LEG_LENGTHS` leg lengths forward, bool (n,)."""
+        """Which episodes walked: upright for all ``episode_s`` [s] (the evaluator's
+        ``episode_s``: whole ticks) and at least :data:`WALK_LEG_LENGTHS` leg lengths forward,
+        bool (n,)."""
         full = self.upright_s >= episode_s - 1e-9
         return full & ~self.fell & (self.distance_m >= WALK_LEG_LENGTHS * leg_length_m)
 
