@@ -2,6 +2,7 @@
 
     python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --json
     python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --minutes 60 --config walk_robust
+    python -m benchmarks.robust_walk --measure CONTROLLER [--ship configs/controllers/xl430_biped.json] --json
 
 Per seed, one evolution of ``--config`` (the robust-walk recipe by default) until its first
 *robust* walker or the budget.  Whenever the run's champion (``best.json``: with validation
@@ -22,7 +23,9 @@ Wall minutes are the evolution's own (``stats.csv``'s ``wall_s``: every generati
 validation), measured with nothing else running; the tests of champions come on top and are
 reported apart (``test_s``).  With ``--out`` each seed keeps its folder and ``result.json``:
 a finished seed is not run again, an interrupted one resumes from its checkpoint (a seed
-fixes the run, so the resumed run is the one that was cut).
+fixes the run, so the resumed run is the one that was cut).  ``--measure CONTROLLER`` measures
+one controller the same way, without evolving; ``--ship FILE`` writes the walker with the
+command and its measures in its provenance (``robust`` says whether it met the bar).
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from benchmarks.common import parser, progress, report
 from benchmarks.transfer import transfer_check
@@ -53,7 +56,8 @@ def robustness(controller: Path, draws: int, default_episodes: int = 3) -> dict[
                                      seed=TEST_SEED)
     default = evaluate_controller(controller, seconds=EPISODE_S, episodes=default_episodes, randomize="default",
                                   seed=TEST_SEED)
-    return {"randomized": {k: randomized[k] for k in keep}, "default": {k: default[k] for k in keep}}
+    return {"randomized": {k: randomized[k] for k in keep}, "default": {k: default[k] for k in keep},
+            "draws": draws, "default_episodes": default_episodes}
 
 
 def sustained(controller: Path, reality: str | None, episodes: int) -> dict[str, Any]:
@@ -63,6 +67,16 @@ def sustained(controller: Path, reality: str | None, episodes: int) -> dict[str,
     return {"upright_s": r["upright_s"], "distance_m": r["distance_m"], "falls": r["falls"],
             "speed_m_s": r["distance_m"] / r["upright_s"] if r["upright_s"] > 0 else 0.0,
             "per_episode": r["per_episode"]}
+
+
+def is_robust(test: dict[str, Any], need: int) -> bool:
+    return test["randomized"]["walked"] >= need and test["default"]["walked"] == test["default_episodes"]
+
+
+def after_test(walker: Path, log: Callable[[str], None]) -> dict[str, Any]:
+    """What is measured of a robust walker: the transfer check and the 60 s walks."""
+    return {"transfer": transfer_check(walker, "default", 3, 0.8, log),
+            "sustained": {"nominal": sustained(walker, None, 1), "default": sustained(walker, "default", 3)}}
 
 
 def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws: int, need: int,
@@ -87,7 +101,7 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
             run.controller(best).save(candidate)
             test = robustness(candidate, draws)
             state["test_s"] += time.perf_counter() - t0
-            robust = test["randomized"]["walked"] >= need and test["default"]["walked"] == 3
+            robust = is_robust(test, need)
             state["tests"].append({"generation": best.generation, **test, "robust": robust})
             log(f"seed {seed}: champion of generation {best.generation}: walked on {test['randomized']['walked']}"
                 f"/{draws} unseen robots, {test['default']['walked']}/3 default{' - robust' if robust else ''}")
@@ -106,9 +120,7 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
         "test_s": state["test_s"], "tests": state["tests"], "run_dir": str(folder),
     }
     if state["robust"]:
-        walker = folder / "robust_walker.json"
-        result["transfer"] = transfer_check(walker, "default", 3, 0.8, log)
-        result["sustained"] = {"nominal": sustained(walker, None, 1), "default": sustained(walker, "default", 3)}
+        result.update(after_test(folder / "robust_walker.json", log))
     write_json_atomic(folder / "result.json", result)
     return result
 
@@ -141,9 +153,20 @@ def main(argv=None) -> None:
     p.add_argument("--draws", type=int, default=10, help="unseen randomized robots a champion is tested on")
     p.add_argument("--need", type=int, default=8, help="of them it must walk on")
     p.add_argument("--out", type=Path, help="keep every run here; finished seeds are reused, cut ones resumed")
+    p.add_argument("--measure", type=Path, metavar="CONTROLLER", help="no evolution: measure this controller "
+                   "as a champion is measured (robustness test, transfer check, 60 s walks)")
     p.add_argument("--ship", type=Path, metavar="FILE", help="write the best robust walker (highest transfer "
-                   "ratio, then seconds upright in the 60 s walks) here, with this command in its provenance")
+                   "ratio, then seconds upright in the 60 s walks) - or the --measure'd controller - here, with "
+                   "this command and its measures in its provenance")
     args = p.parse_args(argv)
+    if args.measure:
+        test = robustness(args.measure, args.draws)
+        measured = {"controller": str(args.measure), "robust": is_robust(test, args.need), "test": test,
+                    **after_test(args.measure, lambda line: progress(line, args.json))}
+        if args.ship:
+            measured["shipped"] = ship(args.measure, measured, args.ship, argv)
+        report(measured, args.json)
+        return
     if not 0 < args.need <= args.draws:
         p.error(f"--need {args.need}: must be within 1..--draws ({args.draws})")
     out = args.out or Path(tempfile.mkdtemp(prefix="robust-walk-"))
@@ -158,33 +181,32 @@ def main(argv=None) -> None:
         r = runs[-1]
         progress(f"seed {seed}: robust={r['robust']} minutes={r['minutes']}", args.json)
     result = summary(runs)
-    if args.ship:
-        result["shipped"] = ship(runs, args.ship, argv)
+    robust = [r for r in runs if r["robust"]]
+    if args.ship and robust:
+        best = max(robust, key=lambda r: (r["transfer"]["ratio"], r["sustained"]["default"]["upright_s"]))
+        result["shipped"] = ship(Path(best["run_dir"]) / "robust_walker.json", {"robust": True, "test": best["tests"][-1],
+                                 **best}, args.ship, argv)
+    elif args.ship:
+        progress("--ship: no robust walker to ship", args.json)
     report(result, args.json)
 
 
-def ship(runs: list[dict[str, Any]], path: Path, argv: list[str] | None) -> str | None:
-    """The best robust walker of ``runs`` as ``path``, its making and measures in its provenance."""
+def ship(walker: Path, measured: dict[str, Any], path: Path, argv: list[str] | None) -> str:
+    """``walker`` as ``path``, with this command and its measures (robustness test, transfer,
+    60 s walks) in its provenance."""
     import shlex
     import sys
 
     from sim2real.controller.file import Controller
 
-    robust = [r for r in runs if r["robust"]]
-    if not robust:
-        progress("--ship: no robust walker to ship", False)
-        return None
-    best = max(robust, key=lambda r: (r["transfer"]["ratio"], r["sustained"]["default"]["upright_s"]))
-    walker = Controller.load(Path(best["run_dir"]) / "robust_walker.json")
     command = "python -m benchmarks.robust_walk " + shlex.join(sys.argv[1:] if argv is None else argv)
-    made = {"made_by": command, "benchmark_seed": best["seed"], "robustness": best["tests"][-1],
-            "transfer_ratio": best["transfer"]["ratio"], "sustained": {
-                where: {k: v for k, v in s.items() if k != "per_episode"} for where, s in best["sustained"].items()}}
-    data = walker.to_dict()
+    made = {"made_by": command, "robust": measured["robust"], "robustness": measured["test"],
+            "transfer_ratio": measured["transfer"]["ratio"], "sustained": {
+                where: {k: v for k, v in s.items() if k != "per_episode"} for where, s in measured["sustained"].items()}}
+    data = Controller.load(walker).to_dict()
     data["provenance"] = {**data["provenance"], **made}
     Controller.from_dict(data, str(path)).save(path)
     return str(path)
-
 
 if __name__ == "__main__":
     main()
