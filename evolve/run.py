@@ -78,8 +78,9 @@ class Best:
         if (self.validation is None) != (other.validation is None):
             return self.validation is not None  # a validated champion beats any that was not
         if self.validation is not None:
-            mine, theirs = self.validation, other.validation
-            return (mine["walked"], mine["fitness"]) > (theirs["walked"], theirs["fitness"])
+            mine, theirs = self.validation, other.validation  # shares: a resumed run may validate on more robots
+            return (mine["walked"] / mine["draws"], mine["fitness"]) > (theirs["walked"] / theirs["draws"],
+                                                                        theirs["fitness"])
         if (self.harness > 0) != (other.harness > 0):
             return self.harness == 0  # a champion without the harness beats any with it
         return self.fitness > other.fitness

@@ -280,6 +280,8 @@ def test_a_validated_champion_beats_any_unvalidated_one_and_walks_count_first():
     assert validated.better_than(best(50.0)) and not best(50.0).better_than(validated)
     more_walks = best(0.5, {"draws": 10, "walked": 4, "fitness": 0.5, "distance_m": 0.1})
     assert more_walks.better_than(validated)
+    on_more_robots = best(0.5, {"draws": 30, "walked": 11, "fitness": 0.5, "distance_m": 0.1})  # 37 % < 40 %
+    assert more_walks.better_than(on_more_robots) and on_more_robots.better_than(validated)
     assert best(2.0).better_than(best(1.0)) and best(1.0).better_than(best(9.0, harness=1.0))
 
 
