@@ -14,7 +14,7 @@ validation ever saw; it is robust when, in 10 s episodes,
   walks at least 2.2 leg lengths in ``--need`` (8) or more, and
 * on ``configs/reality/default.yaml`` (3 noise seeds) it does so in 3 of 3.
 
-Then, for each robust walker: the transfer check (``benchmarks.transfer``: 3 dry runs on the
+Then, for each robust walker: its walk rate on 50 more randomized robots, the transfer check (``benchmarks.transfer``: 3 dry runs on the
 simulated bus under ``default.yaml``, distance kept against the simulation) and a 60 s walk
 in simulation without the stagnation stop, on the nominal and on the ``default.yaml`` robot
 (seconds upright, distance, speed).
@@ -47,6 +47,7 @@ from sim2real.atomic_json import read_json, write_json_atomic
 TEST_SEED = 314_159  # the robustness test's episode seeds are [TEST_SEED, e]
 EPISODE_S = 10.0
 SUSTAINED_S = 60.0
+RATE_ROBOTS = 50  # more robots for a walker's walk rate than the bar's 10
 
 
 def robustness(controller: Path, draws: int, default_episodes: int = 3) -> dict[str, Any]:
@@ -73,9 +74,18 @@ def is_robust(test: dict[str, Any], need: int) -> bool:
     return test["randomized"]["walked"] >= need and test["default"]["walked"] == test["default_episodes"]
 
 
+def walk_rate(controller: Path, robots: int = RATE_ROBOTS) -> dict[str, Any]:
+    """The share of ``robots`` more randomized robots (seeds ``[TEST_SEED + 1, e]``) it walks on:
+    ten robots are few for a walker that walks on about half of them."""
+    r = evaluate_controller(controller, seconds=EPISODE_S, episodes=robots, randomize="randomize",
+                            seed=TEST_SEED + 1)
+    return {"robots": robots, "walked": r["walked"], "falls": r["falls"], "share": r["walked"] / robots}
+
+
 def after_test(walker: Path, log: Callable[[str], None]) -> dict[str, Any]:
-    """What is measured of a robust walker: the transfer check and the 60 s walks."""
-    return {"transfer": transfer_check(walker, "default", 3, 0.8, log),
+    """What is measured of a robust walker: its walk rate on 50 more robots, the transfer check
+    and the 60 s walks."""
+    return {"rate": walk_rate(walker), "transfer": transfer_check(walker, "default", 3, 0.8, log),
             "sustained": {"nominal": sustained(walker, None, 1), "default": sustained(walker, "default", 3)}}
 
 
@@ -140,6 +150,7 @@ def summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
         "sustained_s_median": median(r["sustained"]["default"]["upright_s"] for r in robust),
         "sustained_m_median": median(r["sustained"]["default"]["distance_m"] for r in robust),
         "speed_m_s_median": median(r["sustained"]["nominal"]["speed_m_s"] for r in robust),
+        "walk_rate_median": median(r["rate"]["share"] for r in robust),
         "runs": runs,
     }
 
@@ -201,6 +212,7 @@ def ship(walker: Path, measured: dict[str, Any], path: Path, argv: list[str] | N
 
     command = "python -m benchmarks.robust_walk " + shlex.join(sys.argv[1:] if argv is None else argv)
     made = {"made_by": command, "robust": measured["robust"], "robustness": measured["test"],
+            "walk_rate": measured["rate"],
             "transfer_ratio": measured["transfer"]["ratio"], "sustained": {
                 where: {k: v for k, v in s.items() if k != "per_episode"} for where, s in measured["sustained"].items()}}
     data = Controller.load(walker).to_dict()
