@@ -114,7 +114,8 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
             robust = is_robust(test, need)
             state["tests"].append({"generation": best.generation, **test, "robust": robust})
             log(f"seed {seed}: champion of generation {best.generation}: walked on {test['randomized']['walked']}"
-                f"/{draws} unseen robots, {test['default']['walked']}/3 default{' - robust' if robust else ''}")
+                f"/{draws} unseen robots, {test['default']['walked']}/{test['default_episodes']} default"
+                f"{' - robust' if robust else ''}")
             if robust:
                 candidate.replace(folder / "robust_walker.json")
                 state.update(robust=True, generation=best.generation, minutes=run.wall_s / 60.0,

@@ -45,12 +45,8 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
     sims = [g for g in genomes for _ in range(episodes)]
     varied = evaluator.evaluate(sims, config.neat.sigmoid_steepness, perturbation=evaluator.sample(keys))
     leg, seconds = run.robot.body.leg_length, evaluator.episode_s
-
-    def walks(e):
-        return e.walked(leg, seconds)
-
-    share = (walks(nominal)[:, None].astype(float) + walks(varied).reshape(n, episodes).sum(axis=1, keepdims=True)) \
-        / (episodes + 1)
+    share = (nominal.walked(leg, seconds)[:, None].astype(float)
+             + varied.walked(leg, seconds).reshape(n, episodes).sum(axis=1, keepdims=True)) / (episodes + 1)
     worst = np.minimum(nominal.distance_m, varied.distance_m.reshape(n, episodes).min(axis=1))
     best = int(np.lexsort((worst, share[:, 0]))[-1])
     genome = genomes[best]

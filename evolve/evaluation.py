@@ -82,17 +82,18 @@ class LocalBackend:
         return run_job(self.evaluator, job)
 
 
+PER_SIMULATION = ("fitness", "selection", "distance_m", "upright_s", "fell", "unstable")  # Episodes' arrays
+
+
 def concatenate(parts: list[Episodes]) -> Episodes:
-    arrays = {name: np.concatenate([getattr(p, name) for p in parts])
-              for name in ("fitness", "selection", "distance_m", "upright_s", "fell", "unstable")}
+    arrays = {name: np.concatenate([getattr(p, name) for p in parts]) for name in PER_SIMULATION}
     terms = {name: np.concatenate([p.terms[name] for p in parts]) for name in parts[0].terms}
     return Episodes(**arrays, steps=sum(p.steps for p in parts), terms=terms)
 
 
 def repeated(e: Episodes, times: int) -> Episodes:
     """Each simulation's outcome ``times`` times in a row (its physics steps once)."""
-    arrays = {name: np.repeat(getattr(e, name), times)
-              for name in ("fitness", "selection", "distance_m", "upright_s", "fell", "unstable")}
+    arrays = {name: np.repeat(getattr(e, name), times) for name in PER_SIMULATION}
     return Episodes(**arrays, steps=e.steps, terms={name: np.repeat(v, times) for name, v in e.terms.items()})
 
 

@@ -44,6 +44,14 @@ class StreamParser:
         del self.buffer[:start]
         return True
 
+    def _cut(self, size: int) -> bytes | None:
+        """The buffer's first ``size`` bytes, removed from it; None while fewer have come."""
+        if len(self.buffer) < size:
+            return None
+        raw = bytes(self.buffer[:size])
+        del self.buffer[:size]
+        return raw
+
     def _reject(self, dxl_id: int) -> object:
         self.crc_errors += 1
         self.bad_crc_ids.append(dxl_id)

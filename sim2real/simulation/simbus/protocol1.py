@@ -41,10 +41,9 @@ class Parser(StreamParser):
         if length < 2:
             del self.buffer[:2]
             return SKIP
-        if len(self.buffer) < 4 + length:
+        raw = self._cut(4 + length)
+        if raw is None:
             return None
-        raw = bytes(self.buffer[:4 + length])
-        del self.buffer[:4 + length]
         if checksum(raw[2:-1]) != raw[-1]:
             return self._reject(raw[2])
         return raw[2], raw[4], raw[5:-1]

@@ -85,10 +85,9 @@ class Parser(StreamParser):
         if not 3 <= length <= MAX_LENGTH:  # not a packet: resynchronize on the next header
             del self.buffer[:1]
             return SKIP
-        if len(self.buffer) < 7 + length:
+        raw = self._cut(7 + length)
+        if raw is None:
             return None
-        raw = bytes(self.buffer[:7 + length])
-        del self.buffer[:7 + length]
         if crc16(raw[:-2]) != (raw[-2] | (raw[-1] << 8)):
             return self._reject(raw[4])
         body = unstuff(raw[7:-2])
