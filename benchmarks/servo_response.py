@@ -33,7 +33,7 @@ from benchmarks.common import parser, progress, report
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.robot.servo_model import derivative_time, servo_physics
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import JointAngles, finished_spec
+from sim2real.simulation.model_builder import JointAngles, build_model
 from sim2real.simulation.reality import Reality, apply_to_model, load_reality, needs_backlash_joints, sample
 
 STEP_DEG = 10.0
@@ -55,21 +55,13 @@ class Sim:
     has backlash joints if ``backlash``."""
 
     def __init__(self, robot: RobotSpec, reality: Reality, backlash: bool, suspended: bool):
-        spec = finished_spec(robot, backlash=backlash)
-        if suspended:
-            spec.delete(spec.joint("root"))
-            spec.delete(spec.key("home"))
-            spec.body("pelvis").pos = [0, 0, 2 * robot.body.leg_length]
-        self.model = spec.compile()
+        self.model = build_model(robot, backlash=backlash, suspended=suspended)
         apply_to_model(self.model, copy.copy(self.model),
                        sample(reality, np.zeros((1, 1)), self.model, 0, control_timing(robot).tick_s))
         self.data = mujoco.MjData(self.model)
         self.angles = JointAngles.of(self.model, robot.joint_names)
         self.home = np.array([j.home_rad for j in robot.joints])
-        if suspended:
-            self.angles.place(self.data.qpos, self.home)
-        else:
-            mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)
         mujoco.mj_forward(self.model, self.data)
 
     def run(self, goal: np.ndarray, seconds: float, joint: int) -> tuple[np.ndarray, np.ndarray]:

@@ -16,7 +16,7 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
     os.environ.setdefault("MUJOCO_GL", "egl")
 
 from evolve import cli_commands, quickstart  # noqa: E402
-from sim2real.cli import deploy_commands, robot_commands  # noqa: E402
+from sim2real.cli import deploy_commands, robot_commands, sysid_commands  # noqa: E402
 from sim2real.errors import BipedError  # noqa: E402
 
 
@@ -29,6 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     robot_commands.add_commands(sub, replay=cli_commands.REPLAY)  # robot, view, render
     deploy_commands.add_commands(sub)  # run, dry-run, simbus, compare
+    sysid_commands.add_commands(sub)  # excite, sysid
     cli_commands.add_commands(sub)
     quickstart.add_command(sub)
     return parser

@@ -82,6 +82,7 @@ class LocomotionEvaluator:
         if task.control_set not in robot.control_sets:
             raise ValueError(f"task.control_set: robot {robot.name} has no control set "
                              f"{task.control_set!r} (has {', '.join(robot.control_sets)})")
+        reality.check_batchable()
         self.robot, self.task, self.reality = robot, task, reality
         timing = control_timing(robot)
         self.tick_s, self.substeps = timing.tick_s, timing.substeps

@@ -28,7 +28,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Protocol
 
 import numpy as np
 
@@ -108,6 +108,21 @@ class RunReport:
                 "jitter_ms_p99": pct(self.jitter_s, 99, 1e3), "realtime": self.realtime}
 
 
+class GoalSource(Protocol):
+    """What the loop drives the robot with: a controller's :class:`Policy`, or an excitation
+    program (:mod:`sim2real.hardware.excitation`)."""
+
+    tick_s: float
+    hold: np.ndarray  # the rest pose the run ends in [rad]
+
+    def reset(self) -> np.ndarray: ...  # the pose the run starts from [rad]
+
+    def step(self, angles: np.ndarray, feet_touching: np.ndarray, up: np.ndarray, previous: np.ndarray,
+             tick: int = 0) -> np.ndarray: ...  # this tick's goals [rad]
+
+    def trace_metadata(self) -> dict[str, Any]: ...
+
+
 def ramp(chain: ServoChain, mapping: ServoMapping, start: np.ndarray, target: np.ndarray,
          seconds: float = RAMP_S, sleep: Callable[[float], None] = time.sleep,
          cut_short: Callable[[], bool] = lambda: False) -> bool:
@@ -123,7 +138,7 @@ def ramp(chain: ServoChain, mapping: ServoMapping, start: np.ndarray, target: np
 
 
 class RealTimeLoop:
-    def __init__(self, chain: ServoChain, mapping: ServoMapping, policy: Policy, tick_s: float,
+    def __init__(self, chain: ServoChain, mapping: ServoMapping, policy: GoalSource, tick_s: float,
                  trace: TraceWriter | None = None, clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep, lost_after_s: float = LOST_AFTER_S):
         self.chain, self.mapping, self.policy, self.tick_s = chain, mapping, policy, tick_s
@@ -249,21 +264,27 @@ class StopSignals:
         raise KeyboardInterrupt if signum == signal.SIGINT else Shutdown()
 
 
-def drive(bus: Bus, robot: RobotSpec, controller: Controller, duration_s: float | None = None,
+def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, duration_s: float | None = None,
           trace_path: Path | str | None = None, disabled_modules: tuple[str, ...] = (),
           log: Callable[[str], None] = print, clock: Callable[[], float] = time.monotonic,
           sleep: Callable[[float], None] = time.sleep, ramp_s: float = RAMP_S,
           lost_after_s: float = LOST_AFTER_S, realtime: RealtimeRequest | None = None) -> RunReport:
     """Start up, ramp, run the loop, and always end with torque off, read back; returns what
     happened (``report.torque_off`` lists servos confirmed off and those that are not).
+    ``controller`` is a controller file's contents or any other :class:`GoalSource`.
     ``realtime``: ask the OS for real-time treatment first (None: do not ask)."""
-    if duration_s is not None and not (math.isfinite(duration_s) and round(duration_s / controller.tick_s) >= 1):
+    if isinstance(controller, Controller):
+        policy: GoalSource = Policy(controller, robot, disabled_modules)
+        metadata = {"controller_hash": controller.joint_map_hash,
+                    "controller_provenance": controller.to_dict()["provenance"]}
+    else:
+        policy, metadata = controller, controller.trace_metadata()
+    if duration_s is not None and not (math.isfinite(duration_s) and round(duration_s / policy.tick_s) >= 1):
         raise UsageError(f"duration {duration_s!r} s: not a finite time of at least one control tick "
-                         f"({controller.tick_s} s)")  # before any servo moves
+                         f"({policy.tick_s} s)")  # before any servo moves
     report = RunReport()
     chain = ServoChain(bus, robot)
     mapping = ServoMapping(robot)
-    policy = Policy(controller, robot, disabled_modules)
     trace = None
     startup_error: StartupError | None = None
     grant = None
@@ -277,9 +298,7 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller, duration_s: float 
             start_up(chain, mapping, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S, warn=log)
             if trace_path is not None:
                 trace = TraceWriter(trace_path, robot.joint_names, {
-                    "robot": robot.name, "controller_hash": controller.joint_map_hash,
-                    "controller_provenance": controller.to_dict()["provenance"], "tick_s": policy.tick_s,
-                    "software": "servo-biped-evolve"})
+                    "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"})
             present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION, None, PATIENT_ATTEMPTS, PATIENCE_S))
             chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)
             ramp(chain, mapping, present, policy.reset(), ramp_s, sleep)
@@ -338,7 +357,7 @@ def _stop_reason(exc: BaseException, chain: ServoChain, report: RunReport) -> st
     return f"error: {type(exc).__name__}: {exc}"  # a bug must not leave torque on
 
 
-def _stop_safely(chain: ServoChain, mapping: ServoMapping, policy: Policy, report: RunReport,
+def _stop_safely(chain: ServoChain, mapping: ServoMapping, policy: GoalSource, report: RunReport,
                  signals: StopSignals, sleep: Callable[[float], None], ramp_s: float,
                  log: Callable[[str], None], ramp_to_rest: bool = True) -> None:
     """Ramp to the rest pose unless a servo is in hardware error, the bus is silent or a

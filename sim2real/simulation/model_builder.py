@@ -66,6 +66,7 @@ _AXES = {
 }
 COLORS = {"left": (0.85, 0.45, 0.2, 1), "right": (0.2, 0.5, 0.85, 1), "center": (0.75, 0.75, 0.78, 1)}
 SOLE_CLEARANCE_M = 0.0005  # the home keyframe starts the soles this far above the floor
+SUSPENDED_HEIGHT_LEGS = 2.0  # a hung robot's pelvis, in leg lengths above the floor: feet well clear
 OFFSCREEN_SIZE = (1280, 720)  # [px] the offscreen framebuffer: the largest picture `biped render` makes
 
 BACKLASH_SUFFIX = "_backlash"  # <joint>_backlash: the gears' free play behind <joint>
@@ -151,9 +152,11 @@ def configure_servo_actuator(act, phys: ServoPhysics) -> None:
     act.forcerange = [-phys.force_limit, phys.force_limit]
 
 
-def build_spec(robot: RobotSpec, backlash: bool = False) -> mujoco.MjSpec:
+def build_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False) -> mujoco.MjSpec:
     """The robot as an editable :class:`mujoco.MjSpec` (gains of PD robots not yet scaled),
-    with a backlash joint behind each joint if ``backlash``."""
+    with a backlash joint behind each joint if ``backlash``; ``suspended`` hangs it by the
+    pelvis, fixed in the air with its feet off the floor (no root joint), as a robot is hung
+    for system identification."""
     b = robot.body
     timing = control_timing(robot)
     spec = mujoco.MjSpec()
@@ -181,8 +184,9 @@ def build_spec(robot: RobotSpec, backlash: bool = False) -> mujoco.MjSpec:
                    material="grid", friction=list(FLOOR_FRICTION), solref=list(FLOOR_SOLREF),
                    contype=contype, conaffinity=conaffinity)
 
-    pelvis = world.add_body(name="pelvis", pos=[0, 0, b.leg_length])
-    pelvis.add_freejoint(name="root")
+    pelvis = world.add_body(name="pelvis", pos=[0, 0, (SUSPENDED_HEIGHT_LEGS if suspended else 1.0) * b.leg_length])
+    if not suspended:
+        pelvis.add_freejoint(name="root")
     _box_geom(pelvis, "pelvis", b.pelvis.size, [0, 0, b.pelvis.size[2] / 2], b.pelvis.mass, "center")
     offset = 2.6 * b.height * np.array([0.45, -0.88, 0.12])  # front-right, slightly above
     pelvis.add_camera(name="track", mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM, pos=offset.tolist(),
@@ -246,7 +250,8 @@ def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel)
         world = data.geom_xpos[geom] + (corners * model.geom_size[geom]) @ data.geom_xmat[geom].reshape(3, 3).T
         lowest = min(lowest, world[:, 2].min())
     qpos = data.qpos.copy()
-    qpos[2] -= lowest - SOLE_CLEARANCE_M
+    if model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE:  # standing: lowered onto the floor; hung: as it is
+        qpos[2] -= lowest - SOLE_CLEARANCE_M
     spec.add_key(name="home", qpos=qpos.tolist(), ctrl=home.tolist())
 
 
@@ -255,14 +260,16 @@ def home_ctrl(robot: RobotSpec, model: mujoco.MjModel) -> np.ndarray:
     return np.array([robot.joints[i].home_rad for i in range(model.nu)])
 
 
-def finished_spec(robot: RobotSpec, actuator_history_s: float = 0.0, backlash: bool = False) -> mujoco.MjSpec:
+def finished_spec(robot: RobotSpec, actuator_history_s: float = 0.0, backlash: bool = False,
+                  suspended: bool = False) -> mujoco.MjSpec:
     """:func:`build_spec` with PD gains scaled by joint inertia and the ``home`` keyframe.
 
     ``actuator_history_s`` > 0 keeps that much control history per actuator, so that
     ``actuator_delay`` can model a control latency of up to as long; ``backlash`` adds the
-    backlash joints (closed: each simulation's width is set through ``jnt_range``).
+    backlash joints (closed: each simulation's width is set through ``jnt_range``);
+    ``suspended`` hangs the robot (:func:`build_spec`).
     """
-    spec = build_spec(robot, backlash)
+    spec = build_spec(robot, backlash, suspended)
     model = spec.compile()
     if robot.pd is not None:
         _scale_pd_gains(robot, spec, model)
@@ -275,9 +282,10 @@ def finished_spec(robot: RobotSpec, actuator_history_s: float = 0.0, backlash: b
     return spec
 
 
-def build_model(robot: RobotSpec, actuator_history_s: float = 0.0, backlash: bool = False) -> mujoco.MjModel:
+def build_model(robot: RobotSpec, actuator_history_s: float = 0.0, backlash: bool = False,
+                suspended: bool = False) -> mujoco.MjModel:
     """The robot's compiled MuJoCo model (see :func:`finished_spec`)."""
-    return finished_spec(robot, actuator_history_s, backlash).compile()
+    return finished_spec(robot, actuator_history_s, backlash, suspended).compile()
 
 
 @dataclass(frozen=True)

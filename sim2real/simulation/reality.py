@@ -27,6 +27,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from sim2real.errors import ConfigError
 from sim2real.robot.validation import Node, load_yaml
 from sim2real.simulation.model_builder import CLOSED_PLAY_RAD, JointAngles
 
@@ -44,12 +45,25 @@ PERTURBATIONS: dict[str, tuple[float, str]] = {
                            "torque limit (an XL430 at D 4000, P 640: 50 firmware loop periods)"),
     "backlash_deg": (0.0, "free play of each joint's gears, full width [deg] (drawn per joint)"),
     "latency_ticks": (0.0, "delay from goal written to goal acted on [control ticks]"),
+    "latency_ms": (0.0, "the same delay in milliseconds (as `biped sysid` measures it; adds to latency_ticks)"),
     "joint_noise_deg": (0.0, "standard deviation of the noise on joint readings [deg]"),
     "up_noise": (0.0, "standard deviation of the noise on each up-vector component"),
     "foot_flip": (0.0, "chance that a foot switch reads wrong at a tick"),
 }
+# Effects only the simulated bus gives its robot: it steps one model in Python and can change
+# it between physics steps, which mujoco.batch (evolution, `biped eval`) cannot.  They make the
+# robot behind the bus one that the model itself cannot express - what system identification
+# and the transfer check must be tested against.  Families after Rhoban BAM's M1-M6 friction
+# models (Stribeck, load-dependent) and a supply that sags under current.
+EFFECTS: dict[str, tuple[float, str]] = {
+    "stribeck_nm": (0.0, "breakaway friction above the Coulomb friction at rest, fading with speed [N m]"),
+    "stribeck_rad_s": (0.2, "the speed over which that excess fades (exp(-(v / v_s)^2)) [rad/s]"),
+    "load_friction": (0.0, "Coulomb friction added per N m the gears transmit [N m / N m]"),
+    "supply_sag": (0.0, "share of every servo's torque limit lost when all servos draw their stall current"),
+}
 SCALES = ("mass_scale", "floor_friction_scale", "kp_scale", "torque_scale", "damping_scale", "friction_scale",
           "armature_scale")
+PER_SERVO = ("kp_scale", "torque_scale", "damping_scale", "friction_scale", "armature_scale", "backlash_deg")
 
 
 @dataclass(frozen=True)
@@ -59,69 +73,110 @@ class Reality:
     name: str = "nominal"
     description: str = ""
     ranges: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
+    # joint name -> its own ranges of PER_SERVO keys (a file's ``joints:``), over ``ranges``
+    joint_ranges: dict[str, dict[str, tuple[float, float]]] = dataclasses.field(default_factory=dict)
 
     def range(self, key: str) -> tuple[float, float]:
-        nominal = PERTURBATIONS[key][0]
+        nominal = PERTURBATIONS[key][0] if key in PERTURBATIONS else EFFECTS[key][0]
         return self.ranges.get(key, (nominal, nominal))
+
+    @property
+    def effects(self) -> list[str]:
+        """The simulated bus's own effects this reality switches on (:data:`EFFECTS`)."""
+        return [k for k, (v, _) in EFFECTS.items() if k != "stribeck_rad_s" and self.range(k) != (v, v)]
+
+    def check_batchable(self) -> None:
+        """Refuse, naming the key, a reality with effects only the simulated bus simulates."""
+        if self.effects:
+            raise ConfigError(self.name, self.effects[0], "only the simulated bus simulates this effect "
+                              "(`biped dry-run`, `biped excite`); evolution and `biped eval` cannot")
+
+    def joint_range(self, joint: str, key: str) -> tuple[float, float]:
+        return self.joint_ranges.get(joint, {}).get(key, self.range(key))
 
     @property
     def is_nominal(self) -> bool:
         return not self.perturbed
 
     @property
-    def max_latency_ticks(self) -> float:
-        return self.range("latency_ticks")[1]
+    def max_latency_s(self) -> tuple[float, float]:
+        """The longest latency this reality draws: (control ticks, plus seconds)."""
+        return self.range("latency_ticks")[1], self.range("latency_ms")[1] / 1e3
+
+    def _map(self, f) -> tuple[dict, dict]:
+        ranges = {key: f(key, r) for key, r in self.ranges.items()}
+        joints = {j: {key: f(key, r) for key, r in values.items()} for j, values in self.joint_ranges.items()}
+        return ranges, joints
 
     def scaled(self, intensity: float) -> "Reality":
         """Every range moved toward nominal: ``nominal + intensity * (value - nominal)``;
         0 is the nominal robot, 1 (or more) this reality itself."""
         if intensity >= 1.0:
             return self
-        ranges = {}
-        for key, (lo, hi) in self.ranges.items():
-            nominal = PERTURBATIONS[key][0]
-            ranges[key] = (nominal + intensity * (lo - nominal), nominal + intensity * (hi - nominal))
-        return Reality(f"{self.name} x{intensity:g}", self.description, ranges)
+
+        def toward(key, r):
+            if key == "stribeck_rad_s":
+                return r  # the shape of an effect, not an amount of it
+            nominal = {**PERTURBATIONS, **EFFECTS}[key][0]
+            return nominal + intensity * (r[0] - nominal), nominal + intensity * (r[1] - nominal)
+
+        return Reality(f"{self.name} x{intensity:g}", self.description, *self._map(toward))
 
     def only(self, key: str) -> "Reality":
         """This reality with every perturbation but ``key`` at its nominal value."""
-        return Reality(f"{self.name} (only {key})", self.description, {key: self.range(key)})
+        joints = {j: {key: values[key]} for j, values in self.joint_ranges.items() if key in values}
+        return Reality(f"{self.name} (only {key})", self.description, {key: self.range(key)}, joints)
 
     @property
     def perturbed(self) -> list[str]:
         """The perturbations this reality moves off nominal, in :data:`PERTURBATIONS` order."""
-        return [k for k, (v, _) in PERTURBATIONS.items() if self.range(k) != (v, v)]
+        return [k for k, (v, _) in PERTURBATIONS.items()
+                if self.range(k) != (v, v) or any(self.joint_range(j, k) != (v, v) for j in self.joint_ranges)]
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"description": self.description} if self.description else {}
+        as_value = lambda lo, hi: lo if lo == hi else [lo, hi]  # noqa: E731
         for key, (lo, hi) in self.ranges.items():
-            out[key] = lo if lo == hi else [lo, hi]
+            out[key] = as_value(lo, hi)
+        if self.joint_ranges:
+            out["joints"] = {j: {key: as_value(*r) for key, r in values.items()} for j, values in self.joint_ranges.items()}
         return out
 
 
 NOMINAL = Reality()
 
 
+def _value_or_range(key: str, item: Node) -> tuple[float, float]:
+    if isinstance(item.value, list):
+        lo, hi = item.pair()
+    else:
+        lo = hi = item.number()
+    if lo < 0:
+        raise item.error(f"must not be negative, got {item.value!r}")
+    if key in SCALES and lo == 0:
+        raise item.error("a scale must be > 0")
+    if key == "foot_flip" and hi > 1:
+        raise item.error(f"is a probability (0-1), got {item.value!r}")
+    return float(lo), float(hi)
+
+
 def parse_reality(doc: Any, source: str, name: str = "inline") -> Reality:
+    """A reality file's contents: each key of :data:`PERTURBATIONS` a value or a range, and
+    optionally ``joints:``, per joint name values of :data:`PER_SERVO` keys that override the
+    robot-wide ones (what ``biped sysid --per-joint`` writes)."""
     node = Node(doc if doc is not None else {}, source)
-    node.mapping(optional=("description", *PERTURBATIONS))
+    node.mapping(optional=("description", "joints", *PERTURBATIONS, *EFFECTS))
     ranges: dict[str, tuple[float, float]] = {}
+    joints: dict[str, dict[str, tuple[float, float]]] = {}
     for key, item in node.items():
-        if key == "description":
-            continue
-        if isinstance(item.value, list):
-            lo, hi = item.pair()
-        else:
-            lo = hi = item.number()
-        if lo < 0:
-            raise item.error(f"must not be negative, got {item.value!r}")
-        if key in SCALES and lo == 0:
-            raise item.error("a scale must be > 0")
-        if key == "foot_flip" and hi > 1:
-            raise item.error(f"is a probability (0-1), got {item.value!r}")
-        ranges[key] = (float(lo), float(hi))
+        if key == "joints":
+            for joint, values in item.items():
+                values.mapping(optional=PER_SERVO)
+                joints[joint] = {k: _value_or_range(k, v) for k, v in values.items()}
+        elif key != "description":
+            ranges[key] = _value_or_range(key, item)
     description = node.get("description").string() if node.has("description") else ""
-    return Reality(name, description, ranges)
+    return Reality(name, description, ranges, joints)
 
 
 def reality_dir() -> Path:
@@ -187,6 +242,13 @@ def sample(reality: Reality, keys: np.ndarray, model: mujoco.MjModel, n_ticks: i
     """Draw one perturbation per row of ``keys`` (integers; each row seeds its own stream)."""
     keys = np.atleast_2d(np.asarray(keys, dtype=np.int64))
     nbody, nu = model.nbody, model.nu
+    actuators = [model.actuator(i).name for i in range(nu)]
+    joint_columns = []
+    for joint in reality.joint_ranges:
+        if joint not in actuators:
+            raise ConfigError(reality.name, f"joints.{joint}", f"not a servo joint of this robot "
+                              f"(its joints: {', '.join(actuators)})")
+        joint_columns.append((joint, actuators.index(joint)))
     out: dict[str, list] = {f.name: [] for f in dataclasses.fields(Perturbation)}
     for key in keys:
         rng = np.random.default_rng([int(k) for k in key])
@@ -214,6 +276,12 @@ def sample(reality: Reality, keys: np.ndarray, model: mujoco.MjModel, n_ticks: i
         # drawn last: the perturbations added later leave the earlier ones' draws as they were
         out["armature_scale"].append(draw("armature_scale", nu))
         out["derivative_s"].append(draw("derivative_ms") / 1e3)
+        out["latency_s"][-1] += draw("latency_ms") / 1e3
+        for joint, index in joint_columns:  # a joint's own values: drawn last, as above
+            for key, (lo, hi) in reality.joint_ranges[joint].items():
+                value = lo if lo == hi else rng.uniform(lo, hi)
+                field_name, unit = ("backlash_rad", np.radians) if key == "backlash_deg" else (key, float)
+                out[field_name][-1][index] = unit(value)
     return Perturbation(**{k: np.array(v) for k, v in out.items()})
 
 
@@ -225,7 +293,8 @@ def needs_backlash_joints(reality: Reality) -> bool:
 
 def latency_capacity_s(reality: Reality, tick_s: float) -> float:
     """Actuator history a model needs for this reality's longest latency [s]."""
-    return reality.max_latency_ticks * tick_s
+    ticks, seconds = reality.max_latency_s
+    return ticks * tick_s + seconds
 
 
 def apply(fields: dict[str, np.ndarray], nominal: mujoco.MjModel, p: Perturbation,

@@ -12,7 +12,9 @@ overload: alert bit, Hardware Error Status, torque off until REBOOT.
 A reality profile (:mod:`sim2real.simulation.reality`) perturbs the robot behind the bus: masses,
 friction and servo gains in the model, latency as actuator delay, backlash as the gears'
 free play (backlash joints, whose angle the encoders see and the motor does not), noise on
-what the servos and the board report.
+what the servos and the board report; and, only here, effects the model leaves out
+(:class:`ServoEffects`).  ``suspended`` hangs the robot by its pelvis, feet off the floor,
+for ``biped excite``.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing
 from sim2real.simulation.model_builder import JointAngles, build_model
 from sim2real.simulation.reality import (
+    EFFECTS,
     NOMINAL,
     Reality,
     apply_to_model,
@@ -48,13 +51,40 @@ FALL_HEIGHT = 0.7  # as in evolution: pelvis below 70 % of its start height
 FALL_TILT_DEG = 60.0
 
 
+class ServoEffects:
+    """What the simulated bus's servos do that the model cannot express (reality
+    :data:`~sim2real.simulation.reality.EFFECTS`), applied before every physics step: Coulomb
+    friction that rises toward rest (Stribeck) and with the torque the gears carry, and torque
+    limits that sag with the current all servos draw together."""
+
+    def __init__(self, model: mujoco.MjModel, reality: Reality, seed: int, dofs: np.ndarray, stall_nm: np.ndarray):
+        rng = np.random.default_rng([seed, 1])  # its own stream: the perturbation's draws stay as they were
+        value = {}
+        for key in EFFECTS:
+            lo, hi = reality.range(key)
+            value[key] = lo if lo == hi else float(rng.uniform(lo, hi))
+        self.stribeck_nm, self.stribeck_rad_s = value["stribeck_nm"], value["stribeck_rad_s"]
+        self.load_friction, self.supply_sag = value["load_friction"], value["supply_sag"]
+        self.dofs, self.stall_total = dofs, float(np.sum(stall_nm))
+        self.friction = model.dof_frictionloss[dofs].copy()
+        self.limit = model.actuator_forcerange[:, 1].copy()
+
+    def apply(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        carried = np.abs(data.actuator_force)
+        speed = data.qvel[self.dofs]
+        model.dof_frictionloss[self.dofs] = (self.friction + self.load_friction * carried
+                                             + self.stribeck_nm * np.exp(-(speed / self.stribeck_rad_s) ** 2))
+        limit = self.limit * (1.0 - self.supply_sag * min(1.0, carried.sum() / self.stall_total))
+        model.actuator_forcerange[:, 0], model.actuator_forcerange[:, 1] = -limit, limit
+
+
 class PhysicsChain:
     def __init__(self, robot: RobotSpec, clock: Callable[[], float] = time.monotonic, overload_s: float = 2.0,
-                 reality: Reality = NOMINAL, seed: int = 0):
+                 reality: Reality = NOMINAL, seed: int = 0, suspended: bool = False):
         self.robot, self.clock, self.overload_s = robot, clock, overload_s
         tick_s = control_timing(robot).tick_s
         history = latency_capacity_s(reality, tick_s)
-        self.model = build_model(robot, history, backlash=needs_backlash_joints(reality))
+        self.model = build_model(robot, history, backlash=needs_backlash_joints(reality), suspended=suspended)
         self.perturbation = sample(reality, np.array([[seed]]), self.model, 0, tick_s)
         apply_to_model(self.model, copy.copy(self.model), self.perturbation)
         self.rng = np.random.default_rng(seed)
@@ -70,6 +100,8 @@ class PhysicsChain:
         self.kv = -self.model.actuator_biasprm[:, 2].copy()  # the D term, if the reality draws one
         self.stall = np.array([j.servo.profile.motor.stall_torque_nm for j in robot.joints])  # datasheet
         self.torque_limit = self.model.actuator_forcerange[:, 1].copy()  # this robot's
+        self.effects = (ServoEffects(self.model, reality, seed, self.angles.servo_dof, self.stall)
+                        if reality.effects else None)
         self.touch = [self.model.sensor_adr[self.model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
         self.up = self.model.sensor_adr[self.model.sensor("torso_up").id]
         self.board = robot.sensor_board.id if robot.sensor_board else None
@@ -100,7 +132,8 @@ class PhysicsChain:
         """Catch the simulation up with the wall clock (called before every instruction)."""
         with self.lock:
             target = self.clock() - self._started
-            steps = int((target - self.data.time) / self.model.opt.timestep)
+            # the small epsilon: a sum of 2 ms steps lands a hair short of a whole number of them
+            steps = int((target - self.data.time) / self.model.opt.timestep + 1e-6)
             steps = min(steps, int(MAX_CATCH_UP_S / self.model.opt.timestep))
             if steps <= 0:
                 return
@@ -112,6 +145,8 @@ class PhysicsChain:
             self.model.actuator_biasprm[:, 1] = -self.model.actuator_gainprm[:, 0]
             self.model.actuator_biasprm[:, 2] = -np.where(on, self.kv, 0.0)
             for _ in range(steps):
+                if self.effects is not None:
+                    self.effects.apply(self.model, self.data)
                 mujoco.mj_step(self.model, self.data)
                 self._check_overload(on)
             self._publish()

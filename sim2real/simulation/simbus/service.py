@@ -51,6 +51,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--reality", type=reality_name, metavar="PROFILE",
                         help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
     parser.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts")
+    parser.add_argument("--suspended", action="store_true",
+                        help="hang the robot by its pelvis, feet off the floor (as for `biped excite`)")
     add_realtime_arguments(parser)
     parser.add_argument("--fault-delay", type=non_negative_finite_float, default=0.0, help=argparse.SUPPRESS)  # dry runs: the ramp
     parser.add_argument("--exit-on-stdin-eof", action="store_true",
@@ -72,7 +74,7 @@ def serve(args: argparse.Namespace) -> int:
     # while it holds Python's interpreter lock, and the serving thread would wait on it.
     grant = request_realtime(realtime_request(args) or RealtimeRequest.off())
     robot = load_robot(args.robot)
-    physics = PhysicsChain(robot, reality=load_reality(args.reality), seed=args.seed)
+    physics = PhysicsChain(robot, reality=load_reality(args.reality), seed=args.seed, suspended=args.suspended)
     chain = EmulatedChain(physics.devices, advance=physics.advance)
     timers, rates = arm_faults(args.faults, chain, physics, delay_s=args.fault_delay, robot=robot)
     done = threading.Event()

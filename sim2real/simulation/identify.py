@@ -1,0 +1,351 @@
+"""System identification: fit the servo model to a robot's own traces (``biped sysid``).
+
+The traces come from ``biped excite`` (chirps and steps, the robot hung by its pelvis): goals
+in, encoder angles out.  The fit replays each trace's goals in the hung model (with backlash
+joints) and moves the servo parameters until the simulated encoder angles match the
+recorded ones, in the least-squares sense - through ``mujoco.sysid``: its parameters with
+bounds, rollouts, the optimizer (MuJoCo's own bounded Levenberg-Marquardt with
+finite-difference Jacobians), confidence intervals, saved results and HTML report.
+
+What is fitted, per servo model (or per joint), in the vocabulary of reality files
+(:mod:`sim2real.simulation.reality`): ``kp_scale`` (position gain), ``torque_scale`` (stall
+torque), ``damping_scale`` (back-EMF damping), ``friction_scale`` (Coulomb friction),
+``armature_scale`` (rotor inertia), ``backlash_deg`` (gear play, full width); and for the
+whole bus ``latency_ms``, from a goal's row in the trace to the servo acting on it: the
+robot's own latency plus the bus's transport.  Latency is a delay of the whole response
+(``SignalTransform``-style resampling of the prediction), exact for a hung robot, whose
+response does not feed back into its goals.
+
+Each trace is cut into its excitation segments (chirps, steps; from the sidecar), each
+replayed from rest at its measured angles, so that rollouts are short and parallel.  A
+parameter whose confidence interval covers much of its range (or is infinite) is reported
+*not identifiable* from these traces: the traces do not excite what it does.
+"""
+
+from __future__ import annotations
+
+import copy
+import io
+import dataclasses
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import mujoco
+import numpy as np
+
+from sim2real.errors import BipedError, ConfigError
+from sim2real.hardware.trace import Trace
+from sim2real.robot import RobotSpec
+from sim2real.simulation.model_builder import JointAngles, finished_spec
+from sim2real.simulation.reality import NOMINAL, Perturbation, apply_to_model, sample
+
+# fitted per group: (reality key, low, high)
+SERVO_PARAMETERS = (
+    ("kp_scale", 0.3, 3.0),
+    ("torque_scale", 0.3, 2.0),
+    ("damping_scale", 0.1, 5.0),
+    ("friction_scale", 0.05, 5.0),
+    ("armature_scale", 0.1, 5.0),
+    ("backlash_deg", 0.0, 2.0),
+)
+LATENCY = ("latency_ms", 0.0, 60.0)  # one for the bus
+MIN_SECONDS = 2.0  # a trace shorter than this cannot show a servo's dynamics
+MIN_EXCITATION_DEG = 0.5  # a trace whose goals move less than this (peak to peak) excites nothing
+LEAD_S = 0.25  # each segment is replayed from this long before it (the robot at rest, holding)
+# finite-difference step of the Jacobian, in variables scaled by the Jacobian's columns: steps
+# of 1e-3 and below follow the kinks of friction, saturation and play and stalled the fit
+FD_STEP = 1e-2
+UNIDENTIFIABLE_SHARE = 0.5  # a 95 % interval wider than this share of the bounds: not identifiable
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A stretch of one trace replayed on its own: rows ``start:end``."""
+
+    trace: int
+    name: str
+    start: int
+    end: int
+
+
+def check_traces(paths: Sequence[Path | str], robot: RobotSpec, warn: Callable[[str], None] = print) -> list[Trace]:
+    """Read the traces and refuse, one line each, what cannot be fitted: another robot's
+    trace, one without the robot's joints, too short, without excitation, or not hung."""
+    traces = []
+    for path in paths:
+        trace = Trace.read(path)  # refuses NaNs, text that is not a trace; drops a cut last row (a note)
+        for note in trace.notes:
+            warn(f"warning: {note}")
+        source = str(path)
+        made_for = trace.metadata.get("robot")
+        if made_for is not None and made_for != robot.name:
+            raise ConfigError(source, "robot", f"a trace of robot {made_for!r}, not {robot.name!r} (use --robot)")
+        missing = trace.missing([f"{j}_{kind}_rad" for j in robot.joint_names for kind in ("goal", "present")])
+        if missing:
+            raise ConfigError(source, "header", f"lacks {len(missing)} channel(s) of robot {robot.name}, "
+                              f"e.g. {missing[0]!r}: a trace of another robot?")
+        if trace.times[-1] - trace.times[0] < MIN_SECONDS:
+            raise ConfigError(source, "", f"too short to fit: {trace.times[-1] - trace.times[0]:.2f} s "
+                              f"(at least {MIN_SECONDS:g} s; `biped excite` records about 2 minutes)")
+        moved = np.degrees(np.ptp(trace.goals(robot.joint_names), axis=0))
+        if moved.max() < MIN_EXCITATION_DEG:
+            raise ConfigError(source, "", f"no excitation: no goal moves more than {moved.max():.2f} deg "
+                              "(record one with `biped excite`)")
+        pose = trace.metadata.get("excitation", {}).get("pose")
+        if pose is None:
+            warn(f"warning: {source}: not a `biped excite` trace; fitted as if the robot hung by its pelvis")
+        elif pose != "suspended":
+            raise ConfigError(source, "excitation.pose", f"{pose!r}: only traces of the hung robot "
+                              "(`biped excite --pose suspended`) can be fitted so far")
+        gaps = np.diff(trace.times)
+        if gaps.max() > 5 * np.median(gaps):
+            k = int(np.argmax(gaps))
+            warn(f"warning: {source}: {gaps[k] * 1e3:.0f} ms without a row at {trace.times[k]:.2f} s "
+                 f"(the tick is {np.median(gaps) * 1e3:.1f} ms); the goal is held across it")
+        traces.append(trace)
+    return traces
+
+
+def segments(traces: Sequence[Trace]) -> list[Segment]:
+    """The excitation segments of each trace (its sidecar's), from ``LEAD_S`` before each;
+    a trace without them is one segment."""
+    out = []
+    for i, trace in enumerate(traces):
+        parts = trace.metadata.get("excitation", {}).get("segments") or []
+        ticks = trace["tick"] if "tick" in trace else np.arange(len(trace))
+        tick_s = float(np.median(np.diff(trace.times)))
+        for part in parts:
+            lead = int(round(LEAD_S / tick_s))
+            start = int(np.searchsorted(ticks, part["start"] - lead))
+            end = int(np.searchsorted(ticks, part["end"] + lead))
+            if end - start > 10:
+                out.append(Segment(i, f"{part['group']} {part['kind']}", start, min(end, len(trace))))
+        if not parts:
+            out.append(Segment(i, f"trace {i}", 0, len(trace)))
+    return out
+
+
+class Fit:
+    """The model, the data and the parameters of one identification."""
+
+    def __init__(self, robot: RobotSpec, traces: Sequence[Trace], per_joint: bool = False):
+        from mujoco import sysid
+
+        self.robot, self.traces = robot, list(traces)
+        self.joints = list(robot.joint_names)
+        # the spec is mujoco.sysid's bookkeeping (sensor names, a reference model); every
+        # fitted model comes from `build`, the nominal one perturbed as a reality file would
+        self.spec = finished_spec(robot, backlash=True, suspended=True)
+        self.model = self.spec.compile()
+        self.nominal = copy.copy(self.model)
+        self.angles = JointAngles.of(self.model, self.joints)
+        self.dt = self.model.opt.timestep
+        if per_joint:
+            self.groups = {name: [k] for k, name in enumerate(self.joints)}
+        else:
+            self.groups: dict[str, list[int]] = {}
+            for k, joint in enumerate(robot.joints):
+                key = joint.servo.profile.model if joint.servo else "servo-less"
+                self.groups.setdefault(key, []).append(k)
+        self.params = sysid.ParameterDict()
+        for group in self.groups:
+            for key, low, high in SERVO_PARAMETERS:
+                nominal = NOMINAL.range(key)[0]
+                start = max(nominal, low + 0.05 * (high - low)) if key == "backlash_deg" else nominal
+                self.params.add(sysid.Parameter(self.name(group, key), nominal=start, min_value=low, max_value=high))
+        key, low, high = LATENCY
+        self.params.add(sysid.Parameter(key, nominal=5.0, min_value=low, max_value=high))
+        self.segments = segments(self.traces)
+        self.sequences = [self._sequence(s) for s in self.segments]
+
+    @staticmethod
+    def name(group: str, key: str) -> str:
+        return f"{group}/{key}"
+
+    # -- the model for a parameter vector --------------------------------------------------------
+    def perturbation(self, params) -> Perturbation:
+        """The fitted values as a reality perturbation (one row), so that the model is
+        perturbed exactly as evolution and the simulated bus perturb theirs."""
+        p = sample(NOMINAL, np.zeros((1, 1)), self.nominal, 0, 1.0)
+        fields = {}
+        for key, *_ in SERVO_PARAMETERS:
+            column = np.zeros(len(self.joints))
+            for group, members in self.groups.items():
+                column[members] = params[self.name(group, key)].value[0]
+            fields["backlash_rad" if key == "backlash_deg" else key] = (
+                np.radians(column) if key == "backlash_deg" else column)[None]
+        return dataclasses.replace(p, **fields)
+
+    def build(self, params, spec=None) -> mujoco.MjModel:
+        model = copy.copy(self.nominal)
+        apply_to_model(model, self.nominal, self.perturbation(params))
+        return model
+
+    # -- data --------------------------------------------------------------------------------------
+    def _sequence(self, seg: Segment):
+        """A segment as ``mujoco.sysid`` data: goals held between rows (zero-order, as a servo
+        holds its goal) at the physics step, encoder angles at the rows' times."""
+        from mujoco import sysid
+
+        trace = self.traces[seg.trace]
+        t = trace.times[seg.start:seg.end] - trace.times[seg.start]
+        goals = trace.goals(self.joints)[seg.start:seg.end]
+        present = trace.present(self.joints)[seg.start:seg.end]
+        steps = np.arange(int(t[-1] / self.dt) + 1) * self.dt
+        held = goals[np.clip(np.searchsorted(t, steps, side="right") - 1, 0, len(t) - 1)]
+        data = mujoco.MjData(self.model)
+        self.angles.place(data.qpos, present[0])
+        state = sysid.create_initial_state(self.model, data.qpos.copy(), np.zeros(self.model.nv))
+        control = sysid.TimeSeries(steps, held)
+        measured = sysid.TimeSeries(t, present, {f"{j}_pos": (sysid.SignalType.MjSensor, np.array([k]))
+                                                  for k, j in enumerate(self.joints)})
+        return sysid.ModelSequences(seg.name.replace(" ", "_"), self.spec, seg.name, state, control, measured,
+                                    allow_missing_sensors=True)  # only the joint angles are recorded
+
+    def modify_residual(self, params, predicted, measured, model, return_pred_all, state=None, **_):
+        """Simulated encoder angles (servo + play), delayed by the latency and sampled at the
+        recorded rows' times, minus the recorded angles [deg]."""
+        from mujoco import sysid
+
+        qpos = state[:, 1:1 + model.nq]
+        angles = self.angles.read(qpos)
+        t_sim = state[:, 0]
+        delay = params[LATENCY[0]].value[0] / 1e3
+        t = measured.times
+        pred = np.stack([np.interp(t - delay, t_sim, angles[:, k]) for k in range(angles.shape[1])], axis=1)
+        residual = np.degrees(pred - measured.data)
+        return residual.ravel(), sysid.TimeSeries(t, pred, measured.signal_mapping), measured
+
+    # -- fitting ---------------------------------------------------------------------------------
+    def residual_fn(self):
+        from mujoco import sysid
+
+        return sysid.build_residual_fn(models_sequences=self.sequences, build_model=self.build,
+                                       modify_residual=self.modify_residual, resample_true=False)
+
+    def rmse_deg(self, params, residual_fn) -> dict[str, float]:
+        """Per joint, the root-mean-square error of the simulated encoder angles [deg] over
+        every segment."""
+        residuals, _, _ = residual_fn(params.as_vector(), params)
+        squares, count = np.zeros(len(self.joints)), 0
+        for r in residuals:
+            r = np.asarray(r).reshape(-1, len(self.joints))
+            squares += (r ** 2).sum(axis=0)
+            count += len(r)
+        return {j: float(math.sqrt(v / count)) for j, v in zip(self.joints, squares)}
+
+
+@dataclass
+class Identification:
+    """What ``biped sysid`` found: per parameter its value, 95 % interval and whether the
+    traces identify it; RMSE per joint before (nominal model) and after; the reality file."""
+
+    parameters: dict[str, dict[str, Any]]
+    rmse_deg_before: dict[str, float]
+    rmse_deg_after: dict[str, float]
+    reality: dict[str, Any]
+    seconds: float
+    iterations: int
+    segments: int
+
+    def summary(self) -> dict[str, Any]:
+        return {"parameters": self.parameters, "rmse_deg_before": self.rmse_deg_before,
+                "rmse_deg_after": self.rmse_deg_after, "reality": self.reality, "seconds": self.seconds,
+                "iterations": self.iterations, "segments": self.segments}
+
+
+def identify(paths: Sequence[Path | str], robot: RobotSpec, per_joint: bool = False, max_iters: int = 30,
+             report_dir: Path | None = None, log: Callable[[str], None] = print) -> Identification:
+    """Fit the servo model to the traces at ``paths`` (see the module docstring)."""
+    from mujoco import sysid
+
+    began = time.monotonic()
+    traces = check_traces(paths, robot, warn=log)
+    fit = Fit(robot, traces, per_joint)
+    residual_fn = fit.residual_fn()
+    before = fit.rmse_deg(fit.params, residual_fn)
+    log(f"fitting {len(fit.params.as_vector())} parameters to {len(fit.segments)} segments of {len(traces)} "
+        f"trace(s); RMSE on the nominal model {max(before.values()):.2f} deg (worst joint)")
+    iterations = []
+
+    def progress(trace) -> None:
+        iterations.append(trace[-1])
+        log(f"  iteration {len(iterations)}: cost {trace[-1].objective:.4g}")
+
+    opt_params, result = sysid.optimize(fit.params, residual_fn, optimizer="mujoco", verbose=False,
+                                        max_iters=max_iters, eps=FD_STEP, x_scale="jac", iter_callback=progress,
+                                        output=io.StringIO())  # its own table per iteration: `progress` instead
+    after = fit.rmse_deg(opt_params, residual_fn)
+    residuals, _, _ = residual_fn(result.x, opt_params)
+    _, half_widths = sysid.calculate_intervals(residuals, result.jac)
+    parameters = {}
+    for (name, p), half in zip(opt_params.items(), half_widths):
+        low, high = float(p.min_value[0]), float(p.max_value[0])
+        value = float(p.value[0])
+        identifiable = bool(np.isfinite(half) and 2 * half <= UNIDENTIFIABLE_SHARE * (high - low))
+        parameters[name] = {"value": value, "low": max(low, value - float(half)) if np.isfinite(half) else low,
+                            "high": min(high, value + float(half)) if np.isfinite(half) else high,
+                            "identifiable": identifiable}
+    if report_dir is not None:
+        write_report(report_dir, fit, opt_params, result, residual_fn)
+    return Identification(parameters, before, after, reality_of(fit, parameters), time.monotonic() - began,
+                          len(iterations), len(fit.segments))
+
+
+def reality_of(fit: Fit, parameters: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """The identified values as a reality file's contents (fixed values): robot-wide when one
+    group covers every joint, else per joint under ``joints:``."""
+    doc: dict[str, Any] = {"latency_ms": round(parameters[LATENCY[0]]["value"], 2)}
+    per_group = {group: {key: round(parameters[fit.name(group, key)]["value"], 4) for key, *_ in SERVO_PARAMETERS}
+                 for group in fit.groups}
+    if len(fit.groups) == 1:
+        doc.update(next(iter(per_group.values())))
+    else:
+        doc["joints"] = {fit.joints[k]: values for group, values in per_group.items() for k in fit.groups[group]}
+    return doc
+
+
+def write_report(folder: Path, fit: Fit, opt_params, result, residual_fn) -> None:
+    """``mujoco.sysid``'s HTML report (fit, parameter tables, confidence intervals) in
+    ``folder``, and an overlay plot of recorded and simulated angles, before and after."""
+    from mujoco import sysid
+
+    folder.mkdir(parents=True, exist_ok=True)
+    report = sysid.default_report(fit.sequences, fit.params, opt_params, residual_fn, result,
+                                  title=f"System identification: {fit.robot.name}", save_path=folder,
+                                  build_model=fit.build, generate_videos=False)
+    report.save(folder / "report.html")
+    plot_overlay(fit, fit.params, opt_params, residual_fn, folder / "overlay.png")
+
+
+def plot_overlay(fit: Fit, before, after, residual_fn, path: Path) -> None:
+    """Recorded and simulated angles of each excited group's segments, with the nominal and
+    the identified model, one row a segment (its first moving joint)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    curves = {}
+    for label, params in (("nominal model", before), ("identified", after)):
+        _, preds, records = residual_fn(params.as_vector(), params, return_pred_all=True)
+        curves[label] = [p[0] for p in preds]
+    records = [r[0] for r in records]
+    rows = len(fit.segments)
+    fig, axes = plt.subplots(rows, 1, figsize=(10, 1.9 * rows), squeeze=False)
+    for ax, seg, record, nominal, fitted in zip(axes[:, 0], fit.segments, records, curves["nominal model"],
+                                                curves["identified"]):
+        k = int(np.argmax(np.ptp(record.data, axis=0)))
+        ax.plot(record.times, np.degrees(record.data[:, k]), color="black", lw=1.2, label="recorded")
+        ax.plot(record.times, np.degrees(nominal.data[:, k]), color="tab:red", lw=0.8, alpha=0.8, label="nominal model")
+        ax.plot(record.times, np.degrees(fitted.data[:, k]), color="tab:blue", lw=0.8, ls="--", label="identified")
+        ax.set_ylabel("deg")
+        ax.set_title(f"{seg.name}: {fit.joints[k]}", fontsize=9, loc="left")
+    axes[0, 0].legend(loc="upper right", fontsize=8, ncol=3)
+    axes[-1, 0].set_xlabel("time in segment [s]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
