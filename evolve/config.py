@@ -17,6 +17,8 @@
         draws: 10             # robots drawn once from the full ranges
         every: 5              # generations between validations (once the harness is off)
         candidates: 8         # that generation's best genomes by selection score
+      centre: my_robot.yaml   # optional: the ranges around this robot (fixed values, e.g. from
+                              # `biped sysid`) instead of the nominal model: scales multiply, the rest adds
     stages: [...]             # optional: a developmental hierarchy (evolve.stages)
 """
 
@@ -74,10 +76,18 @@ class RandomizeConfig:
     ramp_generations: int = 0  # ranges grow from nominal to full over this many generations
     start_generation: int = 0  # the nominal robot before this generation; the ramp starts here
     validation: ValidationConfig = field(default_factory=ValidationConfig)
+    centre: str | None = None  # a fixed reality file (e.g. `biped sysid`'s) the ranges are around
 
     @property
     def active(self) -> bool:
-        return self.reality != "nominal" or self.episodes > 1
+        return self.reality != "nominal" or self.episodes > 1 or self.centre is not None
+
+    @property
+    def profile(self) -> str | dict:
+        """What the evaluators draw from: ``reality``, around ``centre`` if one is given."""
+        if self.centre is None:
+            return self.reality
+        return {**load_reality(self.reality).to_dict(), "centre": self.centre}
 
     def intensity(self, generation: int) -> float:
         """Randomization strength at ``generation`` of a stage: 0 (nominal) before
@@ -96,6 +106,8 @@ class RandomizeConfig:
             out["start_generation"] = self.start_generation
         if self.validation.active:
             out["validation"] = self.validation.to_dict()
+        if self.centre is not None:
+            out["centre"] = self.centre
         return out
 
 
@@ -103,7 +115,7 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     if doc is None:
         return RandomizeConfig()
     node = Node(doc, source, "randomize").mapping(optional=("reality", "episodes", "score", "ramp_generations",
-                                                            "start_generation", "validation"))
+                                                            "start_generation", "validation", "centre"))
     reality = node.value.get("reality", "nominal")
     if not isinstance(reality, (str, dict)):
         raise node["reality"].error(f"must be a reality name, path or mapping, got {reality!r}")
@@ -124,7 +136,16 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
             candidates=v["candidates"].integer(lo=1) if v.has("candidates") else ValidationConfig.candidates)
         if reality == "nominal":
             raise v.error("validates on randomized draws: give randomize.reality (ranges to draw from)")
-    return RandomizeConfig(reality, episodes, score, ramp, start, validation)
+    centre = None
+    if node.has("centre"):
+        centre = node["centre"].string()
+        try:
+            load_reality(centre)
+        except FileNotFoundError as exc:
+            raise node["centre"].error(str(exc)) from None
+    config = RandomizeConfig(reality, episodes, score, ramp, start, validation, centre)
+    load_reality(config.profile)  # a centre of ranges, not fixed values, is refused here, by name
+    return config
 
 
 @dataclass(frozen=True)

@@ -94,7 +94,7 @@ class Run:
         self.config, self.out, self.log = config, Path(out), log
         self.robot = load_robot(config.robot)
         r = config.randomize
-        spec = EvaluatorSpec(config.robot, config.task.to_dict(), r.reality,
+        spec = EvaluatorSpec(config.robot, config.task.to_dict(), r.profile,
                              config.neat.population_size * r.episodes, config.threads)
         if backend == "ray":
             from evolve.ray_backend import RayBackend

@@ -206,3 +206,37 @@ def test_sysid_refuses_traces_it_cannot_fit(tmp_path, hung_traces):
     (tmp_path / "nan.json").write_text(trace.with_suffix(".json").read_text())
     with pytest.raises(ConfigError, match="row 21"):
         check_traces([nan], ROBOT)
+
+
+def test_ranges_around_an_identified_robot_round_trip_and_ramp_from_it(tmp_path):
+    from evolve.config import parse_randomize
+    from sim2real.simulation.reality import centred
+
+    (tmp_path / "mine.yaml").write_text("kp_scale: 0.8\nlatency_ms: 12.0\njoints: {left_knee: {damping_scale: 1.5}}\n")
+    ranges, mine = load_reality("randomize"), load_reality(tmp_path / "mine.yaml")
+    around = centred(ranges, mine)
+    lo, hi = ranges.range("kp_scale")
+    assert around.range("kp_scale") == pytest.approx((0.8 * lo, 0.8 * hi))  # scales multiply
+    assert around.range("latency_ms") == (12.0, 12.0)  # the rest adds
+    assert around.joint_range("left_knee", "damping_scale") == pytest.approx(tuple(1.5 * v for v in ranges.range("damping_scale")))
+    again = parse_reality(around.to_dict(), "again")
+    assert again.ranges == around.ranges and again.joint_ranges == around.joint_ranges
+    start = around.scaled(0.0)  # evolution's ramp starts at the identified robot, not the nominal one
+    assert start.range("kp_scale") == pytest.approx((0.8, 0.8)) and start.range("mass_scale") == (1.0, 1.0)
+    assert start.joint_range("left_knee", "damping_scale") == pytest.approx((1.5, 1.5))
+    config = parse_randomize({"reality": "randomize", "centre": str(tmp_path / "mine.yaml"), "episodes": 2}, "c.yaml")
+    assert load_reality(config.profile).ranges == around.ranges
+    with pytest.raises(ConfigError, match="fixed values"):
+        parse_randomize({"reality": "randomize", "centre": "randomize"}, "c.yaml")
+
+
+def test_compare_replays_an_excitation_on_the_hung_robot_of_a_reality_file(hung_traces, tmp_path):
+    from sim2real.simulation.compare import compare
+
+    truth, trace = hung_traces
+    (tmp_path / "truth.yaml").write_text(json.dumps(truth))
+    nominal = compare(trace)
+    true = compare(trace, reality=tmp_path / "truth.yaml")
+    assert nominal["suspended"] and true["reality"] == "truth"
+    knee = ("right_knee", "left_hip_pitch")
+    assert all(true["joints"][j]["rmse_deg"] < 0.5 * nominal["joints"][j]["rmse_deg"] for j in knee)

@@ -96,6 +96,9 @@ def add_compare_command(sub: argparse._SubParsersAction) -> None:
     cmp_.add_argument("trace", type=Path)
     cmp_.add_argument("--controller", type=Path, help="simulate this controller closed-loop instead")
     cmp_.add_argument("--robot", type=robot_name, help="robot (default: the trace's)")
+    cmp_.add_argument("--reality", type=reality_name, metavar="PROFILE",
+                      help="simulate the robot of this reality file (e.g. one `biped sysid` wrote) instead of the "
+                      "nominal one")
     cmp_.add_argument("--json", action="store_true")
     cmp_.add_argument("--plot", type=output_file(".png", ".pdf", ".svg"),
                       help="PNG overlaying real and simulated angles per joint")
@@ -169,7 +172,7 @@ def check_compare(args: argparse.Namespace) -> None:
 def cmd_compare(args: argparse.Namespace) -> int:
     from sim2real.simulation.compare import compare, plot
 
-    result = compare(args.trace, args.robot, args.controller)
+    result = compare(args.trace, args.robot, args.controller, args.reality)
     for note in result["notes"]:
         print(f"note: {note}", file=sys.stderr)
     if args.plot:
@@ -178,7 +181,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result))
     else:
-        print(f"{result['robot']}, {result['ticks']} ticks, {result['mode']}")
+        print(f"{result['robot']}, {result['ticks']} ticks, {result['mode']}, {result['reality']} robot"
+              f"{' (hung)' if result['suspended'] else ''}")
         for name, s in result["joints"].items():
             lag = "     -" if s["lag_ms"] is None else f"{s['lag_ms']:6.0f}"
             print(f"  {name:<18} RMSE {s['rmse_deg']:6.2f} deg  MAE {s['mae_deg']:6.2f} deg  lag {lag} ms")

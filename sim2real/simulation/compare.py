@@ -1,5 +1,6 @@
-"""Real against simulated: replay a trace's commanded goals in the nominal simulation and
-measure how far the joints drift apart.
+"""Real against simulated: replay a trace's commanded goals in the simulation (nominal, or
+perturbed by a reality file such as one ``biped sysid`` wrote) and measure how far the joints
+drift apart.
 
 For each joint: RMSE and MAE between the trace's present angles and the simulation's [deg],
 and the lag of the real joint behind the simulated one, by cross-correlation [ms]; for the
@@ -10,6 +11,7 @@ sensors).  A trace from ``biped run`` on hardware and one from a dry run are rea
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 from typing import Any
 
@@ -22,16 +24,36 @@ from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, ConfigError
 from sim2real.hardware.trace import TIMING, Trace, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
+from sim2real.robot.timing import control_timing
 from sim2real.simulation.model_builder import JointAngles, build_model
+from sim2real.simulation.reality import (
+    Reality,
+    apply_to_model,
+    latency_capacity_s,
+    load_reality,
+    needs_backlash_joints,
+    sample,
+)
 
 MAX_LAG_S = 0.5
 
 
-def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray,
-              policy: Policy | None) -> tuple[np.ndarray, np.ndarray]:
+def _model(robot: RobotSpec, reality: Reality, suspended: bool) -> mujoco.MjModel:
+    """The robot's model, hung or standing, perturbed by ``reality``'s first draw (seed 0, as
+    the simulated bus draws it)."""
+    reality.check_batchable()
+    tick_s = control_timing(robot).tick_s
+    model = build_model(robot, latency_capacity_s(reality, tick_s), backlash=needs_backlash_joints(reality),
+                        suspended=suspended)
+    if not reality.is_nominal:
+        apply_to_model(model, copy.copy(model), sample(reality, np.zeros((1, 1)), model, 0, tick_s))
+    return model
+
+
+def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray, policy: Policy | None,
+              model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
     """Joint angles (n, joints) [rad] and foot contacts (n, 2) of the simulation at the trace's
     ``times`` (n,) [s]: driven by ``goals`` (n, joints) [rad], or closed-loop by ``policy``."""
-    model = build_model(robot)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)
@@ -73,7 +95,11 @@ def lag_s(real: np.ndarray, sim: np.ndarray, dt: float) -> float | None:
 
 
 def compare(trace_path: Path | str, robot_name: str | None = None,
-            controller_path: Path | str | None = None) -> dict[str, Any]:
+            controller_path: Path | str | None = None, reality: str | Path | Reality | None = None) -> dict[str, Any]:
+    """The trace against the simulation of its goals (or of ``controller_path`` closed-loop),
+    on the nominal robot or one perturbed by ``reality`` (e.g. what ``biped sysid`` wrote);
+    an excitation trace of the hung robot is replayed on the hung model."""
+    profile = load_reality(reality)
     trace = Trace.read(trace_path)
     if not (robot_name or trace.metadata.get("robot")):
         raise ConfigError(str(trace_path), "", f"no robot: its sidecar {sidecar_path(trace_path).name} "
@@ -90,7 +116,8 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
     policy = None
     if controller_path is not None:
         policy = Policy(Controller.load(controller_path, robot), robot)
-    sim, feet_sim = _simulate(robot, times, trace.goals(names), policy)
+    suspended = trace.metadata.get("excitation", {}).get("pose") == "suspended"
+    sim, feet_sim = _simulate(robot, times, trace.goals(names), policy, _model(robot, profile, suspended))
     dt = float(np.median(np.diff(times))) if len(times) > 1 else 0.0
     joints = {}
     for j, name in enumerate(names):
@@ -99,6 +126,7 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
         joints[name] = {"rmse_deg": float(np.sqrt(np.mean(err ** 2))), "mae_deg": float(np.mean(np.abs(err))),
                         "lag_ms": None if lag is None else lag * 1e3}
     return {"robot": robot.name, "ticks": len(times), "mode": "closed-loop" if policy else "replayed goals",
+            "reality": profile.name, "suspended": suspended,
             "joints": joints, "contact_agreement": float(np.mean(feet_real == feet_sim)), "notes": list(trace.notes),
             "_series": {"times": times, "real": real, "sim": sim, "names": names}}
 

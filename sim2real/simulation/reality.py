@@ -75,10 +75,17 @@ class Reality:
     ranges: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     # joint name -> its own ranges of PER_SERVO keys (a file's ``joints:``), over ``ranges``
     joint_ranges: dict[str, dict[str, tuple[float, float]]] = dataclasses.field(default_factory=dict)
+    # ranges around another robot than the nominal one (a file's ``centre:``, see `centred`):
+    # that robot, and the ranges as given, before they were moved around it
+    centre: "Reality | None" = None
+    around: "Reality | None" = None
 
     def range(self, key: str) -> tuple[float, float]:
         nominal = PERTURBATIONS[key][0] if key in PERTURBATIONS else EFFECTS[key][0]
         return self.ranges.get(key, (nominal, nominal))
+
+    def joint_range(self, joint: str, key: str) -> tuple[float, float]:
+        return self.joint_ranges.get(joint, {}).get(key, self.range(key))
 
     @property
     def effects(self) -> list[str]:
@@ -91,9 +98,6 @@ class Reality:
             raise ConfigError(self.name, self.effects[0], "only the simulated bus simulates this effect "
                               "(`biped dry-run`, `biped excite`); evolution and `biped eval` cannot")
 
-    def joint_range(self, joint: str, key: str) -> tuple[float, float]:
-        return self.joint_ranges.get(joint, {}).get(key, self.range(key))
-
     @property
     def is_nominal(self) -> bool:
         return not self.perturbed
@@ -103,24 +107,23 @@ class Reality:
         """The longest latency this reality draws: (control ticks, plus seconds)."""
         return self.range("latency_ticks")[1], self.range("latency_ms")[1] / 1e3
 
-    def _map(self, f) -> tuple[dict, dict]:
-        ranges = {key: f(key, r) for key, r in self.ranges.items()}
-        joints = {j: {key: f(key, r) for key, r in values.items()} for j, values in self.joint_ranges.items()}
-        return ranges, joints
-
     def scaled(self, intensity: float) -> "Reality":
         """Every range moved toward nominal: ``nominal + intensity * (value - nominal)``;
         0 is the nominal robot, 1 (or more) this reality itself."""
         if intensity >= 1.0:
             return self
 
-        def toward(key, r):
+        base = self.centre or NOMINAL  # intensity 0 is the robot the ranges are around
+
+        def toward(key, r, joint=None):
             if key == "stribeck_rad_s":
                 return r  # the shape of an effect, not an amount of it
-            nominal = {**PERTURBATIONS, **EFFECTS}[key][0]
+            nominal = base.joint_range(joint, key)[0] if joint else base.range(key)[0]
             return nominal + intensity * (r[0] - nominal), nominal + intensity * (r[1] - nominal)
 
-        return Reality(f"{self.name} x{intensity:g}", self.description, *self._map(toward))
+        ranges = {key: toward(key, r) for key, r in self.ranges.items()}
+        joints = {j: {key: toward(key, r, j) for key, r in values.items()} for j, values in self.joint_ranges.items()}
+        return Reality(f"{self.name} x{intensity:g}", self.description, ranges, joints, self.centre)
 
     def only(self, key: str) -> "Reality":
         """This reality with every perturbation but ``key`` at its nominal value."""
@@ -134,6 +137,8 @@ class Reality:
                 if self.range(k) != (v, v) or any(self.joint_range(j, k) != (v, v) for j in self.joint_ranges)]
 
     def to_dict(self) -> dict[str, Any]:
+        if self.around is not None:  # as written: the ranges as given, and the robot they are around
+            return {**self.around.to_dict(), "centre": self.centre.to_dict()}
         out: dict[str, Any] = {"description": self.description} if self.description else {}
         as_value = lambda lo, hi: lo if lo == hi else [lo, hi]  # noqa: E731
         for key, (lo, hi) in self.ranges.items():
@@ -165,10 +170,12 @@ def parse_reality(doc: Any, source: str, name: str = "inline") -> Reality:
     optionally ``joints:``, per joint name values of :data:`PER_SERVO` keys that override the
     robot-wide ones (what ``biped sysid --per-joint`` writes)."""
     node = Node(doc if doc is not None else {}, source)
-    node.mapping(optional=("description", "joints", *PERTURBATIONS, *EFFECTS))
+    node.mapping(optional=("description", "joints", "centre", *PERTURBATIONS, *EFFECTS))
     ranges: dict[str, tuple[float, float]] = {}
     joints: dict[str, dict[str, tuple[float, float]]] = {}
     for key, item in node.items():
+        if key == "centre":
+            continue
         if key == "joints":
             for joint, values in item.items():
                 values.mapping(optional=PER_SERVO)
@@ -176,7 +183,17 @@ def parse_reality(doc: Any, source: str, name: str = "inline") -> Reality:
         elif key != "description":
             ranges[key] = _value_or_range(key, item)
     description = node.get("description").string() if node.has("description") else ""
-    return Reality(name, description, ranges, joints)
+    reality = Reality(name, description, ranges, joints)
+    if node.has("centre"):
+        item = node["centre"]
+        if not isinstance(item.value, (str, dict)):
+            raise item.error("must be a reality file's name or path (fixed values), or its contents")
+        try:
+            centre = load_reality(item.value)
+        except FileNotFoundError as exc:
+            raise item.error(str(exc)) from None
+        reality = centred(reality, centre)
+    return reality
 
 
 def reality_dir() -> Path:
@@ -351,3 +368,31 @@ def apply_to_model(model: mujoco.MjModel, nominal: mujoco.MjModel, p: Perturbati
     fields = {name: getattr(model, name)[None] for name in PERTURBED_FIELDS}
     apply(fields, nominal, p.rows(slice(0, 1)), slice(0, 1))
     mujoco.mj_setConst(model, mujoco.MjData(model))
+
+
+def centred(ranges: Reality, centre: Reality) -> Reality:
+    """``ranges`` (e.g. ``randomize.yaml``) around the robot ``centre`` (fixed values, e.g. what
+    ``biped sysid`` identified) instead of around the nominal model: a scale's range is
+    multiplied by the centre's value, any other range is shifted by it (the ranges are
+    deviations from the robot; the identified robot becomes the one they deviate from).
+    Per-joint values of the centre give per-joint ranges.  A reality file says the same with
+    ``centre: FILE``; scaled toward intensity 0 (evolution's ramp), the ranges shrink to the
+    centre, not to the nominal model."""
+    fixed = [k for k, (lo, hi) in centre.ranges.items() if lo != hi]
+    fixed += [f"joints.{j}.{k}" for j, v in centre.joint_ranges.items() for k, (lo, hi) in v.items() if lo != hi]
+    if fixed:
+        raise ConfigError(centre.name, fixed[0], "a centre for randomization must be fixed values (a profile such "
+                          "as `biped sysid` writes), not ranges")
+
+    def around(key: str, r: tuple[float, float], c: float) -> tuple[float, float]:
+        return (r[0] * c, r[1] * c) if key in SCALES else (r[0] + c, r[1] + c)
+
+    keys = set(ranges.ranges) | set(centre.ranges)
+    out = {k: around(k, ranges.range(k), centre.range(k)[0]) if k in centre.ranges else ranges.range(k) for k in keys}
+    joints = {j: {k: around(k, ranges.joint_range(j, k), c) for k, (c, _) in values.items()}
+              for j, values in centre.joint_ranges.items()}
+    for j, values in ranges.joint_ranges.items():
+        for k, r in values.items():
+            joints.setdefault(j, {}).setdefault(k, around(k, r, centre.range(k)[0]) if k in centre.ranges else r)
+    return Reality(f"{ranges.name} around {centre.name}", ranges.description, dict(sorted(out.items())), joints,
+                   centre, ranges)
