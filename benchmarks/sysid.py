@@ -9,6 +9,12 @@ a real robot on a real port:
 2. ``biped excite --port PORT --trace T.csv`` records the excitation program through it;
 3. ``biped sysid T.csv -o identified.yaml --json`` fits the model.
 
+With ``--loop-minutes M``, then the whole loop once, on the last profile (a ``rich_*`` one by
+default: a robot with effects the model cannot express): evolve with the robust-walk recipe
+(``configs/evolve/walk_robust.yaml``) around the identified robot (``randomize.centre``) for M
+minutes (resumable: run it again), and run the transfer check of its champion: its distance
+simulated on the identified robot against three dry runs under the profile's true robot.
+
 Reported per profile: recovered against true values, RMSE per joint before and after, wall
 times.  The nominal robot's fitted latency is the bus's own delay (from a goal's row in the
 trace to the servo acting on it, reading included), reported separately and subtracted from
@@ -94,6 +100,33 @@ def judge(run: dict[str, Any], bus_delay_ms: float) -> None:
         "rmse": rmse_ok}
 
 
+def loop(profile: str, identified: Path, folder: Path, minutes: float, quiet: bool) -> dict[str, Any]:
+    """Evolve around the identified robot, then check the champion's transfer to the true one."""
+    import dataclasses
+
+    from benchmarks.transfer import transfer_check
+    from evolve.cli_commands import resolve_config
+    from evolve.config import load_evolve_config
+    from evolve.run import Run
+
+    log = lambda line: progress(line, quiet)  # noqa: E731
+    if (folder / "checkpoint.json.gz").exists():
+        run = Run.resume(folder, log=log)
+    else:
+        config = load_evolve_config(resolve_config("walk_robust"))
+        config = config.replace(randomize=dataclasses.replace(config.randomize, centre=str(identified.resolve())))
+        run = Run.create(config, folder, log=log)
+    run.evolve(stop=lambda run, row: run.wall_s > minutes * 60.0)
+    if run.best is None:
+        return {"profile": Path(profile).stem, "evolution_minutes": run.wall_s / 60.0, "controller": None}
+    controller = folder / "loop_controller.json"
+    run.controller(run.best).save(controller)
+    check = transfer_check(controller, reality=str(profile), simulated=str(identified), log=log)
+    return {"profile": Path(profile).stem, "identified": str(identified), "evolution_minutes": run.wall_s / 60.0,
+            "generations": run.generation_offset + run.population.generation,
+            "champion_generation": run.best.generation, **check}
+
+
 def main(argv: list[str] | None = None) -> None:
     p = parser(__doc__.split("\n")[0])
     p.add_argument("--profiles", nargs="+", default=sorted(str(f) for f in PROFILES.glob("*.yaml")),
@@ -101,21 +134,31 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--robot", default="xl430_biped")
     p.add_argument("--out", type=Path, default=Path("runs/sysid-benchmark"), help="traces, fits and reports")
     p.add_argument("--max-iters", type=int, default=30)
+    p.add_argument("--loop-minutes", type=float, default=0.0,
+                   help="then evolve this long around the last profile's identified robot and check the transfer "
+                   "to its true robot (0: not)")
+    p.add_argument("--skip-fits", action="store_true", help="with --loop-minutes: reuse the fits already in --out")
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    progress("nominal robot first: its fitted latency is the bus's own delay", args.json)
-    nominal = identify_profile(None, args.robot, args.out, args.max_iters, args.json)
-    bus_delay_ms = nominal["recovered"]["latency_ms"]
-    runs = [nominal] + [identify_profile(f, args.robot, args.out, args.max_iters, args.json) for f in args.profiles]
-    for run in runs:
-        judge(run, bus_delay_ms)
-        progress(f"{run['profile']}: errors {json.dumps({k: round(v, 3) for k, v in run['errors'].items()})}; "
-                 f"RMSE after <= {run['rmse_after_max_deg']:.2f} deg; goals {run['goals']}", args.json)
-    default_like = next((r for r in runs if r["profile"] == "plain_weak"), runs[0])
-    report({"robot": args.robot, "bus_delay_ms": bus_delay_ms, "runs": runs,
-            "goals_met": {r["profile"]: all(r["goals"].values()) for r in runs},
-            "excite_plus_sysid_minutes": round((default_like["excite_s"] + default_like["sysid_s"]) / 60, 2)},
-           args.json)
+    result: dict[str, Any] = {"robot": args.robot}
+    if not args.skip_fits:
+        progress("nominal robot first: its fitted latency is the bus's own delay", args.json)
+        nominal = identify_profile(None, args.robot, args.out, args.max_iters, args.json)
+        bus_delay_ms = nominal["recovered"]["latency_ms"]
+        runs = [nominal] + [identify_profile(f, args.robot, args.out, args.max_iters, args.json) for f in args.profiles]
+        for run in runs:
+            judge(run, bus_delay_ms)
+            progress(f"{run['profile']}: errors {json.dumps({k: round(v, 3) for k, v in run['errors'].items()})}; "
+                     f"RMSE after <= {run['rmse_after_max_deg']:.2f} deg; goals {run['goals']}", args.json)
+        default_like = next((r for r in runs if r["profile"] == "plain_weak"), runs[0])
+        result.update({"bus_delay_ms": bus_delay_ms, "runs": runs,
+                       "goals_met": {r["profile"]: all(r["goals"].values()) for r in runs},
+                       "excite_plus_sysid_minutes": round((default_like["excite_s"] + default_like["sysid_s"]) / 60, 2)})
+    if args.loop_minutes > 0:
+        profile = args.profiles[-1]
+        identified = args.out / f"{Path(profile).stem}_identified.yaml"
+        result["loop"] = loop(profile, identified, args.out / "loop", args.loop_minutes, args.json)
+    report(result, args.json)
 
 
 if __name__ == "__main__":

@@ -58,10 +58,11 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
 
 
 def transfer_check(controller: Path, reality: str = "default", runs: int = 3, keep: float = 0.8,
-                   log: Callable[[str], None] = print) -> dict[str, Any]:
-    """The controller's simulated distance against ``runs`` dry runs of the same length on
+                   log: Callable[[str], None] = print, simulated: str | None = None) -> dict[str, Any]:
+    """The controller's simulated distance (on the nominal robot, or on the fixed profile
+    ``simulated``: the robot it was evolved for) against ``runs`` dry runs of the same length on
     the simulated bus under ``reality`` (noise seeds 0..runs-1); see the module docstring."""
-    sim = evaluate_controller(controller)
+    sim = evaluate_controller(controller, randomize=simulated)
     log(f"simulation: {sim['distance_m']:.3f} m in {sim['seconds']:.1f} s, fell={sim['fell']}")
     dry = []
     for seed in range(runs):
@@ -73,7 +74,7 @@ def transfer_check(controller: Path, reality: str = "default", runs: int = 3, ke
     ratio = mean / sim["distance_m"] if sim["distance_m"] > 0 else 0.0
     walked = sim["walked_share"] == 1.0  # without a walk in simulation there is no distance to keep
     return {
-        "controller": str(controller), "reality": reality,
+        "controller": str(controller), "reality": reality, "simulated": simulated or "nominal",
         "sim_distance_m": sim["distance_m"], "sim_fell": sim["fell"], "seconds": sim["seconds"],
         "dry_run_distance_m": mean, "dry_run_min_m": min(r["distance_m"] for r in dry),
         "ratio": ratio, "keep": keep, "sim_walked": walked,

@@ -240,3 +240,21 @@ def test_compare_replays_an_excitation_on_the_hung_robot_of_a_reality_file(hung_
     assert nominal["suspended"] and true["reality"] == "truth"
     knee = ("right_knee", "left_hip_pitch")
     assert all(true["joints"][j]["rmse_deg"] < 0.5 * nominal["joints"][j]["rmse_deg"] for j in knee)
+
+
+def test_biped_excite_on_the_simulated_bus_and_its_bad_inputs(tmp_path, capsys):
+    from evolve.cli import main
+
+    trace = tmp_path / "knee.csv"
+    assert main(["excite", "--joints", "knee", "--chirp-s", "2.5", "--steps", "5", "--trace", str(trace),
+                 "--no-realtime", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert result["stop_reason"] == "duration reached" and not result["torque_off"]["unconfirmed"]
+    recorded = Trace.read(trace)
+    assert recorded.metadata["excitation"]["settings"]["chirp_s"] == 2.5
+    moved = np.degrees(np.ptp(recorded.present(["right_knee", "left_knee", "right_hip_pitch"]), axis=0))
+    assert moved[0] > 5 and moved[1] > 5 and moved[2] < 1  # the knees moved, the hips held
+    for argv, problem in ((["--joints", "elbow"], "elbow"), (["--port", "/dev/null", "--reality", "default"], "--reality"),
+                          (["--baud", "57600"], "--baud"), (["--tick-ms", "40"], "four goals")):
+        assert main(["excite", *argv, "--trace", str(tmp_path / "x.csv")]) == 2
+        assert problem in capsys.readouterr().err

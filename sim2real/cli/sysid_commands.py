@@ -4,6 +4,7 @@ program through the bus and trace it) and ``sysid`` (fit the simulation to such 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -52,6 +53,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ex.add_argument("--tick-ms", type=positive_finite_float, default=EXCITE_TICK_MS,
                     help="the program's tick (default %(default)g ms: as fast as the bus allows, not the "
                     "controller's tick)")
+    ex.add_argument("--chirp-s", type=positive_finite_float, metavar="S",
+                    help="seconds of each chirp (default 12; longer resolves low frequencies better)")
+    ex.add_argument("--steps", type=positive_finite_float, nargs="+", metavar="DEG",
+                    help="step amplitudes (default 2 5 10 20 deg hung, 1 2 4 standing; cut to the joint's room)")
     ex.add_argument("--trace", type=TRACE_FILE, required=True, help="trace CSV to write (+ JSON sidecar)")
     ex.add_argument("--reality", type=reality_name, metavar="PROFILE",
                     help="simulated bus only: the robot behind it, a configs/reality/ name or a path")
@@ -86,6 +91,10 @@ def _program(args: argparse.Namespace):
         raise UsageError(f"robot {robot.name} has no Dynamixel bus (a simulation-only character): "
                          "it cannot be excited through servos")
     settings = ExcitationSettings.for_pose(args.pose, args.tick_ms / 1e3)
+    if args.chirp_s is not None:
+        settings = dataclasses.replace(settings, chirp_s=args.chirp_s)
+    if args.steps:
+        settings = dataclasses.replace(settings, step_deg=tuple(args.steps))
     return robot, build_program(robot, args.pose, args.joints, settings)
 
 

@@ -74,8 +74,11 @@ class ExcitationSettings:
         if self.f1_hz > nyquist / 2:
             raise UsageError(f"chirp up to {self.f1_hz:g} Hz at a {self.tick_s * 1e3:g} ms tick: at least four "
                              f"goals a period are needed (at most {nyquist / 2:g} Hz); use a faster tick")
-        if min(self.chirp_s, self.step_hold_s, self.hold_s, self.ramp_s) <= 0 or self.chirp_s <= 2 * self.ramp_s:
-            raise UsageError("excitation durations must be > 0 and the chirp longer than its two fades")
+        if min(self.chirp_s, self.step_hold_s, self.hold_s, self.ramp_s) <= 0:
+            raise UsageError("excitation durations must be > 0")
+        if self.chirp_s <= 2 * self.ramp_s:
+            raise UsageError(f"chirp of {self.chirp_s:g} s: must be longer than its fade in and out "
+                             f"({2 * self.ramp_s:g} s)")
 
 
 @dataclass(frozen=True)

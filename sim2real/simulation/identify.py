@@ -36,7 +36,7 @@ from typing import Any, Callable, Sequence
 import mujoco
 import numpy as np
 
-from sim2real.errors import BipedError, ConfigError
+from sim2real.errors import ConfigError
 from sim2real.hardware.trace import Trace
 from sim2real.robot import RobotSpec
 from sim2real.simulation.model_builder import JointAngles, finished_spec
