@@ -37,6 +37,7 @@ import mujoco
 import numpy as np
 
 from sim2real.errors import ConfigError
+from sim2real.controller.mapping import ServoMapping
 from sim2real.hardware.trace import Trace
 from sim2real.robot import RobotSpec
 from sim2real.simulation.model_builder import JointAngles, finished_spec
@@ -55,6 +56,7 @@ LATENCY = ("latency_ms", 0.0, 60.0)  # one for the bus
 MIN_SECONDS = 2.0  # a trace shorter than this cannot show a servo's dynamics
 MIN_EXCITATION_DEG = 0.5  # a trace whose goals move less than this (peak to peak) excites nothing
 LEAD_S = 0.25  # each segment is replayed from this long before it (the robot at rest, holding)
+MIN_SEGMENT_ROWS = 10  # a segment cut shorter than this (a trace stopped early) is left out
 # finite-difference step of the Jacobian, in variables scaled by the Jacobian's columns: steps
 # of 1e-3 and below follow the kinks of friction, saturation and play and stalled the fit
 FD_STEP = 1e-2
@@ -121,7 +123,7 @@ def segments(traces: Sequence[Trace]) -> list[Segment]:
             lead = int(round(LEAD_S / tick_s))
             start = int(np.searchsorted(ticks, part["start"] - lead))
             end = int(np.searchsorted(ticks, part["end"] + lead))
-            if end - start > 10:
+            if end - start >= MIN_SEGMENT_ROWS:
                 out.append(Segment(i, f"{part['group']} {part['kind']}", start, min(end, len(trace))))
         if not parts:
             out.append(Segment(i, f"trace {i}", 0, len(trace)))
@@ -143,10 +145,11 @@ class Fit:
         self.nominal = copy.copy(self.model)
         self.angles = JointAngles.of(self.model, self.joints)
         self.dt = self.model.opt.timestep
+        self.mapping = ServoMapping(robot)
+        self.groups: dict[str, list[int]] = {}  # what one set of parameters covers: joint indices
         if per_joint:
             self.groups = {name: [k] for k, name in enumerate(self.joints)}
         else:
-            self.groups: dict[str, list[int]] = {}
             for k, joint in enumerate(robot.joints):
                 key = joint.servo.profile.model if joint.servo else "servo-less"
                 self.groups.setdefault(key, []).append(k)
@@ -164,6 +167,14 @@ class Fit:
     @staticmethod
     def name(group: str, key: str) -> str:
         return f"{group}/{key}"
+
+    def nominal_params(self):
+        """The parameters of the nominal model (no play, no latency; the fit starts a little
+        off those two, away from their bounds)."""
+        params = self.params.copy()
+        for name, p in params.items():
+            p.value[:] = NOMINAL.range(name.split("/")[-1])[0]
+        return params
 
     # -- the model for a parameter vector --------------------------------------------------------
     def perturbation(self, params) -> Perturbation:
@@ -192,10 +203,12 @@ class Fit:
 
         trace = self.traces[seg.trace]
         t = trace.times[seg.start:seg.end] - trace.times[seg.start]
-        goals = trace.goals(self.joints)[seg.start:seg.end]
+        goals = self.mapping.angles(self.mapping.ticks(trace.goals(self.joints)[seg.start:seg.end]))  # as sent
         present = trace.present(self.joints)[seg.start:seg.end]
         steps = np.arange(int(t[-1] / self.dt) + 1) * self.dt
-        held = goals[np.clip(np.searchsorted(t, steps, side="right") - 1, 0, len(t) - 1)]
+        # a goal acts from the physics step nearest its row's time: rounding, not flooring, or
+        # every goal would start half a step late on average (and the fit add that to latency)
+        held = goals[np.clip(np.searchsorted(t, steps + self.dt / 2, side="right") - 1, 0, len(t) - 1)]
         data = mujoco.MjData(self.model)
         self.angles.place(data.qpos, present[0])
         state = sysid.create_initial_state(self.model, data.qpos.copy(), np.zeros(self.model.nv))
@@ -216,8 +229,12 @@ class Fit:
         delay = params[LATENCY[0]].value[0] / 1e3
         t = measured.times
         pred = np.stack([np.interp(t - delay, t_sim, angles[:, k]) for k in range(angles.shape[1])], axis=1)
-        residual = np.degrees(pred - measured.data)
-        return residual.ravel(), sysid.TimeSeries(t, pred, measured.signal_mapping), measured
+        # the lead only lets the replay settle (its gears start centred in their play, the
+        # robot's rest against one side): it is not compared
+        settled = t >= LEAD_S - 1e-9
+        residual = np.degrees(pred[settled] - measured.data[settled])
+        return (residual.ravel(), sysid.TimeSeries(t[settled], pred[settled], measured.signal_mapping),
+                sysid.TimeSeries(t[settled], measured.data[settled], measured.signal_mapping))
 
     # -- fitting ---------------------------------------------------------------------------------
     def residual_fn(self):
@@ -252,9 +269,7 @@ class Identification:
     segments: int
 
     def summary(self) -> dict[str, Any]:
-        return {"parameters": self.parameters, "rmse_deg_before": self.rmse_deg_before,
-                "rmse_deg_after": self.rmse_deg_after, "reality": self.reality, "seconds": self.seconds,
-                "iterations": self.iterations, "segments": self.segments}
+        return dataclasses.asdict(self)
 
 
 def identify(paths: Sequence[Path | str], robot: RobotSpec, per_joint: bool = False, max_iters: int = 30,
@@ -266,7 +281,7 @@ def identify(paths: Sequence[Path | str], robot: RobotSpec, per_joint: bool = Fa
     traces = check_traces(paths, robot, warn=log)
     fit = Fit(robot, traces, per_joint)
     residual_fn = fit.residual_fn()
-    before = fit.rmse_deg(fit.params, residual_fn)
+    before = fit.rmse_deg(fit.nominal_params(), residual_fn)
     log(f"fitting {len(fit.params.as_vector())} parameters to {len(fit.segments)} segments of {len(traces)} "
         f"trace(s); RMSE on the nominal model {max(before.values()):.2f} deg (worst joint)")
     iterations = []
@@ -318,7 +333,7 @@ def write_report(folder: Path, fit: Fit, opt_params, result, residual_fn) -> Non
                                   title=f"System identification: {fit.robot.name}", save_path=folder,
                                   build_model=fit.build, generate_videos=False)
     report.save(folder / "report.html")
-    plot_overlay(fit, fit.params, opt_params, residual_fn, folder / "overlay.png")
+    plot_overlay(fit, fit.nominal_params(), opt_params, residual_fn, folder / "overlay.png")
 
 
 def plot_overlay(fit: Fit, before, after, residual_fn, path: Path) -> None:
