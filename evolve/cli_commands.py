@@ -67,6 +67,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ea.add_argument("--ablate", action="store_true",
                     help="with --reality/--randomize: measure each perturbation alone too, to see which "
                     "one breaks the controller (default 3 episodes)")
+    ea.add_argument("--by-perturbation", action="store_true",
+                    help="with --randomize: the walk rate by third of each drawn perturbation (use 100 or more "
+                    "--episodes), to see where the controller fails")
     ea.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                     help="switch a module off to get the lower behaviour back (repeatable)")
     ea.add_argument("--json", action="store_true", help="print one JSON object")
@@ -207,6 +210,10 @@ def check_eval(args: argparse.Namespace) -> None:
         raise UsageError("eval: give --randomize RANGES or --reality PROFILE, not both")
     if args.ablate and (args.randomize or args.reality or "nominal") == "nominal":
         raise UsageError("eval --ablate: give the reality to take apart, --reality PROFILE or --randomize")
+    if args.by_perturbation and not args.randomize:
+        raise UsageError("eval --by-perturbation: give --randomize (the draws to sort the episodes by)")
+    if args.by_perturbation and args.ablate:
+        raise UsageError("eval: --by-perturbation or --ablate, not both")
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
@@ -215,8 +222,18 @@ def cmd_eval(args: argparse.Namespace) -> int:
     reality = args.randomize or args.reality
     options = {"robot": args.robot, "seconds": args.seconds, "disabled_modules": tuple(args.disable_module)}
     if not args.ablate:
-        print_result(evaluate_controller(args.controller, episodes=args.episodes or 1, randomize=reality,
-                                         seed=args.seed, **options), args.json)
+        result = evaluate_controller(args.controller, episodes=args.episodes or 1, randomize=reality,
+                                     seed=args.seed, by_perturbation=args.by_perturbation, **options)
+        table = result.pop("by_perturbation", None)
+        if args.json:
+            print(json.dumps({**result, **({"by_perturbation": table} if table is not None else {})}))
+            return 0
+        print_result(result, False)
+        if table is not None:
+            print(f"{'walked in the low / middle / high third of':>44}  correlation")
+            for key, row in sorted(table.items(), key=lambda item: -abs(item[1]["correlation"])):
+                rates = " / ".join(f"{r:.2f}" for r in row["walked_by_third"])
+                print(f"{key:>28} {rates:>18}  {row['correlation']:+.2f}")
         return 0
     try:
         report = ablate_controller(args.controller, reality, episodes=args.episodes or 3, seed=args.seed, **options)

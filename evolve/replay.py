@@ -48,10 +48,11 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
 def evaluate_controller(path: Path | str, robot: str | None = None, seconds: float | None = None,
                         episodes: int = 1, disabled_modules: tuple[str, ...] = (),
                         randomize: str | Reality | None = None, seed: int = 0,
-                        stagnation_stop: bool = True) -> dict[str, Any]:
+                        stagnation_stop: bool = True, by_perturbation: bool = False) -> dict[str, Any]:
     """Measure a controller on ``episodes`` episodes, each drawn from ``randomize`` (a reality
     file's ranges or fixed profile; None: the nominal robot) with seed ``seed``; without
-    ``stagnation_stop`` only a fall (or the clock) ends an episode."""
+    ``stagnation_stop`` only a fall (or the clock) ends an episode.  ``by_perturbation`` adds
+    where it fails: the walk rate by third of each drawn perturbation (:func:`walk_rate_by_draw`)."""
     reality = load_reality(randomize)
     data, spec, evaluator, genome = _setup(path, robot, seconds, episodes, reality=reality,
                                            disabled_modules=disabled_modules, stagnation_stop=stagnation_stop)
@@ -78,7 +79,37 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         "reality": reality.name,
         "disabled_modules": list(disabled_modules),
         "seconds": evaluator.episode_s,
+        **({"by_perturbation": walk_rate_by_draw(perturbation, walked)}
+           if by_perturbation and perturbation is not None else {}),
     }
+
+
+# what one episode drew, as one number: the mean over links or servos (the weakest servo's torque)
+DRAWN = {"mass_scale": lambda p: p.mass_scale.mean(1), "com_offset_m": lambda p: np.linalg.norm(p.com_offset, axis=2).mean(1),
+         "floor_friction_scale": lambda p: p.floor_friction_scale, "kp_scale": lambda p: p.kp_scale.mean(1),
+         "torque_scale": lambda p: p.torque_scale.min(1), "damping_scale": lambda p: p.damping_scale.mean(1),
+         "friction_scale": lambda p: p.friction_scale.mean(1), "armature_scale": lambda p: p.armature_scale.mean(1),
+         "derivative_ms": lambda p: p.derivative_s * 1e3, "backlash_deg": lambda p: np.degrees(p.backlash_rad).mean(1),
+         "latency_ms": lambda p: p.latency_s * 1e3, "joint_noise_deg": lambda p: np.degrees(p.joint_noise_sd_rad),
+         "up_noise": lambda p: p.up_noise_sd, "foot_flip": lambda p: p.foot_flip_p}
+
+
+def walk_rate_by_draw(p, walked: np.ndarray) -> dict[str, dict[str, Any]]:
+    """For each perturbation that varies across the episodes: the share of episodes walked in
+    the lowest, middle and highest third of its drawn values, and the correlation of the value
+    with walking - which perturbations a controller fails on."""
+    out = {}
+    w = walked.astype(float)
+    for key, value in DRAWN.items():
+        v = np.asarray(value(p), dtype=float)
+        if np.ptp(v) == 0 or len(v) < 3:
+            continue
+        order = np.argsort(v, kind="stable")
+        thirds = np.array_split(order, 3)
+        correlation = float(np.corrcoef(v, w)[0, 1]) if np.ptp(w) > 0 else 0.0
+        out[key] = {"walked_by_third": [float(w[t].mean()) for t in thirds],
+                    "third_edges": [float(v[thirds[1][0]]), float(v[thirds[2][0]])], "correlation": correlation}
+    return out
 
 
 def ablate_controller(path: Path | str, reality: str | Reality, episodes: int = 3, seed: int = 0,
