@@ -195,6 +195,15 @@ def test_eval_reports_the_spread_over_randomized_episodes(tmp_path, capsys):
     assert main(["eval", str(path), "--ablate"]) == 2
     assert "reality to take apart" in capsys.readouterr().err
 
+    # --by-perturbation: the episodes sorted by what each drew
+    assert main(["eval", str(path), "--randomize", "--episodes", "6", "--by-perturbation", "--json"]) == 0
+    table = json.loads(capsys.readouterr().out)["by_perturbation"]
+    assert {"kp_scale", "torque_scale", "latency_ms"} <= set(table)
+    assert all(len(row["walked_by_third"]) == 3 and row["third_edges"][0] <= row["third_edges"][1]
+               for row in table.values())
+    assert main(["eval", str(path), "--by-perturbation"]) == 2
+    assert "--randomize" in capsys.readouterr().err
+
 
 def test_only_keeps_one_perturbation():
     default = load_reality("default")
