@@ -196,15 +196,18 @@ def test_a_packet_with_a_bad_crc_gets_a_crc_error_status(served):
     assert packet[8] == p2.CRC_ERROR and packet[4] == 3
 
 
-@pytest.mark.parametrize("what", ["read", "write"])
+@pytest.mark.parametrize("what", ["read", "write", "sync_read"])
 def test_a_late_status_of_an_earlier_exchange_is_not_taken_for_the_reply(what):
     """Under load the runtime repeats a sync read whose replies were late; they then arrive
     during the next exchange.  A 4-byte Present Position of servo 7 (hardware alert set) must
-    not be read as the 1-byte Hardware Error Status asked next, nor as a write's status."""
+    not be read as the 1-byte Hardware Error Status asked next, nor as a write's status; a
+    2-byte Present Load not as the 4-byte Present Position of a sync read."""
     master, slave = pty.openpty()
     tty.setraw(slave)
     late = status(7, 0x80, (2049).to_bytes(4, "little"))  # position 2049: low byte 1 = "input voltage"
     reply = status(7, 0x80, bytes([32])) if what == "read" else status(7, 0)  # the write went through
+    if what == "sync_read":  # a 2-byte Present Load late, then the 4-byte Present Position asked
+        late, reply = status(7, 0, (300).to_bytes(2, "little")), status(7, 0, (2049).to_bytes(4, "little"))
 
     def servo():
         os.read(master, 64)  # the instruction
@@ -217,6 +220,8 @@ def test_a_late_status_of_an_earlier_exchange_is_not_taken_for_the_reply(what):
         if what == "read":
             chain = ServoChain(bus, ROBOT)
             assert chain.hardware_error(7) == 32  # overload, the true answer
+        elif what == "sync_read":
+            assert bus.sync_read([7], 132, 4) == {7: 2049}
         else:
             bus.write(7, 64, 1, 0)  # no error: the late packet's alert is not this write's
     finally:

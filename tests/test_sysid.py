@@ -254,6 +254,12 @@ def test_biped_excite_on_the_simulated_bus_and_its_bad_inputs(tmp_path, capsys):
     assert recorded.metadata["excitation"]["settings"]["chirp_s"] == 2.5
     moved = np.degrees(np.ptp(recorded.present(["right_knee", "left_knee", "right_hip_pitch"]), axis=0))
     assert moved[0] > 5 and moved[1] > 5 and moved[2] < 1  # the knees moved, the hips held
+    # velocities and loads traced too, in the joint's frame: velocity follows the angle's slope
+    velocity, load = recorded["right_knee_velocity_rad_s"], recorded["right_knee_load"]
+    slope = np.gradient(recorded["right_knee_present_rad"], recorded.times)
+    assert np.corrcoef(velocity, slope)[0, 1] > 0.8
+    assert 0 < np.abs(load).max() <= 1.0
+    assert next(c.unit for c in recorded.channels if c.name == "right_knee_velocity_rad_s") == "rad/s"
     for argv, problem in ((["--joints", "elbow"], "elbow"), (["--port", "/dev/null", "--reality", "default"], "--reality"),
                           (["--baud", "57600"], "--baud"), (["--tick-ms", "40"], "four goals")):
         assert main(["excite", *argv, "--trace", str(tmp_path / "x.csv")]) == 2

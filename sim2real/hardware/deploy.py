@@ -47,6 +47,7 @@ from sim2real.hardware.realtime import (
     release_realtime,
     request_realtime,
 )
+from sim2real.hardware.readings import MotionReadings
 from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import RobotSpec
 
@@ -122,6 +123,9 @@ class GoalSource(Protocol):
 
     def trace_metadata(self) -> dict[str, Any]: ...
 
+    # optional: ``trace_motion = True`` asks the loop to trace each servo's velocity and load
+    # or current too (:mod:`sim2real.hardware.readings`), at the cost of bus time every tick
+
 
 def ramp(chain: ServoChain, mapping: ServoMapping, start: np.ndarray, target: np.ndarray,
          seconds: float = RAMP_S, sleep: Callable[[float], None] = time.sleep,
@@ -140,9 +144,10 @@ def ramp(chain: ServoChain, mapping: ServoMapping, start: np.ndarray, target: np
 class RealTimeLoop:
     def __init__(self, chain: ServoChain, mapping: ServoMapping, policy: GoalSource, tick_s: float,
                  trace: TraceWriter | None = None, clock: Callable[[], float] = time.monotonic,
-                 sleep: Callable[[float], None] = time.sleep, lost_after_s: float = LOST_AFTER_S):
+                 sleep: Callable[[float], None] = time.sleep, lost_after_s: float = LOST_AFTER_S,
+                 motion: MotionReadings | None = None):
         self.chain, self.mapping, self.policy, self.tick_s = chain, mapping, policy, tick_s
-        self.trace, self.clock, self.sleep = trace, clock, sleep
+        self.trace, self.clock, self.sleep, self.motion = trace, clock, sleep, motion
         self.lost_after_s = lost_after_s
         self.goal = policy.hold.copy()
         self.goal_ticks = mapping.ticks(self.goal)
@@ -178,7 +183,12 @@ class RealTimeLoop:
                 report.overruns += 1
                 deadline = now  # re-sync: never try to catch up
             if self.trace is not None and readings is not None:
-                self.trace.write(began - start, report.ticks, self.goal, angles, feet, up, compute_s, bus_s, overrun)
+                extra = ()
+                if self.motion is not None:  # traced only: a tick without them loses its row, not its goals
+                    extra = self._attempt(lambda: self.motion.read(attempts=1), began + self.tick_s, report)
+                if extra is not None:
+                    self.trace.write(began - start, report.ticks, self.goal, angles, feet, up, compute_s, bus_s,
+                                     overrun, extra)
             report.ticks += 1
             if not overrun:
                 self._wait_until(deadline)
@@ -296,13 +306,18 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
     with StopSignals() as signals:
         try:
             start_up(chain, mapping, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S, warn=log)
+            motion = MotionReadings(chain, robot) if getattr(policy, "trace_motion", False) else None
+            if motion is not None and motion.left_out:
+                log(f"note: the trace leaves out servo {' and '.join(motion.left_out)}: not at one address on every servo")
             if trace_path is not None:
                 trace = TraceWriter(trace_path, robot.joint_names, {
-                    "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"})
+                    "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"},
+                    extra=motion.channels if motion else ())
             present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION, None, PATIENT_ATTEMPTS, PATIENCE_S))
             chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)
             ramp(chain, mapping, present, policy.reset(), ramp_s, sleep)
-            loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s)
+            loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s,
+                                motion if trace is not None else None)
             with no_garbage_collection():
                 loop.run(duration_s, report)
             report.stop_reason = "duration reached"

@@ -130,6 +130,7 @@ class ExcitationProgram:
     settings: ExcitationSettings
     goals: np.ndarray  # (ticks, joints) [rad]
     segments: list[Segment] = field(default_factory=list)
+    trace_motion = True  # the loop traces velocities and loads too (identification may use them)
 
     @property
     def tick_s(self) -> float:

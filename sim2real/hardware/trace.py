@@ -66,26 +66,31 @@ def sidecar_path(path: Path | str) -> Path:
 
 class TraceWriter:
     """Streams the loop's trace to ``path`` (and its sidecar: ``metadata`` plus the columns
-    and the wall-clock start time), one row a :meth:`write`."""
+    and the wall-clock start time), one row a :meth:`write`; ``extra`` channels (e.g.
+    servo velocities, :mod:`sim2real.hardware.readings`) follow the loop's, their units in
+    the sidecar."""
 
-    def __init__(self, path: Path | str, joints: Sequence[str], metadata: Mapping[str, Any]):
+    def __init__(self, path: Path | str, joints: Sequence[str], metadata: Mapping[str, Any],
+                 extra: Sequence[Channel] = ()):
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.columns = [TIME] + [c.name for c in loop_channels(joints)]
+        self.columns = [TIME] + [c.name for c in loop_channels(joints)] + [c.name for c in extra]
+        units = {"units": {c.name: c.unit for c in extra}} if extra else {}
         write_text_atomic(sidecar_path(self.path), json.dumps(
-            {**metadata, "columns": self.columns, "start_time": time.time()}, indent=1))
+            {**metadata, "columns": self.columns, **units, "start_time": time.time()}, indent=1))
         self._file = open(self.path, "w", newline="")
         self._csv = csv.writer(self._file)
         self._csv.writerow(self.columns)
         self._last_flush = time.monotonic()
 
     def write(self, t: float, tick: int, goal: np.ndarray, present: np.ndarray, feet: np.ndarray,
-              up: np.ndarray, compute_s: float, bus_s: float, overrun: bool) -> None:
+              up: np.ndarray, compute_s: float, bus_s: float, overrun: bool, extra: Sequence[float] = ()) -> None:
         """One tick: ``t`` [s] since the loop began, goals and present angles (joints,) [rad],
-        feet (2,) touching, up (3,), compute and bus time [s], the deadline missed."""
+        feet (2,) touching, up (3,), compute and bus time [s], the deadline missed, and the
+        ``extra`` channels' values."""
         row = [f"{t:.6f}", tick, *(f"{v:.6f}" for v in goal), *(f"{v:.6f}" for v in present),
                int(feet[0]), int(feet[1]), *(f"{v:.5f}" for v in up),
-               f"{compute_s * 1e3:.4f}", f"{bus_s * 1e3:.4f}", int(overrun)]
+               f"{compute_s * 1e3:.4f}", f"{bus_s * 1e3:.4f}", int(overrun), *(f"{v:.6g}" for v in extra)]
         self._csv.writerow(row)
         now = time.monotonic()
         if now - self._last_flush >= FLUSH_EVERY_S:
@@ -238,6 +243,8 @@ class Trace:
             raise ConfigError(source, f"row {k + 2}", f"{TIME} does not increase")
         joints = [name.removesuffix(GOAL) for name in header if name.endswith(GOAL)]
         units = {c.name: c.unit for c in loop_channels(joints)}
+        if isinstance(meta.get("units"), dict):
+            units.update({str(k): str(v) for k, v in meta["units"].items() if k not in units})
         others = [j for j in range(len(header)) if j != t]
         return cls(values[:, t], values[:, others], tuple(Channel(header[j], units.get(header[j], "")) for j in others),
                    meta, tuple(notes))

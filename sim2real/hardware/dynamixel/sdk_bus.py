@@ -14,7 +14,9 @@ Works around the SDK 4.1.0 pitfalls listed in DESIGN.md section 6, in this layer
 * a reply is the status packet of the servo asked *with the expected number of bytes*: the
   SDK takes the first packet with the right ID, so a late status of an exchange given up on
   (a sync read repeated under load) was read as the answer to the next question - a 4-byte
-  position's low byte decoded as a Hardware Error Status.  Such packets are now skipped.
+  position's low byte decoded as a Hardware Error Status, or a 2-byte load's status read as
+  a 4-byte position (CRC bytes and all).  Such packets are now skipped, in reads and sync
+  reads alike.
 """
 
 from __future__ import annotations
@@ -146,7 +148,8 @@ class DynamixelBus(Bus):
             if result != sdk.COMM_SUCCESS:
                 break
             dxl_id = packet[sdk.protocol2_packet_handler.PKT_ID]
-            if dxl_id not in pending:
+            length = sdk.DXL_MAKEWORD(packet[P2.PKT_LENGTH_L], packet[P2.PKT_LENGTH_H])
+            if dxl_id not in pending or length != size + STATUS_OVERHEAD:  # a late reply to another question
                 continue
             pending.discard(dxl_id)
             first = sdk.protocol2_packet_handler.PKT_PARAMETER0 + 1
