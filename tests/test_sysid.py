@@ -264,3 +264,24 @@ def test_biped_excite_on_the_simulated_bus_and_its_bad_inputs(tmp_path, capsys):
                           (["--baud", "57600"], "--baud"), (["--tick-ms", "40"], "four goals")):
         assert main(["excite", *argv, "--trace", str(tmp_path / "x.csv")]) == 2
         assert problem in capsys.readouterr().err
+
+
+def test_sysid_per_joint_refines_each_moving_pair_and_flags_the_joints_it_never_saw(hung_traces, tmp_path, capsys):
+    pytest.importorskip("scipy")
+    from evolve.cli import main
+
+    _, trace = hung_traces
+    out = tmp_path / "per_joint.yaml"
+    assert main(["sysid", str(trace), "--per-joint", "--max-iters", "6", "-o", str(out), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    moved = {"right_knee", "left_knee", "right_hip_pitch", "left_hip_pitch"}
+    for name, p in result["parameters"].items():
+        joint = name.split("/")[0]
+        if joint in ROBOT.joint_names:
+            assert p["identifiable"] == (joint in moved), name  # the hip rolls, ankles, waist: never excited
+    for joint in moved:
+        assert result["rmse_deg_after"][joint] < 0.5 * result["rmse_deg_before"][joint]
+    reality = load_reality(out)  # what it wrote: per joint values, a latency for the bus
+    assert set(reality.joint_ranges) == set(ROBOT.joint_names) and reality.range("latency_ms")[0] > 0
+    knee = result["parameters"]["left_knee/kp_scale"]["value"]
+    assert reality.joint_range("left_knee", "kp_scale")[0] == pytest.approx(knee, abs=1e-4)

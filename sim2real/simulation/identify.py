@@ -71,6 +71,7 @@ class Segment:
     name: str
     start: int
     end: int
+    joints: tuple[str, ...] = ()  # the joints it moves (empty: unknown, all of them)
 
 
 def check_traces(paths: Sequence[Path | str], robot: RobotSpec, warn: Callable[[str], None] = print) -> list[Trace]:
@@ -124,7 +125,8 @@ def segments(traces: Sequence[Trace]) -> list[Segment]:
             start = int(np.searchsorted(ticks, part["start"] - lead))
             end = int(np.searchsorted(ticks, part["end"] + lead))
             if end - start >= MIN_SEGMENT_ROWS:
-                out.append(Segment(i, f"{part['group']} {part['kind']}", start, min(end, len(trace))))
+                out.append(Segment(i, f"{part['group']} {part['kind']}", start, min(end, len(trace)),
+                                   tuple(part.get("joints", ()))))
         if not parts:
             out.append(Segment(i, f"trace {i}", 0, len(trace)))
     return out
@@ -237,10 +239,12 @@ class Fit:
                 sysid.TimeSeries(t[settled], measured.data[settled], measured.signal_mapping))
 
     # -- fitting ---------------------------------------------------------------------------------
-    def residual_fn(self):
+    def residual_fn(self, segments: Sequence[int] | None = None):
+        """``mujoco.sysid``'s residual over every segment, or those of index ``segments``."""
         from mujoco import sysid
 
-        return sysid.build_residual_fn(models_sequences=self.sequences, build_model=self.build,
+        sequences = self.sequences if segments is None else [self.sequences[i] for i in segments]
+        return sysid.build_residual_fn(models_sequences=sequences, build_model=self.build,
                                        modify_residual=self.modify_residual, resample_true=False)
 
     def rmse_deg(self, params, residual_fn) -> dict[str, float]:
@@ -274,40 +278,95 @@ class Identification:
 
 def identify(paths: Sequence[Path | str], robot: RobotSpec, per_joint: bool = False, max_iters: int = 30,
              report_dir: Path | None = None, log: Callable[[str], None] = print) -> Identification:
-    """Fit the servo model to the traces at ``paths`` (see the module docstring)."""
-    from mujoco import sysid
+    """Fit the servo model to the traces at ``paths`` (see the module docstring).
 
+    Per servo model first, over every segment.  ``per_joint`` then refines each group of
+    joints that moves together (a pair, the waist) on its own segments only, from those
+    values, the bus's latency held: a handful of parameters at a time instead of all of them
+    at once (whose finite differences would replay every segment once per parameter)."""
     began = time.monotonic()
     traces = check_traces(paths, robot, warn=log)
-    fit = Fit(robot, traces, per_joint)
+    fit = Fit(robot, traces)
     residual_fn = fit.residual_fn()
     before = fit.rmse_deg(fit.nominal_params(), residual_fn)
     log(f"fitting {len(fit.params.as_vector())} parameters to {len(fit.segments)} segments of {len(traces)} "
         f"trace(s); RMSE on the nominal model {max(before.values()):.2f} deg (worst joint)")
-    iterations = []
+    iterations = [0]
+    params, result = _optimize(fit.params, residual_fn, max_iters, log, iterations)
+    parameters = _intervals(params, result, residual_fn)
+    report = (fit, params, result, residual_fn)
+    if per_joint:
+        fit, params, joint_parameters = _per_joint(robot, traces, fit, params, max_iters, log, iterations)
+        parameters = {LATENCY[0]: parameters[LATENCY[0]], **joint_parameters}
+        residual_fn = fit.residual_fn()
+    after = fit.rmse_deg(params, residual_fn)
+    if report_dir is not None:
+        write_report(report_dir, *report, joint_fit=(fit, params, residual_fn) if per_joint else None)
+    return Identification(parameters, before, after, reality_of(fit, parameters), time.monotonic() - began,
+                          iterations[0], len(fit.segments))
+
+
+def _optimize(params, residual_fn, max_iters: int, log: Callable[[str], None], iterations: list[int]):
+    """``mujoco.sysid.optimize`` with this module's settings, logging each iteration."""
+    from mujoco import sysid
 
     def progress(trace) -> None:
-        iterations.append(trace[-1])
-        log(f"  iteration {len(iterations)}: cost {trace[-1].objective:.4g}")
+        iterations[0] += 1
+        log(f"  iteration {iterations[0]}: cost {trace[-1].objective:.4g}")
 
-    opt_params, result = sysid.optimize(fit.params, residual_fn, optimizer="mujoco", verbose=False,
-                                        max_iters=max_iters, eps=FD_STEP, x_scale="jac", iter_callback=progress,
-                                        output=io.StringIO())  # its own table per iteration: `progress` instead
-    after = fit.rmse_deg(opt_params, residual_fn)
-    residuals, _, _ = residual_fn(result.x, opt_params)
+    return sysid.optimize(params, residual_fn, optimizer="mujoco", verbose=False, max_iters=max_iters,
+                          eps=FD_STEP, x_scale="jac", iter_callback=progress,
+                          output=io.StringIO())  # its own table per iteration: `progress` instead
+
+
+def _intervals(params, result, residual_fn) -> dict[str, dict[str, Any]]:
+    """Each fitted (not frozen) parameter's value, 95 % interval within its bounds, and
+    whether the interval is narrow enough to call it identified."""
+    from mujoco import sysid
+
+    residuals, _, _ = residual_fn(result.x, params)
     _, half_widths = sysid.calculate_intervals(residuals, result.jac)
-    parameters = {}
-    for (name, p), half in zip(opt_params.items(), half_widths):
-        low, high = float(p.min_value[0]), float(p.max_value[0])
-        value = float(p.value[0])
-        identifiable = bool(np.isfinite(half) and 2 * half <= UNIDENTIFIABLE_SHARE * (high - low))
-        parameters[name] = {"value": value, "low": max(low, value - float(half)) if np.isfinite(half) else low,
-                            "high": min(high, value + float(half)) if np.isfinite(half) else high,
-                            "identifiable": identifiable}
-    if report_dir is not None:
-        write_report(report_dir, fit, opt_params, result, residual_fn)
-    return Identification(parameters, before, after, reality_of(fit, parameters), time.monotonic() - began,
-                          len(iterations), len(fit.segments))
+    out = {}
+    for (name, p), half in zip(((n, p) for n, p in params.items() if not p.frozen), half_widths, strict=True):
+        low, high, value = float(p.min_value[0]), float(p.max_value[0]), float(p.value[0])
+        finite = bool(np.isfinite(half))
+        out[name] = {"value": value, "low": max(low, value - float(half)) if finite else low,
+                     "high": min(high, value + float(half)) if finite else high,
+                     "identifiable": finite and 2 * float(half) <= UNIDENTIFIABLE_SHARE * (high - low)}
+    return out
+
+
+def _per_joint(robot: RobotSpec, traces: Sequence[Trace], model_fit: "Fit", model_params, max_iters: int,
+               log: Callable[[str], None], iterations: list[int]):
+    """Refine per joint from the per-model fit: each group of joints that moves together on
+    its own segments, everything else (latency included) held."""
+    fit = Fit(robot, traces, per_joint=True)
+    params = fit.params.copy()
+    for group, members in model_fit.groups.items():
+        for k in members:
+            for key, *_ in SERVO_PARAMETERS:
+                params[fit.name(fit.joints[k], key)].value[:] = model_params[model_fit.name(group, key)].value
+    params[LATENCY[0]].value[:] = model_params[LATENCY[0]].value
+    moved: dict[tuple[str, ...], list[int]] = {}
+    for index, seg in enumerate(fit.segments):
+        moved.setdefault(seg.joints or tuple(fit.joints), []).append(index)
+    parameters: dict[str, dict[str, Any]] = {}
+    for joints, indices in moved.items():
+        log(f"per joint: {', '.join(joints)} on {len(indices)} segment(s)")
+        mine = {fit.name(j, key) for j in joints for key, *_ in SERVO_PARAMETERS}
+        sub = params.copy()
+        for name, p in sub.items():
+            p.frozen = name not in mine
+        residual_fn = fit.residual_fn(indices)
+        sub, result = _optimize(sub, residual_fn, max_iters, log, iterations)
+        parameters.update(_intervals(sub, result, residual_fn))
+        for name in mine:
+            params[name].value[:] = sub[name].value
+    for name, p in params.items():  # joints no segment moved keep their servo model's values
+        if name != LATENCY[0] and name not in parameters:
+            parameters[name] = {"value": float(p.value[0]), "low": float(p.min_value[0]),
+                                "high": float(p.max_value[0]), "identifiable": False}
+    return fit, params, parameters
 
 
 def reality_of(fit: Fit, parameters: dict[str, dict[str, Any]]) -> dict[str, Any]:
@@ -323,9 +382,10 @@ def reality_of(fit: Fit, parameters: dict[str, dict[str, Any]]) -> dict[str, Any
     return doc
 
 
-def write_report(folder: Path, fit: Fit, opt_params, result, residual_fn) -> None:
-    """``mujoco.sysid``'s HTML report (fit, parameter tables, confidence intervals) in
-    ``folder``, and an overlay plot of recorded and simulated angles, before and after."""
+def write_report(folder: Path, fit: Fit, opt_params, result, residual_fn, joint_fit=None) -> None:
+    """``mujoco.sysid``'s HTML report of the per-model fit (fit, parameter tables, confidence
+    intervals) in ``folder``, and an overlay plot of recorded and simulated angles with the
+    nominal and the final model (``joint_fit``: (fit, params, residual) of the per-joint one)."""
     from mujoco import sysid
 
     folder.mkdir(parents=True, exist_ok=True)
@@ -333,20 +393,22 @@ def write_report(folder: Path, fit: Fit, opt_params, result, residual_fn) -> Non
                                   title=f"System identification: {fit.robot.name}", save_path=folder,
                                   build_model=fit.build, generate_videos=False)
     report.save(folder / "report.html")
-    plot_overlay(fit, fit.nominal_params(), opt_params, residual_fn, folder / "overlay.png")
+    final_fit, final_params, final_fn = joint_fit or (fit, opt_params, residual_fn)
+    plot_overlay(final_fit, fit.nominal_params(), final_params, final_fn, folder / "overlay.png", nominal_fn=residual_fn)
 
 
-def plot_overlay(fit: Fit, before, after, residual_fn, path: Path) -> None:
-    """Recorded and simulated angles of each excited group's segments, with the nominal and
-    the identified model, one row a segment (its first moving joint)."""
+def plot_overlay(fit: Fit, before, after, residual_fn, path: Path, nominal_fn=None) -> None:
+    """Recorded and simulated angles of each excited group's segments, with the nominal
+    (``before``, through ``nominal_fn`` if its parameters differ in layout) and the identified
+    model, one row a segment (its first moving joint)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     curves = {}
-    for label, params in (("nominal model", before), ("identified", after)):
-        _, preds, records = residual_fn(params.as_vector(), params, return_pred_all=True)
+    for label, params, fn in (("nominal model", before, nominal_fn or residual_fn), ("identified", after, residual_fn)):
+        _, preds, records = fn(params.as_vector(), params, return_pred_all=True)
         curves[label] = [p[0] for p in preds]
     records = [r[0] for r in records]
     rows = len(fit.segments)
