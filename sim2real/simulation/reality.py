@@ -9,6 +9,11 @@ value (a fixed perturbation: a "reality profile" such as ``default.yaml``) or a
     mass_scale: 1.08          # every link's mass and inertia, times
     kp_scale: [0.8, 1.2]      # each servo's position gain, drawn per servo and episode
 
+Per joint values go under ``joints:`` (``biped sysid --per-joint`` writes them); ``centre:
+FILE`` puts the ranges around another robot than the nominal one (:func:`centred`: scales
+multiply, the rest adds), e.g. one ``biped sysid`` identified.  The keys of :data:`EFFECTS`
+are effects only the simulated bus simulates.
+
 Each simulation gets its own draws from its own seeded stream (:func:`sample`, keyed by
 run seed, generation, genome and episode), so results do not depend on how simulations are
 batched or distributed.  Physical parameters go into the model (per simulation through
@@ -108,8 +113,8 @@ class Reality:
         return self.range("latency_ticks")[1], self.range("latency_ms")[1] / 1e3
 
     def scaled(self, intensity: float) -> "Reality":
-        """Every range moved toward nominal: ``nominal + intensity * (value - nominal)``;
-        0 is the nominal robot, 1 (or more) this reality itself."""
+        """Every range moved toward nominal (or the centre): ``nominal + intensity * (value -
+        nominal)``; 0 is the nominal robot (the centre), 1 (or more) this reality itself."""
         if intensity >= 1.0:
             return self
 
