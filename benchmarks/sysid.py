@@ -100,7 +100,7 @@ def judge(run: dict[str, Any], bus_delay_ms: float) -> None:
         "rmse": rmse_ok}
 
 
-def loop(profile: str, identified: Path, folder: Path, minutes: float, quiet: bool) -> dict[str, Any]:
+def loop(profile: str, identified: Path, folder: Path, minutes: float, quiet: bool, threads: int = 1) -> dict[str, Any]:
     """Evolve around the identified robot, then check the champion's transfer to the true one."""
     import dataclasses
 
@@ -114,7 +114,8 @@ def loop(profile: str, identified: Path, folder: Path, minutes: float, quiet: bo
         run = Run.resume(folder, log=log)
     else:
         config = load_evolve_config(resolve_config("walk_robust"))
-        config = config.replace(randomize=dataclasses.replace(config.randomize, centre=str(identified.resolve())))
+        config = config.replace(threads=threads,
+                                randomize=dataclasses.replace(config.randomize, centre=str(identified.resolve())))
         run = Run.create(config, folder, log=log)
     run.evolve(stop=lambda run, row: run.wall_s > minutes * 60.0)
     if run.best is None:
@@ -138,6 +139,7 @@ def main(argv: list[str] | None = None) -> None:
                    help="then evolve this long around the last profile's identified robot and check the transfer "
                    "to its true robot (0: not)")
     p.add_argument("--skip-fits", action="store_true", help="with --loop-minutes: reuse the fits already in --out")
+    p.add_argument("--threads", type=int, default=1, help="the loop's evolution threads (default 1)")
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     result: dict[str, Any] = {"robot": args.robot}
@@ -157,7 +159,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.loop_minutes > 0:
         profile = args.profiles[-1]
         identified = args.out / f"{Path(profile).stem}_identified.yaml"
-        result["loop"] = loop(profile, identified, args.out / "loop", args.loop_minutes, args.json)
+        result["loop"] = loop(profile, identified, args.out / "loop", args.loop_minutes, args.json, args.threads)
     report(result, args.json)
 
 
