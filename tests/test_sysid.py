@@ -206,6 +206,12 @@ def test_sysid_refuses_traces_it_cannot_fit(tmp_path, hung_traces):
     (tmp_path / "nan.json").write_text(trace.with_suffix(".json").read_text())
     with pytest.raises(ConfigError, match="row 21"):
         check_traces([nan], ROBOT)
+    cut = tmp_path / "cut.csv"  # a run killed mid-write: its last row half written
+    cut.write_text(trace.read_text()[:-40])
+    (tmp_path / "cut.json").write_text(trace.with_suffix(".json").read_text())
+    warnings = []
+    assert len(check_traces([cut], ROBOT, warn=warnings.append)[0]) == len(original) - 1
+    assert len(warnings) == 1 and "cut short" in warnings[0]
 
 
 def test_ranges_around_an_identified_robot_round_trip_and_ramp_from_it(tmp_path):
