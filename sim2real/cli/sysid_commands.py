@@ -25,11 +25,11 @@ from sim2real.cli.args import (
     robot_name,
     seed,
 )
+from sim2real.cli.deploy_commands import TRACE_FILE
 from sim2real.errors import UsageError
 from sim2real.hardware.excitation import POSES
 from sim2real.robot import DEFAULT_ROBOT, load_robot
 
-TRACE_FILE = output_file(exclude=(".json",))  # a trace's sidecar takes its name with .json
 EXCITE_TICK_MS = 10.0  # 100 Hz: ten goals a period of a 10 Hz chirp; a bus cycle of the default robot is ~3 ms
 
 
