@@ -148,6 +148,7 @@ def _sysid_robot(args: argparse.Namespace):
 
 
 def check_sysid(args: argparse.Namespace) -> None:
+    require_module("mujoco", "biped sysid", extra="sysid")
     require_module("scipy", "biped sysid", extra="sysid")
     from mujoco import sysid
 

@@ -180,10 +180,10 @@ def build_program(robot: RobotSpec, pose: str = "suspended", joints: list[str] |
                   settings: ExcitationSettings | None = None) -> ExcitationProgram:
     """The excitation program for ``robot`` (every servo joint unless ``joints`` picks
     groups), checked whole."""
-    settings = settings or ExcitationSettings.for_pose(pose)
-    settings.check()
     if pose not in POSES:
         raise UsageError(f"pose {pose!r}: expected one of {', '.join(POSES)}")
+    settings = settings or ExcitationSettings.for_pose(pose)
+    settings.check()
     home = np.array([j.home_rad for j in robot.joints])
     index = {name: k for k, name in enumerate(robot.joint_names)}
     rows: list[np.ndarray] = []

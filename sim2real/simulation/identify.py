@@ -5,7 +5,9 @@ in, encoder angles out.  The fit replays each trace's goals in the hung model (w
 joints) and moves the servo parameters until the simulated encoder angles match the
 recorded ones, in the least-squares sense - through ``mujoco.sysid``: its parameters with
 bounds, rollouts, the optimizer (MuJoCo's own bounded Levenberg-Marquardt with
-finite-difference Jacobians), confidence intervals, saved results and HTML report.
+finite-difference Jacobians), confidence intervals and HTML report.  Goals act from the
+physics step nearest their row's time, quantized as the servo received them; each segment's
+settling lead is not compared.
 
 What is fitted, per servo model (or per joint), in the vocabulary of reality files
 (:mod:`sim2real.simulation.reality`): ``kp_scale`` (position gain), ``torque_scale`` (stall
@@ -25,8 +27,8 @@ parameter whose confidence interval covers much of its range (or is infinite) is
 from __future__ import annotations
 
 import copy
-import io
 import dataclasses
+import io
 import math
 import time
 from dataclasses import dataclass
