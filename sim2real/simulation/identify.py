@@ -166,7 +166,14 @@ class Fit:
         key, low, high = LATENCY
         self.params.add(sysid.Parameter(key, nominal=5.0, min_value=low, max_value=high))
         self.segments = segments(self.traces)
-        self.sequences = [self._sequence(s) for s in self.segments]
+        from absl import logging as absl_logging  # mujoco.sysid's logger
+
+        verbosity = absl_logging.get_verbosity()
+        absl_logging.set_verbosity(absl_logging.ERROR)  # not a warning a segment that it records angles only
+        try:
+            self.sequences = [self._sequence(s) for s in self.segments]
+        finally:
+            absl_logging.set_verbosity(verbosity)
 
     @staticmethod
     def name(group: str, key: str) -> str:
