@@ -35,7 +35,9 @@ def test_a_short_dry_run_stands_and_ends_with_torque_off(standing_controller, tm
     assert result["stop_reason"] == "duration reached"
     assert not result["fell"] and abs(result["distance_m"]) < 0.02
     assert result["bus_errors"] == 0 and result["ticks"] == round(1.0 / 0.034)
-    assert result["simulated_s"] >= 1.0
+    # the ground truth is the loop's end: start-up, the 0.3 s ramp and 1 s, not the stop's ramp after
+    assert result["simulated_s"] >= 1.3 and result["fell_after_stop"] is False
+    assert result["simulated_s_after_stop"] >= result["simulated_s"] + 0.25  # the 0.3 s ramp to rest came after
 
 
 def test_a_silent_servo_mid_run_ends_in_a_safe_stop_not_a_hang(standing_controller):

@@ -278,11 +278,14 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
           trace_path: Path | str | None = None, disabled_modules: tuple[str, ...] = (),
           log: Callable[[str], None] = print, clock: Callable[[], float] = time.monotonic,
           sleep: Callable[[float], None] = time.sleep, ramp_s: float = RAMP_S,
-          lost_after_s: float = LOST_AFTER_S, realtime: RealtimeRequest | None = None) -> RunReport:
+          lost_after_s: float = LOST_AFTER_S, realtime: RealtimeRequest | None = None,
+          on_loop_end: Callable[[], None] | None = None) -> RunReport:
     """Start up, ramp, run the loop, and always end with torque off, read back; returns what
     happened (``report.torque_off`` lists servos confirmed off and those that are not).
     ``controller`` is a controller file's contents or any other :class:`GoalSource`.
-    ``realtime``: ask the OS for real-time treatment first (None: do not ask)."""
+    ``realtime``: ask the OS for real-time treatment first (None: do not ask).
+    ``on_loop_end`` is called once the loop has ended, however, before the stop (a dry run
+    takes its ground truth then); nothing it raises delays the torque-off."""
     if isinstance(controller, Controller):
         policy: GoalSource = Policy(controller, robot, disabled_modules)
         metadata = {"controller_hash": controller.joint_map_hash,
@@ -328,9 +331,16 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
             report.stop_reason = _stop_reason(exc, chain, report)
         finally:
             # A signal may still raise once (see StopSignals); the stop then simply starts again.
+            hook = on_loop_end
             for _ in range(2):
                 try:
                     signals.stopping = True
+                    if hook is not None:
+                        hook, call = None, hook
+                        try:
+                            call()
+                        except Exception:  # noqa: BLE001 - a report's hook must not keep torque on
+                            report.stop_notes.append("the end-of-loop hook failed")
                     _stop_safely(chain, mapping, policy, report, signals, sleep, ramp_s, log,
                                  ramp_to_rest=startup_error is None)
                     break

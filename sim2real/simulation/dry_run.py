@@ -143,6 +143,15 @@ class SimulatedBusProcess:
             self.log(line)
         self._stderr.close()
 
+    def mark_end_of_run(self) -> None:
+        """Tell the simulated bus that the loop has ended: its ground truth is taken now,
+        before the stop's ramp to rest and torque off."""
+        try:
+            self.proc.stdin.write("end of run\n")
+            self.proc.stdin.flush()
+        except (OSError, ValueError):  # it is gone: its report says so
+            pass
+
     def _errors(self) -> str:
         self._stderr.seek(0)
         return self._stderr.read().strip()
@@ -175,7 +184,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     with SimulatedBusProcess(args, log) as simbus:
         report = drive(DynamixelBus(simbus.port, robot.bus.baud, robot), robot, data, duration_s=duration_s,
                        trace_path=trace_path, log=log, ramp_s=ramp_s, disabled_modules=disabled_modules,
-                       realtime=realtime)
+                       realtime=realtime, on_loop_end=simbus.mark_end_of_run)
     truth = simbus.ground_truth
     if "distance_m" not in truth:
         raise BipedError("the simulated bus ended without its report (it crashed?)")
@@ -185,6 +194,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
             "missed_ticks": report.missed_ticks, "corrupt_replies": report.corrupt_replies,
             "stop_reason": report.stop_reason, "stop_notes": report.stop_notes, "torque_off": summary["torque_off"],
             "reality": profile.name, "trace": str(trace_path) if trace_path and Path(trace_path).exists() else None,
-            "simulated_s": truth["simulated_s"],
+            "simulated_s": truth["simulated_s"], "fell_after_stop": truth.get("fell_after_stop"),
+            "simulated_s_after_stop": truth.get("simulated_s_after_stop"),
             **{k: v for k, v in summary.items() if k.startswith(("compute", "jitter"))},
             "realtime": summary["realtime"], "simbus_realtime": truth.get("realtime")}

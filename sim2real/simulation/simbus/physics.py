@@ -107,6 +107,7 @@ class PhysicsChain:
         self.board = robot.sensor_board.id if robot.sensor_board else None
         self.saturated = np.zeros(len(names))
         self.overload_at: dict[int, float] = {}  # fault injection: servo id -> simulated time
+        self.end_of_run: dict[str, float | bool] | None = None  # ground truth when the loop ended
         self.lock = threading.Lock()
         self._started = clock()
         self._publish()
@@ -208,7 +209,21 @@ class PhysicsChain:
 
     def ground_truth(self) -> dict[str, float | bool]:
         """Distance of the hindmost sole since the start [m] and whether the robot fell (as in
-        evolution: pelvis below 70 % of its start height, or torso tilted past 60 deg)."""
+        evolution: pelvis below 70 % of its start height, or torso tilted past 60 deg) - at the
+        end of the run's loop if :meth:`mark_end_of_run` was called (the stop's ramp to rest
+        and torque off come after it: a runner braked to rest, or a limp robot, may topple
+        then, and that is not the controller's walk), else now."""
+        if self.end_of_run is not None:
+            after = self._now()
+            return {**self.end_of_run, "fell_after_stop": after["fell"], "simulated_s_after_stop": after["simulated_s"]}
+        return self._now()
+
+    def mark_end_of_run(self) -> None:
+        """Keep the ground truth as it is now: the loop has just ended."""
+        self.advance()
+        self.end_of_run = self._now()
+
+    def _now(self) -> dict[str, float | bool]:
         with self.lock:
             fell = (self.pelvis_height() < FALL_HEIGHT * self._start_height
                     or self.upright() < math.cos(math.radians(FALL_TILT_DEG)))

@@ -4,9 +4,11 @@
 
 prints the pseudo-terminal's path as its first line, then serves until SIGTERM, Ctrl-C or
 (with ``--exit-on-stdin-eof``) its standard input closing - which is how a dry run stops it,
-and how it ends by itself if the dry run dies.  With ``--report`` its last line is one JSON
-object: the simulator's ground truth (distance, fell, simulated seconds) and what real-time
-treatment it got.
+and how it ends by itself if the dry run dies.  A line ``end of run`` on its standard input
+marks the end of the parent's loop: the ground truth it reports is the one of that moment, not
+after the stop's ramp to rest and torque off.  With ``--report`` its last line is one JSON
+object: the simulator's ground truth (distance, fell, simulated seconds; ``fell_after_stop``
+once marked) and what real-time treatment it got.
 
 It runs in its own process so that its physics never competes with the runtime it serves for
 one Python interpreter: in one process the runtime's busy-wait before each deadline held the
@@ -80,7 +82,7 @@ def serve(args: argparse.Namespace) -> int:
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *a: done.set())
     if args.exit_on_stdin_eof:
-        threading.Thread(target=_set_on_eof, args=(done,), daemon=True).start()
+        threading.Thread(target=_set_on_eof, args=(done, physics), daemon=True).start()
     baud = args.baud or (robot.bus.baud if robot.bus else None)
     with PtyServer(chain, baud=baud, **rates) as server:
         print(server.port, flush=True)
@@ -116,10 +118,14 @@ def arm_faults(spec: str | None, chain: "EmulatedChain", physics: "PhysicsChain"
 
 
 
-def _set_on_eof(done: threading.Event) -> None:
+END_OF_RUN = b"end of run"  # a line on standard input: the parent's loop has ended (the ground truth to report)
+
+
+def _set_on_eof(done: threading.Event, physics: "PhysicsChain") -> None:
     try:
-        while sys.stdin.buffer.read(4096):
-            pass
+        while line := sys.stdin.buffer.readline():
+            if line.strip() == END_OF_RUN:
+                physics.mark_end_of_run()
     except (OSError, ValueError):
         pass
     done.set()
