@@ -55,6 +55,7 @@ SERVO_PARAMETERS = (
     ("backlash_deg", 0.0, 2.0),
 )
 LATENCY = ("latency_ms", 0.0, 60.0)  # one for the bus
+LATENCY_START_MS = 5.0  # where the fit starts it: off its bound (and play off its bound of 0, likewise)
 MIN_SECONDS = 2.0  # a trace shorter than this cannot show a servo's dynamics
 MIN_EXCITATION_DEG = 0.5  # a trace whose goals move less than this (peak to peak) excites nothing
 LEAD_S = 0.25  # each segment is replayed from this long before it (the robot at rest, holding)
@@ -164,12 +165,12 @@ class Fit:
                 start = max(nominal, low + 0.05 * (high - low)) if key == "backlash_deg" else nominal
                 self.params.add(sysid.Parameter(self.name(group, key), nominal=start, min_value=low, max_value=high))
         key, low, high = LATENCY
-        self.params.add(sysid.Parameter(key, nominal=5.0, min_value=low, max_value=high))
+        self.params.add(sysid.Parameter(key, nominal=LATENCY_START_MS, min_value=low, max_value=high))
         self.segments = segments(self.traces)
         from absl import logging as absl_logging  # mujoco.sysid's logger
 
         verbosity = absl_logging.get_verbosity()
-        absl_logging.set_verbosity(absl_logging.ERROR)  # not a warning a segment that it records angles only
+        absl_logging.set_verbosity(absl_logging.ERROR)  # it warns, per segment, of sensors not recorded: expected
         try:
             self.sequences = [self._sequence(s) for s in self.segments]
         finally:
