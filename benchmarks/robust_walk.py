@@ -221,5 +221,6 @@ def ship(walker: Path, measured: dict[str, Any], path: Path, argv: list[str] | N
     Controller.from_dict(data, str(path)).save(path)
     return str(path)
 
+
 if __name__ == "__main__":
     main()

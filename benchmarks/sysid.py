@@ -49,9 +49,8 @@ def biped(*args: str) -> dict[str, Any]:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def truth(profile: str | None, robot) -> dict[str, float]:
+def truth(reality, robot) -> dict[str, float]:
     """The profile's values of what the fit finds (latency in ms, the bus's delay not included)."""
-    reality = load_reality(profile)
     values = {key: reality.range(key)[0] for key in (*SCALES, "armature_scale", "backlash_deg")}
     values["latency_ms"] = reality.range("latency_ms")[0] + 1e3 * reality.range("latency_ticks")[0] * \
         control_timing(robot).tick_s
@@ -75,13 +74,13 @@ def identify_profile(profile: str | None, robot_name: str, folder: Path, max_ite
     recovered = {key.split("/")[-1]: p["value"] for key, p in fit["parameters"].items()}
     identifiable = {key.split("/")[-1]: p["identifiable"] for key, p in fit["parameters"].items()}
     before, after = fit["rmse_deg_before"], fit["rmse_deg_after"]
-    return {"profile": name, "truth": truth(profile, load_robot(robot_name)), "recovered": recovered,
+    reality = load_reality(profile)
+    return {"profile": name, "truth": truth(reality, load_robot(robot_name)), "recovered": recovered,
             "identifiable": identifiable, "rmse_deg_before": before, "rmse_deg_after": after,
             "rmse_after_max_deg": max(after.values()),
             "rmse_after_over_before_max": max(after[j] / before[j] for j in before if before[j] > 0),
             "excite_s": round(excite_s, 1), "sysid_s": round(sysid_s, 1), "iterations": fit["iterations"],
-            "overruns": excite["overruns"], "rich": bool(load_reality(profile).effects) or
-            load_reality(profile).range("derivative_ms")[0] > 0}
+            "overruns": excite["overruns"], "rich": bool(reality.effects) or reality.range("derivative_ms")[0] > 0}
 
 
 def judge(run: dict[str, Any], bus_delay_ms: float) -> None:

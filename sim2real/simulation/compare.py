@@ -11,7 +11,6 @@ sensors).  A trace from ``biped run`` on hardware and one from a dry run are rea
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 from typing import Any
 
@@ -24,30 +23,10 @@ from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, ConfigError
 from sim2real.hardware.trace import TIMING, Trace, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
-from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import JointAngles, build_model
-from sim2real.simulation.reality import (
-    Reality,
-    apply_to_model,
-    latency_capacity_s,
-    load_reality,
-    needs_backlash_joints,
-    sample,
-)
+from sim2real.simulation.model_builder import JointAngles
+from sim2real.simulation.reality import Reality, load_reality, perturbed_model
 
 MAX_LAG_S = 0.5
-
-
-def _model(robot: RobotSpec, reality: Reality, suspended: bool) -> mujoco.MjModel:
-    """The robot's model, hung or standing, perturbed by ``reality``'s first draw (seed 0, as
-    the simulated bus draws it)."""
-    reality.check_batchable()
-    tick_s = control_timing(robot).tick_s
-    model = build_model(robot, latency_capacity_s(reality, tick_s), backlash=needs_backlash_joints(reality),
-                        suspended=suspended)
-    if not reality.is_nominal:
-        apply_to_model(model, copy.copy(model), sample(reality, np.zeros((1, 1)), model, 0, tick_s))
-    return model
 
 
 def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray, policy: Policy | None,
@@ -117,7 +96,9 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
     if controller_path is not None:
         policy = Policy(Controller.load(controller_path, robot), robot)
     suspended = trace.metadata.get("excitation", {}).get("pose") == "suspended"
-    sim, feet_sim = _simulate(robot, times, trace.goals(names), policy, _model(robot, profile, suspended))
+    profile.check_batchable()  # its simulation here steps the model only, as evolution's does
+    model, _ = perturbed_model(robot, profile, suspended=suspended)  # seed 0, as the simulated bus draws it
+    sim, feet_sim = _simulate(robot, times, trace.goals(names), policy, model)
     dt = float(np.median(np.diff(times))) if len(times) > 1 else 0.0
     joints = {}
     for j, name in enumerate(names):

@@ -25,6 +25,7 @@ from sim2real.robot import RobotSpec
 from sim2real.robot.validation import Node, load_yaml
 
 FAULT_KINDS = ("silent", "overload", "drop", "corrupt")
+END_OF_RUN = "end of run"  # a line to the simulated bus's standard input: the loop has ended
 
 
 def parse_faults(spec: str | None, robot: RobotSpec | None = None) -> list[tuple[str, int, float]]:
@@ -147,7 +148,7 @@ class SimulatedBusProcess:
         """Tell the simulated bus that the loop has ended: its ground truth is taken now,
         before the stop's ramp to rest and torque off."""
         try:
-            self.proc.stdin.write("end of run\n")
+            self.proc.stdin.write(END_OF_RUN + "\n")
             self.proc.stdin.flush()
         except (OSError, ValueError):  # it is gone: its report says so
             pass

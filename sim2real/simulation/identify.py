@@ -148,6 +148,7 @@ class Fit:
         self.spec = finished_spec(robot, backlash=True, suspended=True)
         self.model = self.spec.compile()
         self.nominal = copy.copy(self.model)
+        self.unperturbed = sample(NOMINAL, np.zeros((1, 1)), self.nominal, 0, 1.0)  # what each fitted value replaces
         self.angles = JointAngles.of(self.model, self.joints)
         self.dt = self.model.opt.timestep
         self.mapping = ServoMapping(robot)
@@ -192,7 +193,6 @@ class Fit:
     def perturbation(self, params) -> Perturbation:
         """The fitted values as a reality perturbation (one row), so that the model is
         perturbed exactly as evolution and the simulated bus perturb theirs."""
-        p = sample(NOMINAL, np.zeros((1, 1)), self.nominal, 0, 1.0)
         fields = {}
         for key, *_ in SERVO_PARAMETERS:
             column = np.zeros(len(self.joints))
@@ -200,7 +200,7 @@ class Fit:
                 column[members] = params[self.name(group, key)].value[0]
             fields["backlash_rad" if key == "backlash_deg" else key] = (
                 np.radians(column) if key == "backlash_deg" else column)[None]
-        return dataclasses.replace(p, **fields)
+        return dataclasses.replace(self.unperturbed, **fields)
 
     def build(self, params, spec=None) -> mujoco.MjModel:
         model = copy.copy(self.nominal)

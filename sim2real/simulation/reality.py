@@ -24,6 +24,7 @@ backlash (the width of each backlash joint's range, in a model built with them:
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,7 +35,9 @@ import numpy as np
 
 from sim2real.errors import ConfigError
 from sim2real.robot.validation import Node, load_yaml
-from sim2real.simulation.model_builder import CLOSED_PLAY_RAD, JointAngles
+from sim2real.robot import RobotSpec
+from sim2real.robot.timing import control_timing
+from sim2real.simulation.model_builder import CLOSED_PLAY_RAD, JointAngles, build_model
 
 # name -> (nominal value, meaning with unit)
 PERTURBATIONS: dict[str, tuple[float, str]] = {
@@ -373,6 +376,20 @@ def apply_to_model(model: mujoco.MjModel, nominal: mujoco.MjModel, p: Perturbati
     fields = {name: getattr(model, name)[None] for name in PERTURBED_FIELDS}
     apply(fields, nominal, p.rows(slice(0, 1)), slice(0, 1))
     mujoco.mj_setConst(model, mujoco.MjData(model))
+
+
+def perturbed_model(robot: RobotSpec, reality: Reality, seed: int = 0,
+                    suspended: bool = False) -> tuple[mujoco.MjModel, Perturbation]:
+    """One robot of ``reality``: its model (sized for its latency, with backlash joints if it
+    draws play; hung by the pelvis if ``suspended``) perturbed by the draw of key ``[seed]``,
+    and that draw (its noise levels act on readings).  The simulated bus and ``compare`` build
+    theirs here, so that the same profile and seed are the same robot in both."""
+    tick_s = control_timing(robot).tick_s
+    model = build_model(robot, latency_capacity_s(reality, tick_s), backlash=needs_backlash_joints(reality),
+                        suspended=suspended)
+    perturbation = sample(reality, np.array([[seed]]), model, 0, tick_s)
+    apply_to_model(model, copy.copy(model), perturbation)
+    return model, perturbation
 
 
 def centred(ranges: Reality, centre: Reality) -> Reality:

@@ -19,7 +19,6 @@ for ``biped excite``.
 
 from __future__ import annotations
 
-import copy
 import math
 import threading
 import time
@@ -34,17 +33,8 @@ from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
-from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import JointAngles, build_model
-from sim2real.simulation.reality import (
-    EFFECTS,
-    NOMINAL,
-    Reality,
-    apply_to_model,
-    latency_capacity_s,
-    needs_backlash_joints,
-    sample,
-)
+from sim2real.simulation.model_builder import JointAngles
+from sim2real.simulation.reality import EFFECTS, NOMINAL, Reality, perturbed_model
 
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
 FALL_HEIGHT = 0.7  # as in evolution: pelvis below 70 % of its start height
@@ -82,11 +72,7 @@ class PhysicsChain:
     def __init__(self, robot: RobotSpec, clock: Callable[[], float] = time.monotonic, overload_s: float = 2.0,
                  reality: Reality = NOMINAL, seed: int = 0, suspended: bool = False):
         self.robot, self.clock, self.overload_s = robot, clock, overload_s
-        tick_s = control_timing(robot).tick_s
-        history = latency_capacity_s(reality, tick_s)
-        self.model = build_model(robot, history, backlash=needs_backlash_joints(reality), suspended=suspended)
-        self.perturbation = sample(reality, np.array([[seed]]), self.model, 0, tick_s)
-        apply_to_model(self.model, copy.copy(self.model), self.perturbation)
+        self.model, self.perturbation = perturbed_model(robot, reality, seed, suspended)
         self.rng = np.random.default_rng(seed)
         self.data = mujoco.MjData(self.model)
         mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 from sim2real.cli.args import add_realtime_arguments, realtime_request
 from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import RobotSpec
-from sim2real.simulation.dry_run import parse_faults
+from sim2real.simulation.dry_run import END_OF_RUN, parse_faults
 
 if TYPE_CHECKING:
     from sim2real.simulation.simbus.physics import PhysicsChain
@@ -118,13 +118,10 @@ def arm_faults(spec: str | None, chain: "EmulatedChain", physics: "PhysicsChain"
 
 
 
-END_OF_RUN = b"end of run"  # a line on standard input: the parent's loop has ended (the ground truth to report)
-
-
 def _set_on_eof(done: threading.Event, physics: "PhysicsChain") -> None:
     try:
         while line := sys.stdin.buffer.readline():
-            if line.strip() == END_OF_RUN:
+            if line.decode(errors="replace").strip() == END_OF_RUN:
                 physics.mark_end_of_run()
     except (OSError, ValueError):
         pass
