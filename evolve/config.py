@@ -11,6 +11,7 @@
       reality: randomize      # ranges: a name from configs/reality/, a path, or a mapping
       episodes: 4             # randomized episodes per genome
       score: mean             # mean | worst of them
+      shared: false           # true: a generation's genomes all on the same drawn robots
       ramp_generations: 0     # ranges grow from nominal to full over this many generations
       start_generation: 0     # the nominal robot before this generation (the ramp starts here)
       validation:             # optional: choose the champion on fixed draws selection never sees
@@ -77,6 +78,9 @@ class RandomizeConfig:
     start_generation: int = 0  # the nominal robot before this generation; the ramp starts here
     validation: ValidationConfig = field(default_factory=ValidationConfig)
     centre: str | None = None  # a fixed reality file (e.g. `biped sysid`'s) the ranges are around
+    # Common random numbers: every genome of a generation meets the same ``episodes`` robots
+    # (new ones each generation), so selection compares genomes, not their luck of the draw.
+    shared: bool = False
 
     @property
     def active(self) -> bool:
@@ -108,6 +112,8 @@ class RandomizeConfig:
             out["validation"] = self.validation.to_dict()
         if self.centre is not None:
             out["centre"] = self.centre
+        if self.shared:
+            out["shared"] = True
         return out
 
 
@@ -115,7 +121,8 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     if doc is None:
         return RandomizeConfig()
     node = Node(doc, source, "randomize").mapping(optional=("reality", "episodes", "score", "ramp_generations",
-                                                            "start_generation", "validation", "centre"))
+                                                            "start_generation", "validation", "centre",
+                                                            "shared"))
     reality = node.value.get("reality", "nominal")
     if not isinstance(reality, (str, dict)):
         raise node["reality"].error(f"must be a reality name, path or mapping, got {reality!r}")
@@ -143,7 +150,8 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
             load_reality(centre)
         except FileNotFoundError as exc:
             raise node["centre"].error(str(exc)) from None
-    config = RandomizeConfig(reality, episodes, score, ramp, start, validation, centre)
+    shared = node["shared"].boolean() if node.has("shared") else False
+    config = RandomizeConfig(reality, episodes, score, ramp, start, validation, centre, shared)
     load_reality(config.profile)  # a centre of ranges, not fixed values, is refused here, by name
     return config
 

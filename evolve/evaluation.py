@@ -99,7 +99,7 @@ def repeated(e: Episodes, times: int) -> Episodes:
 
 def score_population(backend: Backend, genomes: list[Genome], *, steepness: float, harness: float,
                      stage: Stage | None, episodes: int, score: str, intensity: float,
-                     key: tuple[int, int, int]) -> Episodes:
+                     key: tuple[int, int, int], shared: bool = False) -> Episodes:
     """Every genome on ``episodes`` episodes; the outcome per genome.
 
     Per genome, fitness and the other measures are the ``score`` (mean or worst) of its
@@ -107,11 +107,12 @@ def score_population(backend: Backend, genomes: list[Genome], *, steepness: floa
     (score mean) or its worst episode's (score worst: the one of lowest fitness).
     ``intensity`` scales the randomization (0: none; then every episode of a genome would be
     the same simulation, so one is run and counted ``episodes`` times - the same numbers).
+    ``shared``: every genome's episode e is drawn from one key, so all meet the same robots.
     """
     n = len(genomes)
     runs = episodes if intensity > 0 else 1
     sims = [g for g in genomes for _ in range(runs)]
-    keys = np.array([[*key, i, e] for i in range(n) for e in range(runs)], dtype=np.int64)
+    keys = np.array([[*key, 0 if shared else i, e] for i in range(n) for e in range(runs)], dtype=np.int64)
     per_sim = backend.run(Job(sims, keys, steepness, harness, stage, intensity))
     if episodes == 1:
         return per_sim

@@ -219,7 +219,7 @@ class Run:
                 episodes["e"] = score_population(
                     self.backend, genomes, steepness=config.neat.sigmoid_steepness, harness=harness, stage=stage,
                     episodes=config.randomize.episodes, score=config.randomize.score, intensity=intensity,
-                    key=(config.seed, index, pop.generation))
+                    key=(config.seed, index, pop.generation), shared=config.randomize.shared)
                 return episodes["e"].selection
 
             stats = pop.evaluate(evaluate)

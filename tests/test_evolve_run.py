@@ -313,6 +313,25 @@ def test_nominal_episodes_are_simulated_once_and_counted_as_many_times():
     assert thrice.steps == once.steps  # not simulated three times
 
 
+def test_shared_draws_put_every_genome_of_a_generation_on_the_same_robots():
+    from evolve.evaluation import score_population
+    from evolve.locomotion.evaluator import neat_layout
+    from evolve.neat import NeatConfig, Population
+    from sim2real.controller.symmetry import symmetric_layout
+
+    robot = load_robot()
+    backend = LocalBackend(EvaluatorSpec("xl430_biped", {"episode_s": 1.0}, "randomize", 12, 1))
+    layout = neat_layout(symmetric_layout(robot, robot.control_sets["walk"]))
+    genome = Population(NeatConfig(population_size=2, target_species=1), layout, seed=3).genomes[0]
+    twins = [genome, genome.copy(genome.key + 1)]
+    options = dict(steepness=1.0, harness=0.0, stage=None, episodes=2, score="mean", intensity=1.0, key=(1, 0, 7))
+    own = score_population(backend, twins, **options)
+    shared = score_population(backend, twins, shared=True, **options)
+    assert own.distance_m[0] != own.distance_m[1]  # each twin on its own robots
+    assert shared.distance_m[0] == shared.distance_m[1]  # both on the same ones
+    assert shared.distance_m[0] == own.distance_m[0]  # genome 0's key is the shared one
+
+
 def test_with_validation_a_stage_ends_when_its_validated_champion_reaches_the_threshold(tmp_path):
     """The module filed and built on is the validated champion, so that is what must solve the
     stage (a generation's training score once ended a stage whose filed module had not)."""
