@@ -1,7 +1,7 @@
 """``biped``: the project's one command line, its subcommands from both packages.
 
-Subcommands of the deployment side (robot, view, render) come from
-:mod:`sim2real.cli.robot_commands`; the evolution side's (evolve, eval, export) from
+Subcommands of the deployment side (robot, view, render; run, dry-run, simbus, compare;
+excite, sysid; plot) come from :mod:`sim2real.cli`; the evolution side's (evolve, eval, export) from
 :mod:`evolve.cli_commands`, which also lets view and render replay a controller.
 """
 
@@ -16,7 +16,7 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
     os.environ.setdefault("MUJOCO_GL", "egl")
 
 from evolve import cli_commands, quickstart  # noqa: E402
-from sim2real.cli import deploy_commands, robot_commands, sysid_commands  # noqa: E402
+from sim2real.cli import deploy_commands, plot_commands, robot_commands, sysid_commands  # noqa: E402
 from sim2real.errors import BipedError  # noqa: E402
 
 
@@ -30,6 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     robot_commands.add_commands(sub, replay=cli_commands.REPLAY)  # robot, view, render
     deploy_commands.add_commands(sub)  # run, dry-run, simbus, compare
     sysid_commands.add_commands(sub)  # excite, sysid
+    plot_commands.add_commands(sub, replay=cli_commands.REPLAY)  # plot gait, plot network
     cli_commands.add_commands(sub)
     quickstart.add_command(sub)
     return parser

@@ -115,8 +115,26 @@ def cmd_view_controller(args: argparse.Namespace) -> int:
     return 0
 
 
-# ``biped view`` and ``biped render`` of a controller file (sim2real's commands call these)
-REPLAY = {"view": cmd_view_controller, "render": cmd_render_controller}
+def cmd_render_strip(args: argparse.Namespace) -> int:
+    from evolve.replay import strip
+    from sim2real.figures.strip import save_strip
+
+    rows, times, labels = strip(args.strip, args.frames, args.seconds, args.width, args.height)
+    save_strip(args.output, rows, times, labels)
+    print(f"wrote {args.output} ({len(rows)} walkers x {len(times)} moments, {times[-1]:.1f} s)")
+    return 0
+
+
+def plot_gait(path: Path, **options):
+    from evolve.replay import gait
+
+    return gait(path, **options)
+
+
+# ``biped view``/``render`` of a controller file, ``render --strip`` and ``plot gait`` of a
+# controller: replays, which sim2real's commands call through these
+REPLAY = {"view": cmd_view_controller, "render": cmd_render_controller, "strip": cmd_render_strip,
+          "gait": plot_gait}
 
 
 def resolve_config(name: str) -> Path:

@@ -18,6 +18,7 @@ from evolve.locomotion.task import TaskConfig
 from sim2real.controller.activation import check_disabled_modules
 from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError, UsageError
+from sim2real.figures.gait import Gait
 from sim2real.simulation.reality import NOMINAL, Reality, load_reality
 
 
@@ -134,6 +135,30 @@ def ablate_controller(path: Path | str, reality: str | Reality, episodes: int = 
     }
 
 
+def gait(path: Path | str, robot: str | None = None, seconds: float | None = None,
+         reality: str | Reality | None = None, seed: int = 0, disabled_modules: tuple[str, ...] = ()) -> Gait:
+    """One episode's joint angles and foot contacts, tick by tick, until the episode ends or
+    the robot falls (no stagnation stop), on the nominal robot or one of ``reality``."""
+    reality = load_reality(reality)
+    data, spec, evaluator, genome = _setup(path, robot, seconds, reality=reality, disabled_modules=disabled_modules,
+                                           stagnation_stop=False)
+    perturbation = None if reality.is_nominal else evaluator.sample(np.array([[seed, 0]]))
+    times, angles, feet = [], [], []
+
+    def record(ev: LocomotionEvaluator, alive: np.ndarray) -> None:
+        times.append(len(times) * ev.tick_s)
+        angles.append(ev.joint_angles(np.array([0]))[0])
+        feet.append(ev.sensordata[0, ev.touch_adr] > ev.touch_threshold)
+
+    result = evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=record,
+                                disabled_modules=disabled_modules, perturbation=perturbation)
+    fell = float(result.upright_s[0]) if result.fell[0] else None
+    where = "" if reality.is_nominal else f", {reality.name}"
+    title = (f"{Path(path).name} on {spec.name}{where}: {result.distance_m[0]:.2f} m in {times[-1]:.1f} s"
+             + (f", fell at {fell:.1f} s" if fell is not None else ""))
+    return Gait(np.array(times), spec.joint_names, np.array(angles), np.array(feet), fell, title)
+
+
 def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | None = None,
            seconds: float | None = None, every: int = 1,
            disabled_modules: tuple[str, ...] = ()) -> tuple[list[np.ndarray], float]:
@@ -160,3 +185,42 @@ def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | N
         evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=grab,
                            disabled_modules=disabled_modules)
     return images, evaluator.tick_s * every
+
+
+def strip(paths: list[Path | str], columns: int = 6, seconds: float | None = None, width: int = 320,
+          height: int = 400) -> tuple[list[list[np.ndarray]], np.ndarray, list[str]]:
+    """Seed 000's figure 1: each controller's replay filmed from its right side at ``columns``
+    moments evenly over ``seconds`` (default: the shortest episode), every row from the same
+    distance - that of the tallest robot - so that sizes compare.  Returns the frames by row
+    and column, the moments [s] and a label per row."""
+    import mujoco
+
+    from sim2real.simulation.rendering import open_renderer
+
+    setups = [_setup(p, None, seconds, keep_going=True) for p in paths]
+    tallest = max(spec.body.height for _, spec, _, _ in setups)
+    length = min(ev.episode_s for _, _, ev, _ in setups)
+    ticks = np.unique(np.round(np.linspace(0, length / setups[0][2].tick_s - 1, columns)).astype(int))
+    rows, labels = [], []
+    for path, (data, spec, evaluator, genome) in zip(paths, setups):
+        wanted = set(np.round(ticks * setups[0][2].tick_s / evaluator.tick_s).astype(int).tolist())
+        camera = mujoco.MjvCamera()
+        camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        camera.azimuth, camera.elevation, camera.distance = 90.0, -8.0, 2.2 * tallest
+        images, count = [], [0]
+        with open_renderer(evaluator.model, width, height) as renderer:
+            def grab(ev: LocomotionEvaluator, alive: np.ndarray) -> None:
+                if count[0] in wanted:
+                    d = ev.batch.get_data(0)
+                    mujoco.mj_forward(ev.model, d)
+                    camera.lookat[:] = (d.subtree_com[ev.pelvis][0], d.subtree_com[ev.pelvis][1], 0.5 * tallest)
+                    renderer.update_scene(d, camera=camera)
+                    images.append(renderer.render().copy())
+                count[0] += 1
+
+            evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=grab)
+        rows.append(images)
+        preset = spec.anthropometry.get("preset") if spec.anthropometry else None
+        labels.append(f"{Path(path).stem}\n{spec.name}" + (f":{preset}" if preset else "")
+                      + f", {spec.body.height:.2f} m")
+    return rows, ticks * setups[0][2].tick_s, labels

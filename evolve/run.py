@@ -178,7 +178,7 @@ class Run:
             run.best = Best(data["fitness"], data["distance_m"], data["upright_s"], data["generation"],
                             data["harness"], Genome.from_dict(data["genome"], population.layout),
                             data.get("validation"))
-        rows = _read_stats(out / "stats.csv")
+        rows = read_stats(out / "stats.csv")
         kept = [r for r in rows if int(r["generation"]) < run.generation_offset + population.generation]
         with open(out / "stats.csv", "w", newline="") as f:  # a run from before the term columns gets them
             writer = csv.writer(f)
@@ -372,7 +372,8 @@ def _fmt(value) -> str:
     return f"{value:.6g}" if isinstance(value, float) else str(value)
 
 
-def _read_stats(path: Path) -> list[dict]:
+def read_stats(path: Path) -> list[dict]:
+    """A run's stats.csv as one dict a generation (strings, as written); [] without one."""
     if not path.exists():
         return []
     with open(path, newline="") as f:
@@ -401,7 +402,7 @@ def plot_stats(stats_csv: Path, png: Path) -> bool:
         import matplotlib.pyplot as plt
     except ImportError:
         return False
-    rows = _read_stats(stats_csv)
+    rows = read_stats(stats_csv)
     if not rows:
         return False
     gen = [int(r["generation"]) for r in rows]

@@ -62,7 +62,8 @@ def test_bad_robot_config_is_a_clear_error_not_a_traceback(tmp_path):
     assert "Traceback" not in result.stderr
 
 
-@pytest.mark.parametrize("command", [[], ["robot"], ["robot", "show"], ["robot", "mjcf"], ["view"], ["render"]])
+@pytest.mark.parametrize("command", [[], ["robot"], ["robot", "show"], ["robot", "mjcf"], ["view"], ["render"],
+                                     ["plot"], ["plot", "gait"], ["plot", "network"]])
 def test_every_command_has_help(command):
     result = run_biped(*command, "--help")
     assert result.returncode == 0 and "usage: biped" in result.stdout

@@ -48,3 +48,25 @@ def test_tick_never_below_the_bus_cycle_at_a_slow_baud():
 
 def test_bus_cycle_at_1_mbps_is_about_3_ms():
     assert bus_cycle_s(load_robot()) == pytest.approx(2.9e-3, rel=0.05)
+
+
+def test_a_robot_config_sets_its_physics_step_and_the_model_takes_it(tmp_path):
+    import yaml
+
+    from sim2real.robot.paths import robots_dir
+    from sim2real.simulation.model_builder import build_model
+
+    doc = yaml.safe_load((robots_dir() / "human.yaml").read_text())
+    doc["physics_dt_s"] = 0.005
+    path = tmp_path / "human.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    robot = load_robot(f"{path}:male_50")
+    timing = control_timing(robot)
+    assert timing.physics_dt_s == 0.005 and timing.substeps == 14 and timing.tick_s == pytest.approx(0.07)
+    assert build_model(robot).opt.timestep == 0.005
+    doc["physics_dt_s"] = 0.5
+    path.write_text(yaml.safe_dump(doc))
+    from sim2real.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="physics_dt_s"):
+        load_robot(str(path))

@@ -90,8 +90,15 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
                         help="output file (default: robot.png, or walk.mp4 for a controller)")
     render.add_argument("--seconds", type=positive_finite_float,
                         help="replay length for a controller (default: its episode)")
-    render.add_argument("--width", type=positive_int, default=960, help="pixels (default 960, at most 1280)")
-    render.add_argument("--height", type=positive_int, default=720, help="pixels (default 720, at most 720)")
+    render.add_argument("--strip", nargs="+", type=Path, metavar="CONTROLLER",
+                        help="a picture of these controllers' replays side by side over time (seed 000's "
+                        "figure 1): one row each, filmed from the right at --frames moments, all from the "
+                        "same distance so that sizes compare (default output strip.png)")
+    render.add_argument("--frames", type=positive_int, default=6, help="moments of a --strip (default 6)")
+    render.add_argument("--width", type=positive_int, default=None,
+                        help="pixels (default 960, a --strip frame 320; at most 1280)")
+    render.add_argument("--height", type=positive_int, default=None,
+                        help="pixels (default 720, a --strip frame 400; at most 720)")
     render.add_argument("--settle", type=non_negative_finite_float, default=None,
                         help="simulated seconds to stand before the picture of a robot (default 1)")
     render.set_defaults(func=cmd_render, check=check_render, replay=replay or {})
@@ -248,7 +255,11 @@ def check_render(args: argparse.Namespace) -> None:
     """Flags that apply to the other kind of render, the output's kind and size, up front."""
     from sim2real.simulation.model_builder import OFFSCREEN_SIZE
 
-    if _is_controller(args.robot):
+    if args.strip:
+        _check_strip(args)
+    elif args.frames != 6:
+        raise UsageError("--frames applies to a --strip")
+    elif _is_controller(args.robot):
         if args.settle is not None:
             raise UsageError("--settle applies to a picture of a robot, not to a controller replay")
         args.output = args.output or Path("walk.mp4")
@@ -263,13 +274,32 @@ def check_render(args: argparse.Namespace) -> None:
         args.output = args.output or Path("robot.png")
         check_output_file(args.output, "-o/--output (a picture of a robot)", IMAGE_SUFFIXES)
         require_module("imageio", "writing a picture")
+    default_width, default_height = (320, 400) if args.strip else (960, 720)
+    args.width, args.height = args.width or default_width, args.height or default_height
     width, height = OFFSCREEN_SIZE
     if args.width > width or args.height > height:
         raise UsageError(f"--width {args.width} --height {args.height}: larger than the offscreen buffer "
                          f"({width} x {height})")
 
 
+def _check_strip(args: argparse.Namespace) -> None:
+    from sim2real.controller.file import Controller
+
+    if args.robot != DEFAULT_ROBOT:
+        raise UsageError(f"{args.robot}: with --strip, give every controller to --strip")
+    for flag, given in (("--settle", args.settle is not None), ("--disable-module", args.disable_module)):
+        if given:
+            raise UsageError(f"{flag} does not apply to a --strip")
+    for path in args.strip:
+        Controller.load(path)  # each one whole, before anything is filmed
+    args.output = args.output or Path("strip.png")
+    check_output_file(args.output, "-o/--output (a --strip is a picture)", IMAGE_SUFFIXES)
+    require_module("matplotlib", "a --strip")
+
+
 def cmd_render(args: argparse.Namespace) -> int:
+    if args.strip:
+        return _replay(args, "strip")
     if _is_controller(args.robot):
         return _replay(args, "render")
     from sim2real.simulation.rendering import render_image, save_image

@@ -35,7 +35,7 @@ from sim2real.robot.validation import Node, load_yaml
 _ROBOT_KEYS = dict(
     required=("name", "description", "body", "joints", "control_sets"),
     optional=(
-        "actuation", "servo_model", "bus", "sensor_board", "pd_gains", "control_tick_s",
+        "actuation", "servo_model", "bus", "sensor_board", "pd_gains", "control_tick_s", "physics_dt_s",
         "anthropometry", "proportions", "shape",
     ),
 )
@@ -125,6 +125,7 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         sensor_board=board,
         pd=pd,
         control_tick_s=root["control_tick_s"].number(positive=True) if root.has("control_tick_s") else None,
+        physics_dt_s=root["physics_dt_s"].number(0.0002, 0.02) if root.has("physics_dt_s") else None,
         anthropometry={k: v for k, v in measures.items() if k != "preset"},
     )
 

@@ -138,6 +138,7 @@ class RobotSpec:
     sensor_board: SensorBoard | None = None
     pd: PDGains | None = None  # set for seed 000's PD-actuated character, None for servos
     control_tick_s: float | None = None  # overrides the derived tick when set
+    physics_dt_s: float | None = None  # MuJoCo's timestep [s]; None: timing.PHYSICS_DT_S
     anthropometry: dict[str, float] = field(default_factory=dict)
 
     @property

@@ -20,7 +20,7 @@ from sim2real.robot import RobotSpec, load_robot
 
 HUMAN_TICK_S = 0.07  # seed 000 section 8: spinal reflex delay
 REFERENCE_HUMAN = "human:male_50"  # whose leg length the 0.07 s belongs to
-PHYSICS_DT_S = 0.002  # MuJoCo timestep [s]
+PHYSICS_DT_S = 0.002  # MuJoCo timestep [s], unless the robot config sets physics_dt_s
 BITS_PER_BYTE = 10  # start + 8 data + stop bits
 POSITION_BYTES = 4  # Present/Goal Position on protocol 2.0 servos
 SENSOR_BLOCK_BYTES = 8  # foot switches + up-vector on the sensor board
@@ -71,7 +71,8 @@ def human_leg_length_m() -> float:
     return load_robot(REFERENCE_HUMAN).body.leg_length
 
 
-def control_timing(robot: RobotSpec, physics_dt_s: float = PHYSICS_DT_S) -> ControlTiming:
+def control_timing(robot: RobotSpec, physics_dt_s: float | None = None) -> ControlTiming:
+    physics_dt_s = physics_dt_s or robot.physics_dt_s or PHYSICS_DT_S
     leg = robot.body.leg_length
     human_leg = human_leg_length_m()
     scaled = HUMAN_TICK_S * math.sqrt(leg / human_leg)

@@ -60,9 +60,12 @@ MIN_SECONDS = 2.0  # a trace shorter than this cannot show a servo's dynamics
 MIN_EXCITATION_DEG = 0.5  # a trace whose goals move less than this (peak to peak) excites nothing
 LEAD_S = 0.25  # each segment is replayed from this long before it (the robot at rest, holding)
 MIN_SEGMENT_ROWS = 10  # a segment cut shorter than this (a trace stopped early) is left out
-# finite-difference step of the Jacobian, in variables scaled by the Jacobian's columns: steps
-# of 1e-3 and below follow the kinks of friction, saturation and play and stalled the fit
-FD_STEP = 1e-2
+# finite-difference step of the Jacobian (mujoco.minimize: this times max(1, |x|)): a smaller
+# step follows the kinks of friction, saturation and play.  Measured on a simulated-clock trace
+# of plain_weak's robot: 1e-2 stalled at cost 38.3 (the truth's is 31.9, with a descent toward
+# it left), 3e-2 and 1e-1 went below the truth's (27.4, 27.2); on the real-time bus 1e-1 fitted
+# in 7 iterations what 1e-2 did in 30, closer to the truth (benchmarks/RESULTS.md, issue 15)
+FD_STEP = 1e-1
 UNIDENTIFIABLE_SHARE = 0.5  # a 95 % interval wider than this share of the bounds: not identifiable
 
 

@@ -1,0 +1,152 @@
+"""Seed 000's headline experiment on its own characters: humans of many sizes learn to walk.
+
+    python -m benchmarks.human_walk --out runs/human-walk --json
+    python -m benchmarks.human_walk --presets female_5 male_95 --seeds 1 2 --out runs/human-walk --hours 2 --json
+
+The paper's protocol (``configs/evolve/walk_human.yaml``: population 512, 30 species, the
+support harness for the first 100 generations, eq. 3, a 0.07 s tick) on each preset of the
+``human`` character, one run per preset and seed, at most ``--generations``.  After every
+generation without the harness the generation's champion is replayed without it; it
+**walked** when it stays upright for the whole 10 s episode and goes more than 2 m (seed
+000's criterion).  A run stops ``--after-walker`` generations after its first walker (so its
+best walker can improve a little) or at the generation limit; its best walker (farthest of
+those judged) then walks 60 s in simulation without a stagnation stop: seconds upright,
+distance before toppling, speed.
+
+Resumable: every run lives in ``--out/<preset>-seed<S>/`` (the evolution's run folder
+``run/``, ``state.json`` with the first and best walker, ``walker.json``, and
+``result.json`` once finished).  A call does what is left, finished runs are read back, and
+``--hours`` bounds a call's wall time (a run cut off continues from its checkpoint next
+time).  Wall minutes are the evolution's own, summed over calls.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from benchmarks.common import parser, progress, report
+from evolve.cli_commands import resolve_config
+from evolve.config import load_evolve_config
+from evolve.locomotion.evaluator import LocomotionEvaluator
+from evolve.replay import evaluate_controller
+from evolve.run import Run
+from sim2real.atomic_json import read_json, write_json_atomic
+
+PRESETS = ("female_5", "female_50", "female_95", "male_5", "male_50", "male_95",
+           "male_heavy_short", "female_heavy_short")
+WALKED_M = 2.0  # seed 000: upright for more than 2 m
+SUSTAINED_S = 60.0
+
+
+def run_folder(out: Path, preset: str, seed: int) -> Path:
+    return out / f"{preset}-seed{seed}"
+
+
+def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, generations: int, after_walker: int,
+                  threads: int, deadline: float, quiet: bool) -> bool:
+    """Evolve (or go on evolving) one run until it is finished or ``deadline`` (time.monotonic)
+    passes; True when finished."""
+    state_path = folder / "state.json"
+    state = read_json(state_path) if state_path.exists() else {"first_walker": None, "best_walker": None}
+    run_dir = folder / "run"
+    log = lambda line: progress(f"{preset} seed {seed}: {line}", quiet)  # noqa: E731
+    if (run_dir / "checkpoint.json.gz").exists():
+        run = Run.resume(run_dir, threads=threads, log=log)
+    else:
+        config = load_evolve_config(resolve_config(config_name)).replace(
+            robot=f"human:{preset}", seed=seed, generations=generations, threads=threads)
+        run = Run.create(config, run_dir, log=log)
+    task = run.config.task
+    judge = LocomotionEvaluator(run.robot, task, 1, threads=1)
+
+    def done(generation: int) -> bool:
+        first = state["first_walker"]
+        return generation + 1 >= generations or (first is not None and generation >= first["generation"] + after_walker)
+
+    def stop(run: Run, row: dict) -> bool:
+        generation = int(row["generation"])
+        if row["harness"] == 0:
+            result = judge.evaluate([run.champion.genome], run.config.neat.sigmoid_steepness, harness=0.0)
+            distance, upright = float(result.distance_m[0]), float(result.upright_s[0])
+            if upright >= judge.episode_s - 1e-9 and distance > WALKED_M:
+                walker = {"generation": generation, "minutes": run.wall_s / 60.0, "distance_m": distance}
+                if state["first_walker"] is None:
+                    state["first_walker"] = walker
+                    log(f"first walker at generation {generation}: {distance:.2f} m in {judge.episode_s:.1f} s")
+                if state["best_walker"] is None or distance > state["best_walker"]["distance_m"]:
+                    state["best_walker"] = walker
+                    run.controller(run.champion).save(folder / "walker.json")
+                write_json_atomic(state_path, state)
+        return done(generation) or time.monotonic() > deadline
+
+    last = run.population.generation - 1
+    if last >= 0 and done(last):
+        return True
+    run.evolve(stop=stop)
+    return done(run.population.generation - 1)
+
+
+def finish(preset: str, seed: int, folder: Path, quiet: bool) -> dict:
+    """The run's result: its first walker, and its best walker's 60 s walk."""
+    state = read_json(folder / "state.json") if (folder / "state.json").exists() else {"first_walker": None}
+    first = state["first_walker"]
+    controller = folder / "walker.json" if first else folder / "run" / "controller.json"
+    walk = evaluate_controller(controller, seconds=SUSTAINED_S, stagnation_stop=False)
+    stats = (folder / "run" / "stats.csv").read_text().splitlines()
+    result = {
+        "preset": preset, "seed": seed, "walked": first is not None,
+        "generation": first["generation"] if first else None,
+        "minutes": first["minutes"] if first else None,
+        "first_walker_m": first["distance_m"] if first else None,
+        "generations_run": len(stats) - 1,
+        "sustained_of": "best walker" if first else "best controller (no walker)",
+        "sustained_s": walk["upright_s"], "sustained_m": walk["distance_m"],
+        "speed_m_s": walk["distance_m"] / walk["upright_s"] if walk["upright_s"] > 0 else 0.0,
+        "fell": walk["fell"],
+    }
+    write_json_atomic(folder / "result.json", result)
+    progress(f"{preset} seed {seed}: walked {result['walked']} (generation {result['generation']}), "
+             f"60 s walk: {result['sustained_m']:.1f} m upright {result['sustained_s']:.1f} s", quiet)
+    return result
+
+
+def main(argv=None) -> None:
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--presets", nargs="+", default=list(PRESETS), help="human presets (default: all eight)")
+    p.add_argument("--seeds", nargs="+", type=int, default=[1])
+    p.add_argument("--out", type=Path, default=Path("runs/human-walk"), help="runs live here (resumable)")
+    p.add_argument("--config", default="walk_human")
+    p.add_argument("--generations", type=int, default=300, help="at most this many a run (default 300)")
+    p.add_argument("--after-walker", type=int, default=25,
+                   help="generations a run goes on after its first walker (default 25)")
+    p.add_argument("--threads", type=int, default=1, help="simulation threads a run (default 1)")
+    p.add_argument("--hours", type=float, default=1e6, help="wall-time budget of this call")
+    p.add_argument("--quiet", action="store_true")
+    args = p.parse_args(argv)
+    deadline = time.monotonic() + args.hours * 3600.0
+    runs, unfinished = [], []
+    for preset in args.presets:
+        for seed in args.seeds:
+            folder = run_folder(args.out, preset, seed)
+            if (folder / "result.json").exists():
+                runs.append(read_json(folder / "result.json"))
+                continue
+            if time.monotonic() > deadline:
+                unfinished.append(f"{preset}-seed{seed}")
+                continue
+            folder.mkdir(parents=True, exist_ok=True)
+            if evolve_preset(preset, seed, folder, config_name=args.config, generations=args.generations,
+                             after_walker=args.after_walker, threads=args.threads, deadline=deadline,
+                             quiet=args.quiet):
+                runs.append(finish(preset, seed, folder, args.quiet))
+            else:
+                unfinished.append(f"{preset}-seed{seed}")
+    walked = sum(r["walked"] for r in runs)
+    report({"runs": runs, "walked": walked, "rate": walked / len(runs) if runs else None,
+            "unfinished": unfinished, "generations": args.generations, "after_walker": args.after_walker,
+            "config": args.config}, args.json)
+
+
+if __name__ == "__main__":
+    main()
