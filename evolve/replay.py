@@ -30,6 +30,7 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
     task = TaskConfig.from_mapping(dict(data.task), str(path), "task.")
     changes = {"episode_s": float(seconds)} if seconds is not None else {}
     changes["phase_period_s"] = data.phase_period_s or 0.0  # the file's clock, whatever its task block says
+    changes["efference_copy"] = data.efference_copy  # and its inputs
     if keep_going:
         changes.update(fall_height=1e-6, fall_tilt_deg=180.0)
     if keep_going or not stagnation_stop:

@@ -675,3 +675,36 @@ def test_a_period_without_the_clock_inputs_is_refused(valid):
     data["phase_period_s"] = 0.6
     with pytest.raises(ConfigError, match=r"inputs: has 11 names where .*the clock \(phase_period_s\).* has 13"):
         Controller.from_dict(data, "clock.json")
+
+
+def _with_efference(valid: dict) -> dict:
+    data = copy.deepcopy(valid)
+    joints = data["inputs"][:data["inputs"].index("own_foot")]
+    data["inputs"] = data["inputs"] + [name + "_goal" for name in joints]
+    data["efference_copy"] = True
+    n_in, extra = len(valid["inputs"]), len(joints)
+    data["hidden"] = [[node + extra, module] for node, module in data["hidden"]]
+    data["connections"] = [[s + extra if s >= n_in else s, d + extra, w, m] for s, d, w, m in data["connections"]]
+    return data
+
+
+def test_a_controller_with_an_efference_copy_round_trips_and_fits_its_robot(valid, tmp_path):
+    data = _with_efference(valid)
+    jsonschema.validate(data, SCHEMA)
+    path = tmp_path / "efference.json"
+    Controller.from_dict(data).save(path)
+    loaded = Controller.load(path, ROBOT)
+    assert loaded.efference_copy and loaded.layout(ROBOT).efference
+    assert json.loads(path.read_text()) == data
+
+
+@pytest.mark.parametrize("mutate, expected", [
+    (lambda d: d.pop("efference_copy"), r"inputs: has 18 names where .*need efference_copy: true.* has 11"),
+    (lambda d: d.update(efference_copy="yes"), r"efference_copy: must be true or false, got 'yes'"),
+    (lambda d: d.update(inputs=d["inputs"][:-1]), r"inputs: has 17 names where .*the last goals \(efference_copy\)"),
+], ids=["goals-without-flag", "flag-not-a-boolean", "a-goal-missing"])
+def test_a_broken_efference_copy_is_refused_by_name(valid, mutate, expected):
+    data = _with_efference(valid)
+    mutate(data)
+    with pytest.raises(ConfigError, match=expected):
+        Controller.from_dict(data, "efference.json", ROBOT)

@@ -13,9 +13,9 @@ from sim2real.controller.symmetry import bias_values, symmetric_layout
 from sim2real.robot import load_robot
 
 
-def _grown_controller(seed=4, modules=("main",)):
+def _grown_controller(seed=4, modules=("main",), efference=False):
     robot = load_robot()
-    layout = symmetric_layout(robot, robot.control_sets["walk"])
+    layout = symmetric_layout(robot, robot.control_sets["walk"], efference=efference)
     config = NeatConfig(population_size=20, target_species=3, add_node_prob=0.4, add_link_prob=0.6,
                         sigmoid_steepness=2.5)
     pop = Population(config, neat_layout(layout), seed=seed, modules=modules)
@@ -23,7 +23,8 @@ def _grown_controller(seed=4, modules=("main",)):
     for _ in range(12):
         pop.step(lambda gs: rng.random(len(gs)))
     genome = max(pop.genomes, key=lambda g: len(g.conns))
-    return genome, controller_from_genome(genome, robot, layout, TaskConfig(), 2.5, {"seed": seed})
+    task = TaskConfig(efference_copy=efference)
+    return genome, controller_from_genome(genome, robot, layout, task, 2.5, {"seed": seed})
 
 
 def test_runtime_equals_evolution_activation_over_1000_ticks():
@@ -52,7 +53,8 @@ def test_switching_a_module_off_by_name():
         ControllerNetworks(controller, disabled_modules=["run"])
 
 
-def test_policy_fast_path_equals_the_evolution_wiring():
+@pytest.mark.parametrize("efference", [False, True], ids=["plain", "efference-copy"])
+def test_policy_fast_path_equals_the_evolution_wiring(efference):
     from sim2real.controller.mapping import (
         normalized_angle,
         output_to_angle,
@@ -61,9 +63,10 @@ def test_policy_fast_path_equals_the_evolution_wiring():
     from sim2real.controller.policy import Policy
     from sim2real.controller.symmetry import joint_outputs, network_inputs
 
-    genome, controller = _grown_controller(seed=6)
+    genome, controller = _grown_controller(seed=6, efference=efference)
     robot = load_robot()
     policy = Policy(controller, robot)
+    assert policy.layout.efference == efference
     reference = ControllerNetworks(controller)
     rng = np.random.default_rng(2)
     goal = ref_goal = policy.reset()
@@ -72,9 +75,10 @@ def test_policy_fast_path_equals_the_evolution_wiring():
         feet = rng.random(2) < 0.5
         up = rng.normal(size=3)
         up /= np.linalg.norm(up)
+        sent = normalized_angle(goal, policy.low, policy.high)[None] if efference else None
         goal = policy.step(angles, feet, up, goal)
         x = network_inputs(policy.layout, normalized_angle(angles, policy.low, policy.high)[None],
-                           np.where(feet, -1.0, 1.0)[None], up[None])
+                           np.where(feet, -1.0, 1.0)[None], up[None], goals=sent)
         out = joint_outputs(policy.layout, reference.activate(x), len(policy.low))[0]
         d = policy.driven
         ref_goal = ref_goal.copy()
@@ -134,3 +138,35 @@ def test_a_real_time_loop_that_skips_ticks_keeps_the_clock_on_the_wall():
     for clock, tick in zip(seen, (0, 5, 6)):
         right = phase_inputs(tick * controller.tick_s, controller.phase_period_s)
         assert np.array_equal(clock, [right, -right]), tick
+
+
+def test_an_efference_copy_feeds_back_the_last_goals_in_evolution_and_the_runtime_alike():
+    """Clock -> own knee, own knee's last goal -> own hip pitch: the hips follow the knees'
+    goals one tick late, tick for tick the same in the evaluator and the policy."""
+    from evolve.locomotion.evaluator import LocomotionEvaluator
+    from evolve.neat import Genome
+    from evolve.neat.genome import ConnectionGene
+    from sim2real.controller.policy import Policy
+
+    robot = load_robot()
+    task = TaskConfig(phase_period_s=0.6, efference_copy=True, episode_s=1.0)
+    layout = symmetric_layout(robot, robot.control_sets["walk"], phase=True, efference=True)
+    assert layout.input_names[-len(layout.driven):][:2] == ("own_hip_roll_goal", "own_hip_pitch_goal")
+    genome = Genome(0, neat_layout(layout))
+    out = layout.n_inputs + layout.n_bias
+    links = [("phase_sin", "own_knee", 4.0), ("own_knee_goal", "own_hip_pitch", 3.0)]
+    for k, (src, dst, weight) in enumerate(links):
+        genome.add_connection(ConnectionGene(k, layout.input_names.index(src), out + layout.output_names.index(dst),
+                                             weight, True, genome.active_module))
+    controller = Controller.from_dict(controller_from_genome(genome, robot, layout, task, 1.0, {}).to_dict())
+    assert controller.efference_copy and controller.inputs == layout.input_names
+    goals = []
+    LocomotionEvaluator(robot, task, 1, threads=1).evaluate(
+        [genome], 1.0, harness=1.0, on_tick=lambda ev, alive: goals.append(ev.ctrl[0].copy()))
+    policy = Policy(controller, robot)
+    goal = policy.reset()
+    hip = robot.joint_names.index("right_hip_pitch")
+    for k, simulated in enumerate(goals):
+        goal = policy.step(np.zeros(len(goal)), np.array([True, True]), np.array([0.0, 0.0, 1.0]), goal)
+        assert np.array_equal(goal[policy.driven], simulated[policy.driven]), k
+    assert np.ptp(np.array(goals)[:, hip]) > 0.1  # the feedback moved the hip

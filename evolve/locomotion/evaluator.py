@@ -89,7 +89,8 @@ class LocomotionEvaluator:
         self.model = model = build_model(robot, latency_capacity_s(reality, self.tick_s),
                                          backlash=needs_backlash_joints(reality))
         self.n_ticks = int(round(task.episode_s / self.tick_s))
-        self.layout = symmetric_layout(robot, robot.control_sets[task.control_set], task.phase_period_s > 0)
+        self.layout = symmetric_layout(robot, robot.control_sets[task.control_set], task.phase_period_s > 0,
+                                       task.efference_copy)
         names = [j.name for j in robot.joints]
         self.driven = np.array([names.index(n) for n in self.layout.driven], dtype=np.intp)
         self.low = np.array([j.range_rad[0] for j in robot.joints])
@@ -187,8 +188,13 @@ class LocomotionEvaluator:
             clock = None
             if task.phase_period_s > 0:  # every robot's clock reads the same: all started together
                 clock = np.broadcast_to(phase_inputs(t * tick, task.phase_period_s), (len(alive), 2))
+            sent = None
+            if task.efference_copy:  # the goals of last tick, every joint (undriven ones hold)
+                sent = np.broadcast_to(self.hold, (len(alive), len(self.hold))).copy()
+                sent[:, self.driven] = goal[alive]
+                sent = normalized_angle(sent, self.low, self.high)
             inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high), foot_inputs(touch), up,
-                                    clock)
+                                    clock, sent)
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
             goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)
             goal[alive] = goal_alive

@@ -15,7 +15,8 @@ from sim2real.robot import RobotSpec
 
 def controller_from_genome(genome: Genome, robot: RobotSpec, layout: SymmetricLayout, task: TaskConfig,
                            steepness: float, provenance: dict[str, Any]) -> Controller:
-    """The genome's expressed network (enabled genes, every module) as ``robot``'s controller."""
+    """The genome's expressed network (enabled genes, every module) as ``robot``'s controller
+    (with a clock and an efference copy as ``layout`` has them)."""
     nodes, conns = expressed(genome)
     module_of = {(g.src, g.dst): g.module for g in genome.conns.values() if g.enabled}
     return Controller.for_robot(

@@ -50,6 +50,7 @@ class TaskConfig:
     progress_coeff: float = 0.0  # selection tie-breaker: pelvis progress, per leg length
     selection_distance_cap: float = 0.0  # > 0: selection counts distance up to this many leg lengths
     phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (symmetry.PHASE_INPUTS)
+    efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (symmetry.GOAL_SUFFIX)
     harness_generations: int = 100  # generations with the support harness (0: never)
     harness_fade_generations: int = 50  # over its last this many generations it weakens to nothing
     harness_stiffness: float = 10.0  # harness spring: this many body weights per leg length [m g / L]

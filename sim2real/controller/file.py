@@ -54,6 +54,7 @@ from sim2real.controller.mapping import OUTPUT_RULE, hold_pose
 from sim2real.controller.symmetry import (
     BIAS,
     CENTER_OUTPUT,
+    GOAL_SUFFIX,
     PHASE_INPUTS,
     SENSOR_INPUTS,
     SIDES,
@@ -72,7 +73,7 @@ _FIELDS, _DEFS = SCHEMA["properties"], SCHEMA["$defs"]
 FORMAT: str = _FIELDS["format"]["const"]
 VERSION: int = _FIELDS["version"]["const"]
 REQUIRED: tuple[str, ...] = tuple(SCHEMA["required"])
-OPTIONAL: tuple[str, ...] = tuple(k for k in _FIELDS if k not in REQUIRED)  # phase_period_s
+OPTIONAL: tuple[str, ...] = tuple(k for k in _FIELDS if k not in REQUIRED)  # phase_period_s, efference_copy
 PHASE_RANGE_S = (float(_FIELDS["phase_period_s"]["minimum"]), float(_FIELDS["phase_period_s"]["maximum"]))
 MAX_WEIGHT = float(_FIELDS["connections"]["items"]["prefixItems"][2]["maximum"])  # NeatConfig clips to 20
 MAX_STEEPNESS = float(_FIELDS["sigmoid_steepness"]["maximum"])  # seed 000 uses 1, classic NEAT 4.9
@@ -197,7 +198,8 @@ class Controller:
     joints: JointMap
     task: Mapping[str, Any]  # the task it was evolved for (free-form)
     provenance: Mapping[str, Any]  # seed, generation, fitness, ... (free-form)
-    phase_period_s: float | None = None  # the gait clock's period [s]; None: no clock inputs
+    phase_period_s: float | None = None  # the gait clock's period [s]; None: no clock
+    efference_copy: bool = False  # the last goals are inputs too
 
     format: ClassVar[str] = FORMAT
     version: ClassVar[int] = VERSION
@@ -225,12 +227,14 @@ class Controller:
                             MappingProxyType(dict(joints["hold_rad"])) if "hold_rad" in joints else None,
                             joints.get("output_rule")),
             task=_frozen(data["task"]), provenance=_frozen(data["provenance"]),
-            phase_period_s=data.get("phase_period_s"),
+            phase_period_s=data.get("phase_period_s"), efference_copy=data.get("efference_copy", False),
         )
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON values of the file, keys in the format's order."""
         clock = {} if self.phase_period_s is None else {"phase_period_s": self.phase_period_s}
+        if self.efference_copy:
+            clock["efference_copy"] = True
         return {
             "format": self.format, "version": self.version,
             "robot": {"name": self.robot_name, "joint_map_hash": self.joint_map_hash},
@@ -261,6 +265,7 @@ class Controller:
                             MappingProxyType({j.name: float(hold[i]) for i, j in enumerate(robot.joints)
                                               if j.name not in layout.driven}), OUTPUT_RULE),
             task=_frozen(dict(task)), provenance=_frozen(dict(provenance)), phase_period_s=phase_period_s,
+            efference_copy=layout.efference,
         )
 
     # -- files ---------------------------------------------------------------------------------
@@ -290,8 +295,9 @@ class Controller:
         source = f"controller for {self.robot_name}"
         try:
             clock = self.phase_period_s is not None
-            wired = wired_layout(robot, s.right, s.left, s.center, s.center_mirror_for_left, clock)
-            rule = symmetric_layout(robot, self.joints.driven, clock)
+            wired = wired_layout(robot, s.right, s.left, s.center, s.center_mirror_for_left, clock,
+                                 self.efference_copy)
+            rule = symmetric_layout(robot, self.joints.driven, clock, self.efference_copy)
         except ValueError as exc:
             raise ConfigError(source, "symmetry", str(exc)) from None
         if wired != rule or (rule.input_names, rule.output_names) != (self.inputs, self.outputs):
@@ -480,6 +486,9 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
     clock = "phase_period_s" in data
     if clock:
         c.number(data["phase_period_s"], "phase_period_s", *PHASE_RANGE_S)
+    efference = data.get("efference_copy", False)
+    if not isinstance(efference, bool):
+        raise c.error("efference_copy", f"must be true or false, got {_show(efference)}")
     rob = c.obj(data["robot"], "robot", ("name", "joint_map_hash"))
     c.string(rob["name"], "robot.name")
     if not isinstance(rob["joint_map_hash"], str) or not re.fullmatch(r"[0-9a-f]{16}", rob["joint_map_hash"]):
@@ -497,7 +506,7 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
         for k, value in enumerate(row):
             c.number(value, f"bias[{s}][{k}]", *BIAS_RANGE)
     driven = _check_joints(c, data["joints"])
-    _check_symmetry(c, data["symmetry"], driven, inputs, outputs, clock)  # the interface first: it numbers the nodes
+    _check_symmetry(c, data["symmetry"], driven, inputs, outputs, clock, efference)  # the interface first: it numbers the nodes
     n_in, n_bias, n_out = len(inputs), len(bias[0]), len(outputs)
     n_modules = _check_modules(c, data["modules"])
     hidden = _check_hidden(c, data["hidden"], n_in + n_bias + n_out, n_modules)
@@ -600,10 +609,11 @@ def _check_joints(c: _Checker, joints: Any) -> list[str]:
 
 
 def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str], outputs: list[str],
-                    clock: bool) -> None:
+                    clock: bool, efference: bool) -> None:
     """The symmetry block against the driven joints, and the inputs and outputs it implies
-    (:func:`sim2real.controller.symmetry.symmetric_layout` names them so), the clock's last
-    when the file has a ``phase_period_s``."""
+    (:func:`sim2real.controller.symmetry.symmetric_layout` names them so), the clock's after
+    the sensors when the file has a ``phase_period_s``, the last goals last with an
+    ``efference_copy``."""
     c.obj(sym, "symmetry", ("networks", "leg_joints", "center_joints", "center_mirror_for_left"),
           ("center_output",))
     if sym["networks"] != NETWORKS:
@@ -635,10 +645,14 @@ def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str],
             raise c.error(f"outputs[{i}]", f"{_show(name)}: the first {k} outputs are the own leg's (own_...)")
     why = f"the symmetry block ({k} leg joints, centre joints {_show(center)})"
     c.same_names("outputs", outputs, own + center, why)
+    angles = own + ["other_" + n[4:] for n in own] + center
     sensors = list(SENSOR_INPUTS) + (list(PHASE_INPUTS) if clock else [])
-    c.same_names("inputs", inputs, own + ["other_" + n[4:] for n in own] + center + sensors,
-                 why[:-1] + (", then 4 sensors and the clock (phase_period_s))" if clock
-                             else ", then 4 sensors; a clock's inputs need a phase_period_s)"))
+    goals = [n + GOAL_SUFFIX for n in angles] if efference else []
+    c.same_names("inputs", inputs, angles + sensors + goals,
+                 why[:-1] + (", then 4 sensors and the clock (phase_period_s)" if clock
+                             else ", then 4 sensors; a clock's inputs need a phase_period_s")
+                 + (", then the last goals (efference_copy))" if efference
+                    else "; the last goals as inputs need efference_copy: true)"))
 
 
 def _difference(what: str, extra: list[str], lacking: list[str]) -> str:
@@ -663,7 +677,7 @@ def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
                                                        "(task.control_set)", sorted(set(driven) - members),
                                                        sorted(members - set(driven))))
     try:
-        layout = symmetric_layout(robot, tuple(driven), "phase_period_s" in data)
+        layout = symmetric_layout(robot, tuple(driven), "phase_period_s" in data, data.get("efference_copy", False))
     except (ValueError, KeyError) as exc:
         raise c.error("joints.driven", str(exc)) from None
     why = f"robot {robot.name} driving {_show(list(layout.driven))}"

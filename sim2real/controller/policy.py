@@ -52,9 +52,11 @@ class Policy:
         numbers as :func:`network_inputs` (its test oracle), in two numpy calls."""
         n = len(self.low)
         clock = 2 if self.layout.phase else 0
-        probe = np.arange(n + 5 + clock, dtype=float) + 1.0  # distinct values reveal the wiring
+        goals = n if self.layout.efference else 0
+        probe = np.arange(n + 5 + clock + goals, dtype=float) + 1.0  # distinct values reveal the wiring
         rows = network_inputs(self.layout, probe[None, :n], probe[None, n:n + 2], probe[None, n + 2:n + 5],
-                              probe[None, n + 5:] if clock else None)
+                              probe[None, n + 5:n + 5 + clock] if clock else None,
+                              probe[None, n + 5 + clock:] if goals else None)
         index = np.abs(rows).astype(np.intp) - 1
         sign = np.sign(rows)
         return index, sign
@@ -87,6 +89,8 @@ class Policy:
         parts = [normalized_angle(angles, self.low, self.high), foot_inputs(feet_touching), up]
         if self.phase_period_s is not None:
             parts.append(phase_inputs(tick * self.tick_s, self.phase_period_s))
+        if self.layout.efference:
+            parts.append(normalized_angle(previous_goal, self.low, self.high))
         readings = np.concatenate(parts)
         out = self.networks.activate(readings[self._gather] * self._sign).reshape(-1)
         wanted = output_to_angle(0.5 * (out[self._first] + out[self._second]), self._d_low, self._d_high)

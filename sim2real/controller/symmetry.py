@@ -15,6 +15,10 @@ Each network reads its side's view of the robot and drives its side's joints:
   ``2 pi t / period``, the left network's half a period later (both negated), so that one
   genome's two networks step in antiphase.  A recurrent network then need not find its own
   oscillator: the rhythm is the clock's, whatever the body, and evolution tunes the feedback.
+* optionally an efference copy (:data:`GOAL_SUFFIX`): the goals sent last tick, own leg,
+  other leg and centre as the joint angles are (normalized, mirrored alike), after the clock
+  - so that a network can tell what it asked for from what the servos did (Open Duck Mini
+  feeds its last actions back the same way).
 * two bias nodes (:data:`BIAS`): +1, and +1 on the right, -1 on the left.
 * outputs: its own leg's driven joints, then the centre joints; a centre joint gets the
   mean of the two networks' outputs (activations, as the paper says).
@@ -36,7 +40,8 @@ SIDES = ("right", "left")
 BIAS = ((1.0, 1.0), (1.0, -1.0))  # the bias nodes of the (right, left) network: +1, and the side
 CENTER_OUTPUT = "mean of both networks"  # what a centre joint gets
 SENSOR_INPUTS = ("own_foot", "other_foot", "up_forward", "up_sideways")  # after the joint angles
-PHASE_INPUTS = ("phase_sin", "phase_cos")  # last, with a clock
+PHASE_INPUTS = ("phase_sin", "phase_cos")  # after the sensors, with a clock
+GOAL_SUFFIX = "_goal"  # an efference copy's input: a joint input's name and this, last
 
 
 def phase_inputs(t_s: np.ndarray | float, period_s: float) -> np.ndarray:
@@ -55,7 +60,8 @@ class SymmetricLayout:
     center_mirror: np.ndarray  # -1 where the left network sees the joint mirrored (yaw, roll)
     input_names: tuple[str, ...]
     output_names: tuple[str, ...]
-    phase: bool = False  # the clock's inputs come last
+    phase: bool = False  # the clock's inputs come after the sensors
+    efference: bool = False  # the last goals come last
 
     n_bias = len(BIAS[0])
 
@@ -75,16 +81,18 @@ class SymmetricLayout:
         if not isinstance(other, SymmetricLayout):
             return NotImplemented
         return (self.driven == other.driven and self.leg_slots == other.leg_slots and self.phase == other.phase
+                and self.efference == other.efference
                 and self.input_names == other.input_names and self.output_names == other.output_names
                 and all(np.array_equal(self.leg_index[s], other.leg_index[s]) for s in SIDES)
                 and np.array_equal(self.center_index, other.center_index)
                 and np.array_equal(self.center_mirror, other.center_mirror))
 
 
-def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...], phase: bool = False) -> SymmetricLayout:
+def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...], phase: bool = False,
+                     efference: bool = False) -> SymmetricLayout:
     """The wiring the rule gives for ``driven`` joints: leg slots in robot order, both sides
     of each; centre joints in robot order, yaw and roll mirrored for the left network; with
-    ``phase``, the clock's inputs last."""
+    ``phase``, the clock's inputs after the sensors; with ``efference``, the last goals last."""
     joints = {j.name: j for j in robot.joints}
     unknown = [n for n in driven if n not in joints]
     if unknown:
@@ -107,11 +115,11 @@ def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...], phase: bool = Fa
         legs[side] = tuple(names)
     centers = tuple(n for n in sorted(driven, key=order.get) if joints[n].side == "center")
     mirror = tuple(-1.0 if joints[n].axis in ("yaw", "roll") else 1.0 for n in centers)
-    return wired_layout(robot, legs["right"], legs["left"], centers, mirror, phase)
+    return wired_layout(robot, legs["right"], legs["left"], centers, mirror, phase, efference)
 
 
 def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...], center: tuple[str, ...],
-                 center_mirror: tuple[float, ...], phase: bool = False) -> SymmetricLayout:
+                 center_mirror: tuple[float, ...], phase: bool = False, efference: bool = False) -> SymmetricLayout:
     """The layout of given wiring - a controller file's symmetry block: each side's leg
     joints slot by slot, the centre joints and their mirror signs for the left network."""
     order = {j.name: i for i, j in enumerate(robot.joints)}
@@ -120,9 +128,12 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
         raise ValueError(f"joints not on robot {robot.name}: {unknown}")
     slots = tuple((robot.joints[order[n]].location, robot.joints[order[n]].axis) for n in right)
     slot_names = [f"{loc}_{axis}" if loc != "knee" else "knee" for loc, axis in slots]
-    inputs = [f"own_{s}" for s in slot_names] + [f"other_{s}" for s in slot_names] + list(center) + list(SENSOR_INPUTS)
+    angles = [f"own_{s}" for s in slot_names] + [f"other_{s}" for s in slot_names] + list(center)
+    inputs = angles + list(SENSOR_INPUTS)
     if phase:
         inputs += PHASE_INPUTS
+    if efference:
+        inputs += [name + GOAL_SUFFIX for name in angles]
     outputs = [f"own_{s}" for s in slot_names] + list(center)
     return SymmetricLayout(
         driven=tuple(sorted((*right, *left, *center), key=order.get)),
@@ -134,6 +145,7 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
         input_names=tuple(inputs),
         output_names=tuple(outputs),
         phase=phase,
+        efference=efference,
     )
 
 
@@ -143,7 +155,7 @@ def foot_inputs(touching: np.ndarray) -> np.ndarray:
 
 
 def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray,
-                   up: np.ndarray, phase: np.ndarray | None = None) -> np.ndarray:
+                   up: np.ndarray, phase: np.ndarray | None = None, goals: np.ndarray | None = None) -> np.ndarray:
     """Inputs of both networks of every robot.
 
     Args:
@@ -151,6 +163,8 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
       feet: (n, 2) foot contacts, columns (left, right): -1 touching, +1 not.
       up: (n, 3) world up in the torso frame (an IMU's normalized gravity, negated).
       phase: (n, 2) the right network's clock (:func:`phase_inputs`), if the layout has one.
+      goals: (n, n_joints) the goals sent last tick, normalized as ``joints``, if the layout
+        has an efference copy.
 
     Returns:
       (2 n, n_inputs), rows interleaved right, left.
@@ -158,20 +172,20 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
     if layout.phase != (phase is not None):
         raise ValueError("clock inputs given to a layout without a clock" if phase is not None
                          else "this layout has clock inputs: give the phase")
+    if layout.efference != (goals is not None):
+        raise ValueError("goals given to a layout without an efference copy" if goals is not None
+                         else "this layout has an efference copy: give the last goals")
     n = joints.shape[0]
-    right_leg, left_leg = joints[:, layout.leg_index["right"]], joints[:, layout.leg_index["left"]]
-    center = joints[:, layout.center_index]
     out = np.empty((n, 2, len(layout.input_names)))
     k = layout.n_leg
     m = 2 * k + len(layout.center_index)  # where the sensors start
-    for s, (own, other, mirror, own_foot, other_foot, side_sign) in enumerate((
-        (right_leg, left_leg, 1.0, feet[:, 1], feet[:, 0], 1.0),
-        (left_leg, right_leg, layout.center_mirror, feet[:, 0], feet[:, 1], -1.0),
-    )):
+    last = m + len(SENSOR_INPUTS) + (len(PHASE_INPUTS) if phase is not None else 0)  # where the goals start
+    for s, (own_foot, other_foot, side_sign) in enumerate(((feet[:, 1], feet[:, 0], 1.0),
+                                                           (feet[:, 0], feet[:, 1], -1.0))):
         row = out[:, s]
-        row[:, :k] = own
-        row[:, k:2 * k] = other
-        row[:, 2 * k:m] = center * mirror
+        row[:, :m] = _angle_inputs(layout, joints, s)
+        if goals is not None:
+            row[:, last:] = _angle_inputs(layout, goals, s)
         row[:, m] = own_foot
         row[:, m + 1] = other_foot
         row[:, m + 2] = -up[:, 0]  # leaning forward is positive
@@ -181,6 +195,14 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
         if phase is not None:
             row[:, m + 4:m + 6] = phase * side_sign  # the left network half a period later
     return out.reshape(2 * n, -1)
+
+
+def _angle_inputs(layout: SymmetricLayout, angles: np.ndarray, side: int) -> np.ndarray:
+    """(n, 2 k + centre) the inputs of network ``side`` (0 right, 1 left) read from joint
+    values in robot order: own leg, other leg, centre (mirrored for the left network)."""
+    own, other = (layout.leg_index["right"], layout.leg_index["left"])[::1 if side == 0 else -1]
+    mirror = 1.0 if side == 0 else layout.center_mirror
+    return np.concatenate([angles[:, own], angles[:, other], angles[:, layout.center_index] * mirror], axis=1)
 
 
 def bias_values(n_genomes: int) -> np.ndarray:
