@@ -637,14 +637,18 @@ def test_damaged_bytes_give_a_config_error_or_a_controller(cut, flips, insert, v
         assert "\n" not in str(exc)
 
 
-def _with_clock(valid: dict, period_s=0.6) -> dict:
-    data = copy.deepcopy(valid)
-    data["inputs"] = data["inputs"] + ["phase_sin", "phase_cos"]
-    data["phase_period_s"] = period_s
-    n_in = len(valid["inputs"])  # node ids past the inputs move up by the clock's two
-    data["hidden"] = [[node + 2, module] for node, module in data["hidden"]]
-    data["connections"] = [[s + 2 if s >= n_in else s, d + 2, w, m] for s, d, w, m in data["connections"]]
+def _with_inputs(valid: dict, names: list[str], **fields) -> dict:
+    """``valid`` with more inputs at the end (node ids past the inputs move up) and ``fields``."""
+    data = {**copy.deepcopy(valid), **fields}
+    data["inputs"] = data["inputs"] + names
+    n_in, extra = len(valid["inputs"]), len(names)
+    data["hidden"] = [[node + extra, module] for node, module in data["hidden"]]
+    data["connections"] = [[s + extra if s >= n_in else s, d + extra, w, m] for s, d, w, m in data["connections"]]
     return data
+
+
+def _with_clock(valid: dict, period_s=0.6) -> dict:
+    return _with_inputs(valid, ["phase_sin", "phase_cos"], phase_period_s=period_s)
 
 
 def test_a_controller_with_a_clock_round_trips_and_fits_its_robot(valid, tmp_path):
@@ -678,14 +682,8 @@ def test_a_period_without_the_clock_inputs_is_refused(valid):
 
 
 def _with_efference(valid: dict) -> dict:
-    data = copy.deepcopy(valid)
-    joints = data["inputs"][:data["inputs"].index("own_foot")]
-    data["inputs"] = data["inputs"] + [name + "_goal" for name in joints]
-    data["efference_copy"] = True
-    n_in, extra = len(valid["inputs"]), len(joints)
-    data["hidden"] = [[node + extra, module] for node, module in data["hidden"]]
-    data["connections"] = [[s + extra if s >= n_in else s, d + extra, w, m] for s, d, w, m in data["connections"]]
-    return data
+    joints = valid["inputs"][:valid["inputs"].index("own_foot")]
+    return _with_inputs(valid, [name + "_goal" for name in joints], efference_copy=True)
 
 
 def test_a_controller_with_an_efference_copy_round_trips_and_fits_its_robot(valid, tmp_path):
