@@ -108,7 +108,9 @@ def check_traces(paths: Sequence[Path | str], robot: RobotSpec, warn: Callable[[
             warn(f"warning: {source}: not a `biped excite` trace; fitted as if the robot hung by its pelvis")
         elif pose != "suspended":
             raise ConfigError(source, "excitation.pose", f"{pose!r}: only traces of the hung robot "
-                              "(`biped excite --pose suspended`) can be fitted so far")
+                              "(`biped excite --pose suspended`) can be fitted: standing, the trunk's "
+                              "position and speed are not measured, so no replay can start where the "
+                              "robot was (use a standing trace with `biped compare`)")
         gaps = np.diff(trace.times)
         if gaps.max() > 5 * np.median(gaps):
             k = int(np.argmax(gaps))
