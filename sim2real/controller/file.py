@@ -232,13 +232,13 @@ class Controller:
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON values of the file, keys in the format's order."""
-        inputs = {} if self.phase_period_s is None else {"phase_period_s": self.phase_period_s}
+        input_keys = {} if self.phase_period_s is None else {"phase_period_s": self.phase_period_s}
         if self.efference_copy:
-            inputs["efference_copy"] = True
+            input_keys["efference_copy"] = True
         return {
             "format": self.format, "version": self.version,
             "robot": {"name": self.robot_name, "joint_map_hash": self.joint_map_hash},
-            "tick_s": self.tick_s, **inputs, "inputs": list(self.inputs), "outputs": list(self.outputs),
+            "tick_s": self.tick_s, **input_keys, "inputs": list(self.inputs), "outputs": list(self.outputs),
             "bias": _thawed(self.bias), "symmetry": self.symmetry.to_dict(),
             "sigmoid_steepness": self.sigmoid_steepness,
             "modules": [{"name": m, "enabled": True} for m in self.modules],
