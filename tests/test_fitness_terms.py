@@ -99,3 +99,20 @@ def test_a_selection_distance_cap_leaves_the_reported_fitness_alone(genomes):
     excess = np.maximum(b.terms["distance"] - 0.01, 0.0)
     assert excess.any()
     assert b.selection == pytest.approx(b.fitness - plain.distance_coeff * excess)
+
+
+def test_a_walk_bonus_counts_in_selection_for_the_episodes_that_walked():
+    from evolve.locomotion.export import genome_from_controller
+    from evolve.neat import Genome
+    from sim2real.controller.file import Controller
+    from sim2real.robot.paths import data_root
+
+    walker = Controller.load(data_root() / "configs" / "controllers" / "xl430_biped.json")
+    task = TaskConfig(episode_s=10.0, harness_generations=0, phase_period_s=walker.phase_period_s,
+                      selection_walk_bonus=5.0)
+    evaluator = LocomotionEvaluator(ROBOT, task, 2, threads=1)
+    stander = Genome(0, evaluator.neat_layout)  # no links: it holds its pose
+    e = evaluator.evaluate([genome_from_controller(walker), stander], 1.0, harness=0.0)
+    walked = e.walked(ROBOT.body.leg_length, evaluator.episode_s)
+    assert walked.tolist() == [True, False]
+    assert np.array_equal(e.selection - e.fitness, 5.0 * walked)  # eq. 3 itself as reported

@@ -13,6 +13,7 @@ thresholds for a 1.8 m human (20 cm, 50 cm) become shares of its 0.9 m leg.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Protocol
@@ -69,7 +70,9 @@ class WalkObjective:
     pelvis' best forward progress [leg lengths] (0 if unstable), a tie-breaker weighted by
     ``progress_coeff`` that selection sees and the reported fitness does not.  With the
     task's ``selection_distance_cap`` > 0, selection counts distance only up to that many leg
-    lengths, so that beyond a walk a faster gait gains nothing over a steadier one.
+    lengths, so that beyond a walk a faster gait gains nothing over a steadier one; with its
+    ``selection_walk_bonus`` > 0, selection adds that much for an episode that walked
+    (:meth:`Episodes.walked`), so that a steady walk beats a longer run that falls.
     """
 
     TERMS = ("distance", "time", "progress")
@@ -120,7 +123,11 @@ class WalkObjective:
         selection = fitness + task.progress_coeff * terms["progress"]
         if task.selection_distance_cap > 0:
             selection = selection - task.distance_coeff * np.maximum(terms["distance"] - task.selection_distance_cap, 0.0)
-        return Episodes(fitness, selection, self.distance, upright, self.fell, unstable, steps, terms)
+        episodes = Episodes(fitness, selection, self.distance, upright, self.fell, unstable, steps, terms)
+        if task.selection_walk_bonus > 0:
+            walked = episodes.walked(self.ev.leg, self.ev.episode_s)
+            episodes = dataclasses.replace(episodes, selection=selection + task.selection_walk_bonus * walked)
+        return episodes
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,7 @@ class TaskConfig:
     stagnation_s: float = 3.0  # no progress of epsilon leg lengths in this long ends a trial
     progress_coeff: float = 0.0  # selection tie-breaker: pelvis progress, per leg length
     selection_distance_cap: float = 0.0  # > 0: selection counts distance up to this many leg lengths
+    selection_walk_bonus: float = 0.0  # selection adds this for a walk (upright to the end, >= 2.2 leg lengths)
     phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (symmetry.PHASE_INPUTS)
     efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (symmetry.GOAL_SUFFIX)
     harness_generations: int = 100  # generations with the support harness (0: never)
