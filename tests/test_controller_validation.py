@@ -651,16 +651,6 @@ def _with_clock(valid: dict, period_s=0.6) -> dict:
     return _with_inputs(valid, ["phase_sin", "phase_cos"], phase_period_s=period_s)
 
 
-def test_a_controller_with_a_clock_round_trips_and_fits_its_robot(valid, tmp_path):
-    data = _with_clock(valid)
-    jsonschema.validate(data, SCHEMA)
-    path = tmp_path / "clock.json"
-    Controller.from_dict(data).save(path)
-    loaded = Controller.load(path, ROBOT)
-    assert loaded.phase_period_s == 0.6 and loaded.layout(ROBOT).phase
-    assert json.loads(path.read_text()) == data
-
-
 @pytest.mark.parametrize("mutate, expected", [
     (lambda d: d.pop("phase_period_s"), r"inputs: has 13 names where .*a clock.s inputs need a phase_period_s.* has 11"),
     (lambda d: d.update(phase_period_s=0.01), r"phase_period_s: must be within \[0.05, 10\], got 0.01"),
@@ -686,13 +676,16 @@ def _with_efference(valid: dict) -> dict:
     return _with_inputs(valid, [name + "_goal" for name in joints], efference_copy=True)
 
 
-def test_a_controller_with_an_efference_copy_round_trips_and_fits_its_robot(valid, tmp_path):
-    data = _with_efference(valid)
+@pytest.mark.parametrize("extend, has", [
+    (_with_clock, lambda c: c.phase_period_s == 0.6 and c.layout(ROBOT).phase),
+    (_with_efference, lambda c: c.efference_copy and c.layout(ROBOT).efference),
+], ids=["clock", "efference-copy"])
+def test_a_controller_with_more_inputs_round_trips_and_fits_its_robot(valid, tmp_path, extend, has):
+    data = extend(valid)
     jsonschema.validate(data, SCHEMA)
-    path = tmp_path / "efference.json"
+    path = tmp_path / "more.json"
     Controller.from_dict(data).save(path)
-    loaded = Controller.load(path, ROBOT)
-    assert loaded.efference_copy and loaded.layout(ROBOT).efference
+    assert has(Controller.load(path, ROBOT))
     assert json.loads(path.read_text()) == data
 
 
