@@ -92,19 +92,18 @@ def judge(run: dict[str, Any], bus_delay_ms: float) -> None:
                      "latency_ms": run["latency_ms_without_bus"] - t["latency_ms"]}
     e = run["errors"]
     halved = run["rmse_after_over_before_max"] <= 0.5
+    within_1deg = run["rmse_after_max_deg"] <= 1.0
+    servo = {"scales_within_10pct": all(abs(e[k]) <= REL_TOL for k in SCALES),
+             "backlash_within_0.1deg": abs(e["backlash_deg"]) <= BACKLASH_TOL_DEG}
     if run["profile"] == "nominal":
         # the reference: its latency is the bus's by definition, and the model "before" is this
         # very robot (only the bus's delay missing), so there is no error of the model to halve
-        run["goals"] = {"scales_within_10pct": all(abs(e[k]) <= REL_TOL for k in SCALES),
-                        "backlash_within_0.1deg": abs(e["backlash_deg"]) <= BACKLASH_TOL_DEG,
-                        "rmse_at_most_1deg": run["rmse_after_max_deg"] <= 1.0}
-        return
-    rmse_ok = halved and (run["rich"] or run["rmse_after_max_deg"] <= 1.0)
-    run["goals"] = {"rmse": rmse_ok} if run["rich"] else {
-        "scales_within_10pct": all(abs(e[k]) <= REL_TOL for k in SCALES),
-        "backlash_within_0.1deg": abs(e["backlash_deg"]) <= BACKLASH_TOL_DEG,
-        "latency_within_2ms": abs(e["latency_ms"]) <= LATENCY_TOL_MS,
-        "rmse": rmse_ok}
+        run["goals"] = {**servo, "rmse_at_most_1deg": within_1deg}
+    elif run["rich"]:
+        run["goals"] = {"rmse": halved}
+    else:
+        run["goals"] = {**servo, "latency_within_2ms": abs(e["latency_ms"]) <= LATENCY_TOL_MS,
+                        "rmse": halved and within_1deg}
 
 
 def loop(profile: str, identified: Path, folder: Path, minutes: float, quiet: bool, threads: int = 1) -> dict[str, Any]:

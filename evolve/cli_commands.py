@@ -125,7 +125,7 @@ def cmd_render_strip(args: argparse.Namespace) -> int:
     return 0
 
 
-def plot_gait(path: Path, **options):
+def replay_gait(path: Path, **options):
     from evolve.replay import gait
 
     return gait(path, **options)
@@ -134,7 +134,7 @@ def plot_gait(path: Path, **options):
 # ``biped view``/``render`` of a controller file, ``render --strip`` and ``plot gait`` of a
 # controller: replays, which sim2real's commands call through these
 REPLAY = {"view": cmd_view_controller, "render": cmd_render_controller, "strip": cmd_render_strip,
-          "gait": plot_gait}
+          "gait": replay_gait}
 
 
 def resolve_config(name: str) -> Path:

@@ -157,7 +157,7 @@ def gait(path: Path | str, robot: str | None = None, seconds: float | None = Non
     where = "" if reality.is_nominal else f", {reality.name}"
     title = (f"{Path(path).name} on {spec.name}{where}: {result.distance_m[0]:.2f} m in {times[-1]:.1f} s"
              + (f", fell at {fell:.1f} s" if fell is not None else ""))
-    return Gait(np.array(times), spec.joint_names, np.array(angles), np.array(feet), fell, title)
+    return Gait(spec, np.array(times), spec.joint_names, np.array(angles), np.array(feet), fell, title)
 
 
 def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | None = None,
@@ -201,10 +201,11 @@ def strip(paths: list[Path | str], columns: int = 6, seconds: float | None = Non
     setups = [_setup(p, None, seconds, keep_going=True) for p in paths]
     tallest = max(spec.body.height for _, spec, _, _ in setups)
     length = min(ev.episode_s for _, _, ev, _ in setups)
-    ticks = np.unique(np.round(np.linspace(0, length / setups[0][2].tick_s - 1, columns)).astype(int))
+    tick_s = setups[0][2].tick_s  # the moments in the first controller's ticks
+    ticks = np.unique(np.round(np.linspace(0, length / tick_s - 1, columns)).astype(int))
     rows, labels = [], []
     for path, (data, spec, evaluator, genome) in zip(paths, setups):
-        wanted = set(np.round(ticks * setups[0][2].tick_s / evaluator.tick_s).astype(int).tolist())
+        wanted = set(np.round(ticks * tick_s / evaluator.tick_s).astype(int).tolist())
         camera = mujoco.MjvCamera()
         camera.type = mujoco.mjtCamera.mjCAMERA_FREE
         camera.azimuth, camera.elevation, camera.distance = 90.0, -8.0, 2.2 * tallest
@@ -224,4 +225,4 @@ def strip(paths: list[Path | str], columns: int = 6, seconds: float | None = Non
         preset = spec.anthropometry.get("preset") if spec.anthropometry else None
         labels.append(f"{Path(path).stem}\n{spec.name}" + (f":{preset}" if preset else "")
                       + f", {spec.body.height:.2f} m")
-    return rows, ticks * setups[0][2].tick_s, labels
+    return rows, ticks * tick_s, labels

@@ -49,7 +49,8 @@ from evolve.neat import Genome, Population
 from evolve.stages import Stage, check_stage_joints
 from sim2real.atomic_json import read_json, write_json_atomic
 from sim2real.controller.file import Controller
-from sim2real.errors import UsageError
+from sim2real.errors import BipedError, UsageError
+from sim2real.figures import pyplot
 from sim2real.robot import load_robot
 from sim2real.robot.validation import load_yaml
 
@@ -396,11 +397,8 @@ def _progress_line(row: dict, done: int, generations: int, eta_s: float, stage: 
 def plot_stats(stats_csv: Path, png: Path) -> bool:
     """Best / mean fitness and best distance over generations; False without matplotlib."""
     try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
+        plt = pyplot()
+    except BipedError:  # no matplotlib
         return False
     rows = read_stats(stats_csv)
     if not rows:

@@ -92,7 +92,7 @@ def test_plot_gait_from_a_controller_and_from_a_trace_draws_the_same_joints(tmp_
     from sim2real.hardware.trace import Trace
 
     g = Gait.from_trace(Trace.read(trace), robot, "t")
-    assert [row["location"] for row in sagittal_joints(robot, g)] == ["hip", "knee", "ankle"]
+    assert [row["location"] for row in sagittal_joints(g)] == ["hip", "knee", "ankle"]
     assert g.feet.sum() == 30
 
 

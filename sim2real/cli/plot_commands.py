@@ -18,7 +18,6 @@ from sim2real.cli.args import (
     reality_name,
     require_module,
     robot_name,
-    seed,
 )
 from sim2real.errors import UsageError
 
@@ -87,10 +86,10 @@ def check_plot_gait(args: argparse.Namespace) -> None:
 
 def cmd_plot_gait(args: argparse.Namespace) -> int:
     from sim2real.figures.gait import Gait, plot_gait
-    from sim2real.robot import load_robot
 
     if args.trace is not None:
         from sim2real.hardware.trace import Trace
+        from sim2real.robot import load_robot
 
         trace = Trace.read(args.trace)
         name = args.robot or trace.metadata.get("robot")
@@ -101,16 +100,9 @@ def cmd_plot_gait(args: argparse.Namespace) -> int:
     else:
         gait = args.replay["gait"](args.controller, robot=args.robot, seconds=args.seconds, reality=args.reality,
                                    disabled_modules=tuple(args.disable_module))
-        robot = load_robot(args.robot or _controller_robot(args.controller))
-    plot_gait(gait, robot, args.output)
+    plot_gait(gait, args.output)
     print(f"wrote {args.output} ({gait.times_s[-1]:.1f} s{', fell' if gait.fell_s is not None else ''})")
     return 0
-
-
-def _controller_robot(path: Path) -> str:
-    from sim2real.controller.file import Controller
-
-    return Controller.load(path).robot_name
 
 
 # -- network -----------------------------------------------------------------------------------

@@ -94,7 +94,7 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
                         help="a picture of these controllers' replays side by side over time (seed 000's "
                         "figure 1): one row each, filmed from the right at --frames moments, all from the "
                         "same distance so that sizes compare (default output strip.png)")
-    render.add_argument("--frames", type=positive_int, default=6, help="moments of a --strip (default 6)")
+    render.add_argument("--frames", type=positive_int, help=f"moments of a --strip (default {STRIP_FRAMES})")
     render.add_argument("--width", type=positive_int, default=None,
                         help="pixels (default 960, a --strip frame 320; at most 1280)")
     render.add_argument("--height", type=positive_int, default=None,
@@ -243,6 +243,7 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
+STRIP_FRAMES = 6  # moments of a --strip, by default
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 
 
@@ -257,7 +258,7 @@ def check_render(args: argparse.Namespace) -> None:
 
     if args.strip:
         _check_strip(args)
-    elif args.frames != 6:
+    elif args.frames is not None:
         raise UsageError("--frames applies to a --strip")
     elif _is_controller(args.robot):
         if args.settle is not None:
@@ -293,6 +294,7 @@ def _check_strip(args: argparse.Namespace) -> None:
     for path in args.strip:
         Controller.load(path)  # each one whole, before anything is filmed
     args.output = args.output or Path("strip.png")
+    args.frames = args.frames or STRIP_FRAMES
     check_output_file(args.output, "-o/--output (a --strip is a picture)", IMAGE_SUFFIXES)
     require_module("matplotlib", "a --strip")
 

@@ -23,10 +23,11 @@ SIDE_COLOURS = {"left": "tab:blue", "right": "tab:red"}
 
 @dataclass(frozen=True)
 class Gait:
-    """Joint angles of one walk: ``times_s`` (n,) [s]; ``angles_rad`` (n, joints) [rad] in the
-    order of ``joints``; ``feet`` (n, 2) left, right touching, or None; ``fell_s`` when it
-    fell [s], or None; ``title`` what it is (a controller, a trace)."""
+    """Joint angles of one walk of ``robot``: ``times_s`` (n,) [s]; ``angles_rad`` (n, joints)
+    [rad] in the order of ``joints``; ``feet`` (n, 2) left, right touching, or None; ``fell_s``
+    when it fell [s], or None; ``title`` what it is (a controller, a trace)."""
 
+    robot: RobotSpec
     times_s: np.ndarray
     joints: tuple[str, ...]
     angles_rad: np.ndarray
@@ -41,31 +42,31 @@ class Gait:
         if not joints:
             raise ValueError(f"{title}: the trace has no joint angles of robot {robot.name}")
         feet = trace.feet if not trace.missing(["foot_left", "foot_right"]) else None
-        return cls(trace.times - trace.times[0], joints, trace.present(joints), feet, None, title)
+        return cls(robot, trace.times - trace.times[0], joints, trace.present(joints), feet, None, title)
 
     def angle(self, joint: str) -> np.ndarray:
         return self.angles_rad[:, self.joints.index(joint)]
 
 
-def sagittal_joints(robot: RobotSpec, gait: Gait) -> list[dict[str, str]]:
+def sagittal_joints(gait: Gait) -> list[dict[str, str]]:
     """Per sagittal location (hip, knee, ankle), the joint of each side that the gait has."""
     rows = []
     for location, axis in SAGITTAL:
-        row = {j.side: j.name for j in robot.joints
+        row = {j.side: j.name for j in gait.robot.joints
                if j.location == location and j.axis == axis and j.side in SIDE_COLOURS and j.name in gait.joints}
         if row:
             rows.append({"location": location, **row})
     return rows
 
 
-def plot_gait(gait: Gait, robot: RobotSpec, path: Path | str, dpi: int = 110) -> None:
+def plot_gait(gait: Gait, path: Path | str, dpi: int = 110) -> None:
     """Left: each sagittal joint's angle over time [deg], both legs, with the feet's contacts
     below.  Right: the hip-knee phase portrait of each leg (knee against hip), the first
     second in a lighter line (the start from standing)."""
     plt = pyplot()
-    rows = sagittal_joints(robot, gait)
+    rows = sagittal_joints(gait)
     if not rows:
-        raise ValueError(f"{gait.title}: robot {robot.name} has no hip, knee or ankle pitch joints to draw")
+        raise ValueError(f"{gait.title}: robot {gait.robot.name} has no hip, knee or ankle pitch joints to draw")
     n = len(rows) + (gait.feet is not None)
     fig = plt.figure(figsize=(11, 1.9 * n + 0.6), layout="constrained")
     grid = fig.add_gridspec(n, 2, width_ratios=(2.2, 1))

@@ -20,7 +20,7 @@ import numpy as np
 from sim2real.controller.file import Controller
 from sim2real.controller.mapping import ServoMapping, quantize
 from sim2real.controller.policy import Policy
-from sim2real.errors import BipedError, ConfigError
+from sim2real.errors import ConfigError
 from sim2real.hardware.trace import TIMING, Trace, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.simulation.model_builder import JointAngles
@@ -113,13 +113,9 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
 
 
 def plot(result: dict[str, Any], path: Path | str) -> None:
-    try:
-        import matplotlib
-    except ImportError as exc:
-        raise BipedError("plots need matplotlib: pip install 'servo-biped-evolve[plot]'") from exc
+    from sim2real.figures import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     series = result["_series"]
     names = series["names"]

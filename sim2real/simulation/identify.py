@@ -416,10 +416,9 @@ def plot_overlay(fit: Fit, before, after, residual_fn, path: Path, nominal_fn=No
     """Recorded and simulated angles of each excited group's segments, with the nominal
     (``before``, through ``nominal_fn`` if its parameters differ in layout) and the identified
     model, one row a segment (its first moving joint)."""
-    import matplotlib
+    from sim2real.figures import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     curves = {}
     for label, params, fn in (("nominal model", before, nominal_fn or residual_fn), ("identified", after, residual_fn)):
