@@ -14,6 +14,7 @@
       shared: false           # true: a generation's genomes all on the same drawn robots
       ramp_generations: 0     # ranges grow from nominal to full over this many generations
       start_generation: 0     # the nominal robot before this generation (the ramp starts here)
+      strength: 1.0           # where the ramp stops: 1 = the reality file's ranges (validation is always at 1)
       validation:             # optional: choose the champion on fixed draws selection never sees
         draws: 10             # robots drawn once from the full ranges
         every: 5              # generations between validations (once the harness is off)
@@ -76,6 +77,9 @@ class RandomizeConfig:
     score: str = "mean"  # mean | worst
     ramp_generations: int = 0  # ranges grow from nominal to full over this many generations
     start_generation: int = 0  # the nominal robot before this generation; the ramp starts here
+    # Where the ramp stops (0, 1]: training on ranges narrower than the test's.  Jakobi's point
+    # (realistic noise transfers, maximal noise does not), measured in benchmarks/RESULTS.md.
+    strength: float = 1.0
     validation: ValidationConfig = field(default_factory=ValidationConfig)
     centre: str | None = None  # a fixed reality file (e.g. `biped sysid`'s) the ranges are around
     # Common random numbers: every genome of a generation meets the same ``episodes`` robots
@@ -96,11 +100,11 @@ class RandomizeConfig:
     def intensity(self, generation: int) -> float:
         """Randomization strength at ``generation`` of a stage: 0 (nominal) before
         ``start_generation``, then growing linearly from 0 to 1 (the reality file's ranges)
-        over ``ramp_generations`` (at once without a ramp)."""
+        over ``ramp_generations`` (at once without a ramp), up to ``strength``."""
         since = generation - self.start_generation
         if since < 0:
             return 0.0
-        return 1.0 if self.ramp_generations <= 0 else min(1.0, since / self.ramp_generations)
+        return self.strength if self.ramp_generations <= 0 else min(self.strength, since / self.ramp_generations)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"reality": self.reality, "episodes": self.episodes, "score": self.score}
@@ -108,6 +112,8 @@ class RandomizeConfig:
             out["ramp_generations"] = self.ramp_generations
         if self.start_generation:
             out["start_generation"] = self.start_generation
+        if self.strength != 1.0:
+            out["strength"] = self.strength
         if self.validation.active:
             out["validation"] = self.validation.to_dict()
         if self.centre is not None:
@@ -122,7 +128,7 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
         return RandomizeConfig()
     node = Node(doc, source, "randomize").mapping(optional=("reality", "episodes", "score", "ramp_generations",
                                                             "start_generation", "validation", "centre",
-                                                            "shared"))
+                                                            "shared", "strength"))
     reality = node.value.get("reality", "nominal")
     if not isinstance(reality, (str, dict)):
         raise node["reality"].error(f"must be a reality name, path or mapping, got {reality!r}")
@@ -134,6 +140,7 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     score = node["score"].string(("mean", "worst")) if node.has("score") else "mean"
     ramp = node["ramp_generations"].integer(lo=0) if node.has("ramp_generations") else 0
     start = node["start_generation"].integer(lo=0) if node.has("start_generation") else 0
+    strength = node["strength"].number(hi=1.0, positive=True) if node.has("strength") else 1.0
     validation = ValidationConfig()
     if node.has("validation"):
         v = node["validation"].mapping(required=("draws",), optional=("every", "candidates"))
@@ -151,7 +158,8 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
         except FileNotFoundError as exc:
             raise node["centre"].error(str(exc)) from None
     shared = node["shared"].boolean() if node.has("shared") else False
-    config = RandomizeConfig(reality, episodes, score, ramp, start, validation, centre, shared)
+    config = RandomizeConfig(reality, episodes, score, ramp, start, strength=strength, validation=validation,
+                             centre=centre, shared=shared)
     load_reality(config.profile)  # a centre of ranges, not fixed values, is refused here, by name
     return config
 

@@ -153,7 +153,12 @@ def test_evolve_config_randomize_block_is_validated():
     assert [ramped.randomize.intensity(g) for g in (0, 10, 40, 90)] == [0.0, 0.25, 1.0, 1.0]
     assert parse_evolve_config(ramped.to_dict(), "e.yaml") == ramped
     assert config.randomize.intensity(0) == 1.0  # no ramp: full strength from the start
+    capped = parse_evolve_config({"randomize": {"reality": "randomize", "ramp_generations": 40, "strength": 0.5}},
+                                 "e.yaml")
+    assert [capped.randomize.intensity(g) for g in (0, 10, 20, 40, 90)] == [0.0, 0.25, 0.5, 0.5, 0.5]
+    assert parse_evolve_config(capped.to_dict(), "e.yaml") == capped
     for block, key in (({"reality": "nope"}, "randomize.reality"), ({"episodes": 0}, "randomize.episodes"),
+                       ({"strength": 0}, "randomize.strength"), ({"strength": 1.5}, "randomize.strength"),
                        ({"score": "median"}, "randomize.score"), ({"reality": {"kp_scale": -1}}, "kp_scale"),
                        ({"ramp_generations": -5}, "randomize.ramp_generations")):
         with pytest.raises(ConfigError) as err:
