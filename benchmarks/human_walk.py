@@ -43,8 +43,8 @@ def run_folder(out: Path, preset: str, seed: int) -> Path:
     return out / f"{preset}-seed{seed}"
 
 
-def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, generations: int, after_walker: int,
-                  threads: int, deadline: float, quiet: bool) -> bool:
+def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, robot: str, generations: int,
+                  after_walker: int, threads: int, deadline: float, quiet: bool) -> bool:
     """Evolve (or go on evolving) one run until it is finished or ``deadline`` (time.monotonic)
     passes; True when finished."""
     state_path = folder / "state.json"
@@ -55,7 +55,7 @@ def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, gen
         run = Run.resume(run_dir, threads=threads, log=log)
     else:
         config = load_evolve_config(resolve_config(config_name)).replace(
-            robot=f"human:{preset}", seed=seed, generations=generations, threads=threads)
+            robot=f"{robot}:{preset}", seed=seed, generations=generations, threads=threads)
         run = Run.create(config, run_dir, log=log)
     task = run.config.task
     judge = LocomotionEvaluator(run.robot, task, 1, threads=1)
@@ -117,6 +117,8 @@ def main(argv=None) -> None:
     p.add_argument("--seeds", nargs="+", type=int, default=[1])
     p.add_argument("--out", type=Path, default=Path("runs/human-walk"), help="runs live here (resumable)")
     p.add_argument("--config", default="walk_human")
+    p.add_argument("--robot", default="human", help="the human character's config, a name or a path (default: "
+                   "configs/robots/human.yaml); a variant body with the same presets")
     p.add_argument("--generations", type=int, default=300, help="at most this many a run (default 300)")
     p.add_argument("--after-walker", type=int, default=25,
                    help="generations a run goes on after its first walker (default 25)")
@@ -136,7 +138,8 @@ def main(argv=None) -> None:
                 unfinished.append(f"{preset}-seed{seed}")
                 continue
             folder.mkdir(parents=True, exist_ok=True)
-            if evolve_preset(preset, seed, folder, config_name=args.config, generations=args.generations,
+            if evolve_preset(preset, seed, folder, config_name=args.config, robot=args.robot,
+                             generations=args.generations,
                              after_walker=args.after_walker, threads=args.threads, deadline=deadline,
                              quiet=args.quiet):
                 runs.append(finish(preset, seed, folder, args.quiet))
@@ -145,7 +148,7 @@ def main(argv=None) -> None:
     walked = sum(r["walked"] for r in runs)
     report({"runs": runs, "walked": walked, "rate": walked / len(runs) if runs else None,
             "unfinished": unfinished, "generations": args.generations, "after_walker": args.after_walker,
-            "config": args.config}, args.json)
+            "config": args.config, "robot": args.robot}, args.json)
 
 
 if __name__ == "__main__":
