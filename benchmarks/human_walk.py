@@ -13,8 +13,8 @@ best walker can improve a little) or at the generation limit; its best walker (f
 those judged) then walks 60 s in simulation without a stagnation stop: seconds upright,
 distance before toppling, speed.
 
-Resumable: every run lives in ``--out/<preset>-seed<S>/`` (the evolution's run folder
-``run/``, ``state.json`` with the first and best walker, ``walker.json``, and
+Resumable: every run lives in ``--out/<preset>-seed<S>/`` (``<file>_<preset>-seed<S>/`` for a
+``--robot FILE``; the evolution's run folder ``run/``, ``state.json`` with the first and best walker, ``walker.json``, and
 ``result.json`` once finished).  A call does what is left, finished runs are read back, and
 ``--hours`` bounds a call's wall time (a run cut off continues from its checkpoint next
 time).  Wall minutes are the evolution's own, summed over calls.
@@ -39,8 +39,11 @@ WALKED_M = 2.0  # seed 000: upright for more than 2 m
 SUSTAINED_S = 60.0
 
 
-def run_folder(out: Path, preset: str, seed: int) -> Path:
-    return out / f"{preset}-seed{seed}"
+def run_folder(out: Path, preset: str, seed: int, robot: str = "human") -> Path:
+    """A run's folder; a variant body's runs are named after its file, so that they are never
+    read back as (or resumed from) the human's in the same ``--out``."""
+    body = "" if robot == "human" else f"{Path(robot).stem}_"
+    return out / f"{body}{preset}-seed{seed}"
 
 
 def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, robot: str, generations: int,
@@ -130,12 +133,12 @@ def main(argv=None) -> None:
     runs, unfinished = [], []
     for preset in args.presets:
         for seed in args.seeds:
-            folder = run_folder(args.out, preset, seed)
+            folder = run_folder(args.out, preset, seed, args.robot)
             if (folder / "result.json").exists():
                 runs.append(read_json(folder / "result.json"))
                 continue
             if time.monotonic() > deadline:
-                unfinished.append(f"{preset}-seed{seed}")
+                unfinished.append(folder.name)
                 continue
             folder.mkdir(parents=True, exist_ok=True)
             if evolve_preset(preset, seed, folder, config_name=args.config, robot=args.robot,
@@ -144,7 +147,7 @@ def main(argv=None) -> None:
                              quiet=args.quiet):
                 runs.append(finish(preset, seed, folder, args.quiet))
             else:
-                unfinished.append(f"{preset}-seed{seed}")
+                unfinished.append(folder.name)
     walked = sum(r["walked"] for r in runs)
     report({"runs": runs, "walked": walked, "rate": walked / len(runs) if runs else None,
             "unfinished": unfinished, "generations": args.generations, "after_walker": args.after_walker,

@@ -385,7 +385,7 @@ def _progress_line(row: dict, done: int, generations: int, eta_s: float, stage: 
                    intensity: float = 0.0) -> str:
     eta = time.strftime("%H:%M:%S", time.gmtime(eta_s)) if math.isfinite(eta_s) else "?"
     harness = f"harness {row['harness']:.2f} | " if row["harness"] else ""
-    if 0.0 < intensity < 1.0:  # a randomization ramp under way
+    if 0.0 < intensity < 1.0:  # narrower ranges: a ramp under way, or one stopped at randomize.strength
         harness += f"randomize x{intensity:.2f} | "
     where = f"{stage.name} " if stage else ""
     return (f"{where}gen {done:>4}/{generations} | best {row['best_fitness']:.3f} "
