@@ -15,9 +15,9 @@ distance before toppling, speed.
 
 Resumable: every run lives in ``--out/<preset>-seed<S>/`` (``<file>_<preset>-seed<S>/`` for a
 ``--robot FILE``; the evolution's run folder ``run/``, ``state.json`` with the first and best
-walker, ``walker.json``, and ``result.json`` once finished).  A call does what is left, finished runs are read back, and
-``--hours`` bounds a call's wall time (a run cut off continues from its checkpoint next
-time).  Wall minutes are the evolution's own, summed over calls.
+walker, ``walker.json``, and ``result.json`` once finished).  A call does what is left,
+finished runs are read back, and ``--hours`` bounds a call's wall time (a run cut off continues
+from its checkpoint next time).  Wall minutes are the evolution's own, summed over calls.
 """
 
 from __future__ import annotations
