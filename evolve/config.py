@@ -19,6 +19,8 @@
         draws: 10             # robots drawn once from the full ranges
         every: 5              # generations between validations (once the harness is off)
         candidates: 8         # that generation's best genomes by selection score
+        consistency: 0.8      # optional: a draw counts as walked only if the walk keeps this share
+                              # of the candidate's distance on the model (which it must walk too)
       centre: my_robot.yaml   # optional: the ranges around this robot (fixed values, e.g. from
                               # `biped sysid`) instead of the nominal model: scales multiply, the rest adds
     stages: [...]             # optional: a developmental hierarchy (evolve.stages)
@@ -57,6 +59,11 @@ class ValidationConfig:
     draws: int = 0  # 0: no validation
     every: int = 5  # generations between validations
     candidates: int = 8  # a validated generation's best genomes by selection score
+    # (0, 1]: a draw counts as walked only if the walk keeps this share of the distance the
+    # candidate walks on the model (the robot the ranges are around), which it must walk too -
+    # the transfer check's question (does the robot walk the way the model did?) on every
+    # validation robot.  0: off.
+    consistency: float = 0.0
 
     @property
     def active(self) -> bool:
@@ -67,7 +74,10 @@ class ValidationConfig:
         return self.active and ((generation + 1) % self.every == 0 or generation == last)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"draws": self.draws, "every": self.every, "candidates": self.candidates}
+        out = {"draws": self.draws, "every": self.every, "candidates": self.candidates}
+        if self.consistency:
+            out["consistency"] = self.consistency
+        return out
 
 
 @dataclass(frozen=True)
@@ -143,11 +153,12 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     strength = node["strength"].number(hi=1.0, positive=True) if node.has("strength") else 1.0
     validation = ValidationConfig()
     if node.has("validation"):
-        v = node["validation"].mapping(required=("draws",), optional=("every", "candidates"))
+        v = node["validation"].mapping(required=("draws",), optional=("every", "candidates", "consistency"))
         validation = ValidationConfig(
             draws=v["draws"].integer(lo=1),
             every=v["every"].integer(lo=1) if v.has("every") else ValidationConfig.every,
-            candidates=v["candidates"].integer(lo=1) if v.has("candidates") else ValidationConfig.candidates)
+            candidates=v["candidates"].integer(lo=1) if v.has("candidates") else ValidationConfig.candidates,
+            consistency=v["consistency"].number(hi=1.0, positive=True) if v.has("consistency") else 0.0)
         if reality == "nominal":
             raise v.error("validates on randomized draws: give randomize.reality (ranges to draw from)")
     centre = None

@@ -138,11 +138,17 @@ def score_population(backend: Backend, genomes: list[Genome], *, steepness: floa
 
 
 def validation_episodes(backend: Backend, genomes: list[Genome], *, steepness: float, stage: Stage | None,
-                        draws: int, seed: int, stage_index: int, capacity: int) -> Episodes:
+                        draws: int, seed: int, stage_index: int, capacity: int, on_model: bool = False) -> Episodes:
     """Every genome on the same ``draws`` robots, drawn at full strength from keys that no
-    training episode uses; per simulation, genome-major (genome i's draws at ``i * draws``)."""
+    training episode uses; per simulation, genome-major (genome i's draws at ``i * draws``).
+    ``on_model``: instead, one episode each on the model (intensity 0: the robot the ranges are
+    around), under keys of its own."""
+    if on_model:
+        draws = 1
     sims = [g for g in genomes for _ in range(draws)]
-    keys = np.array([[seed, stage_index, VALIDATION_GENERATION, 0, d] for _ in genomes for d in range(draws)],
-                    dtype=np.int64)
-    return concatenate([backend.run(Job(sims[lo:lo + capacity], keys[lo:lo + capacity], steepness, 0.0, stage, 1.0))
+    keys = np.array([[seed, stage_index, VALIDATION_GENERATION, int(on_model), d] for _ in genomes
+                     for d in range(draws)], dtype=np.int64)
+    intensity = 0.0 if on_model else 1.0
+    return concatenate([backend.run(Job(sims[lo:lo + capacity], keys[lo:lo + capacity], steepness, 0.0, stage,
+                                        intensity))
                         for lo in range(0, len(sims), capacity)])

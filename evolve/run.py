@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import functools
 import hashlib
 import math
 import shutil
@@ -274,18 +275,27 @@ class Run:
         v, pop = self.config.randomize.validation, self.population
         top = np.argsort(-selection, kind="stable")[:v.candidates]
         genomes = [pop.genomes[i] for i in top]
-        e = validation_episodes(self.backend, genomes, steepness=self.config.neat.sigmoid_steepness,
-                                stage=self.stage, draws=v.draws, seed=self.config.seed, stage_index=stage_index,
-                                capacity=self.capacity)
-        walked = e.walked(self.robot.body.leg_length, self.evaluator.episode_s).reshape(len(top), v.draws)
+        episodes = functools.partial(validation_episodes, self.backend, genomes,
+                                     steepness=self.config.neat.sigmoid_steepness, stage=self.stage, draws=v.draws,
+                                     seed=self.config.seed, stage_index=stage_index, capacity=self.capacity)
+        e = episodes()
+        leg, episode_s = self.robot.body.leg_length, self.evaluator.episode_s
+        walked = e.walked(leg, episode_s).reshape(len(top), v.draws)
+        if v.consistency:
+            model = episodes(on_model=True)
+            kept = e.distance_m.reshape(len(top), v.draws) >= v.consistency * model.distance_m[:, None]
+            walked &= kept & model.walked(leg, episode_s)[:, None]
         fitness = e.fitness.reshape(len(top), v.draws).mean(axis=1)
         j = int(np.lexsort((fitness, walked.sum(axis=1)))[-1])  # most walks, then mean fitness
         rows = slice(j * v.draws, (j + 1) * v.draws)
         i = int(top[j])
+        outcome = {"draws": v.draws, "walked": int(walked[j].sum()), "fitness": float(fitness[j]),
+                   "distance_m": float(e.distance_m[rows].mean())}
+        if v.consistency:
+            outcome["model_distance_m"] = float(model.distance_m[j])
         return Best(float(e.fitness[rows].mean()), float(e.distance_m[rows].mean()), float(e.upright_s[rows].mean()),
                     self.generation_offset + pop.generation, harness, pop.genomes[i].copy(pop.genomes[i].key),
-                    validation={"draws": v.draws, "walked": int(walked[j].sum()), "fitness": float(fitness[j]),
-                                "distance_m": float(e.distance_m[rows].mean())})
+                    validation=outcome)
 
     def _validation_row(self, validated: Best | None) -> dict:
         if not self.config.randomize.validation.active:

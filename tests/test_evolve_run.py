@@ -1,6 +1,7 @@
 """`biped evolve` end to end: a short run, its folder, resume, eval, export and video."""
 
 import csv
+import functools
 import json
 import subprocess
 import sys
@@ -257,6 +258,32 @@ def test_champions_are_chosen_on_validation_draws_selection_never_saw(tmp_path):
     # and validated champions are not replaced by a generation's lucky training score
     controller = Controller.load(tmp_path / "run" / "controller.json", load_robot())
     assert controller.provenance["validation"] == best["validation"]
+
+
+def test_with_consistency_a_draw_counts_only_if_it_keeps_the_share_of_the_walk_on_the_model(tmp_path):
+    from evolve.config import parse_evolve_config
+    from evolve.evaluation import validation_episodes
+    from evolve.run import Run
+
+    doc = {**VALIDATED, "randomize": {**VALIDATED["randomize"],
+                                      "validation": {**VALIDATED["randomize"]["validation"], "consistency": 0.5}}}
+    config = parse_evolve_config(doc, "consistent.yaml")
+    assert config.randomize.validation.to_dict()["consistency"] == 0.5
+    run = Run.create(config, tmp_path / "run", log=lambda line: None)
+    run.evolve()
+    best = json.loads((tmp_path / "run" / "best.json").read_text())["validation"]
+    episodes = functools.partial(validation_episodes, run.backend, [run.best.genome],
+                                 steepness=config.neat.sigmoid_steepness, stage=None, draws=3, seed=config.seed,
+                                 stage_index=0, capacity=run.capacity)
+    draws, model = episodes(), episodes(on_model=True)
+    assert model.distance_m.size == 1 and model.distance_m[0] == pytest.approx(best["model_distance_m"])
+    assert model.distance_m[0] != pytest.approx(draws.distance_m[0])  # the model is not one of the draws
+    leg, seconds = run.robot.body.leg_length, run.evaluator.episode_s
+    counted = draws.walked(leg, seconds) & (draws.distance_m >= 0.5 * model.distance_m[0]) & model.walked(leg, seconds)
+    assert best["walked"] == int(counted.sum())
+    doc["randomize"]["validation"]["consistency"] = 1.5
+    with pytest.raises(ConfigError, match="consistency.*<= 1"):
+        parse_evolve_config(doc, "bad.yaml")
 
 
 def test_validation_needs_ranges_to_draw_from(tmp_path):
