@@ -50,6 +50,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"biped: error: {message}", file=sys.stderr)
         return 2
     except ModuleNotFoundError as exc:
+        if _opengl_failed(exc):
+            return _opengl_error(exc)
         if exc.name != "mujoco":
             raise
         print(f"biped: error: biped {args.command} needs MuJoCo, which the robot's lean install leaves out: "
@@ -65,11 +67,33 @@ def main(argv: list[str] | None = None) -> int:
         print(f"biped: error: {exc}", file=sys.stderr)
         return 1
     except Exception as exc:  # a bug: still one line, unless asked for the traceback
+        if _opengl_failed(exc):
+            return _opengl_error(exc)
         if os.environ.get("BIPED_TRACEBACK"):
             raise
         print(f"biped: error: unexpected {type(exc).__name__}: {exc} "
               "(a bug; BIPED_TRACEBACK=1 shows where)", file=sys.stderr)
         return 1
+
+
+def _opengl_failed(exc: BaseException) -> bool:
+    """Whether ``exc`` came from MuJoCo loading the OpenGL backend MUJOCO_GL names: it does that
+    on ``import mujoco``, so a missing library surfaces as whatever PyOpenGL raises."""
+    if "MUJOCO_GL" in str(exc):  # mujoco's own check of the variable's value
+        return True
+    tb = exc.__traceback__
+    while tb is not None:
+        if any(f"mujoco{os.sep}{gl}" in tb.tb_frame.f_code.co_filename for gl in ("egl", "osmesa", "glfw")):
+            return True
+        tb = tb.tb_next
+    return False
+
+
+def _opengl_error(exc: BaseException) -> int:
+    print(f"biped: error: MuJoCo could not load its OpenGL backend MUJOCO_GL={os.environ.get('MUJOCO_GL')} "
+          f"({type(exc).__name__}: {exc}). Install it (Debian: libegl1 libgl1-mesa-dri for egl, libosmesa6 for "
+          "osmesa) or choose another with MUJOCO_GL", file=sys.stderr)
+    return 2
 
 
 if __name__ == "__main__":

@@ -320,3 +320,17 @@ def test_a_dry_run_that_ended_as_asked_exits_0(controller, monkeypatch, capsys):
                         lambda *a, **k: {**failed_dry_run(), "stop_reason": "duration reached"})
     result = biped(["dry-run", controller, "--duration", "1"], capsys)
     assert (result.code, result.err) == (0, "")
+
+
+def test_an_opengl_backend_mujoco_cannot_load_is_one_line_naming_the_variable(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "MUJOCO_GL": "no-such-backend"}
+    done = subprocess.run([sys.executable, "-m", "evolve.cli", "render", "xl430_biped", "-o", str(tmp_path / "a.png")],
+                          env=env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and not (tmp_path / "a.png").exists()
+    assert done.stderr.startswith("biped: error: MuJoCo could not load its OpenGL backend MUJOCO_GL=no-such-backend")
+    assert "Traceback" not in done.stderr
+
