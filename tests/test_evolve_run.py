@@ -6,7 +6,6 @@ import json
 import subprocess
 import sys
 
-import numpy as np
 import pytest
 import yaml
 
@@ -239,7 +238,7 @@ VALIDATED = {**SMALL, "generations": 5, "task": {**SMALL["task"], "harness_gener
 
 def test_champions_are_chosen_on_validation_draws_selection_never_saw(tmp_path):
     from evolve.config import parse_evolve_config
-    from evolve.evaluation import LocalBackend, validation_episodes
+    from evolve.evaluation import validation_episodes
     from evolve.run import Run
 
     config = parse_evolve_config(VALIDATED, "validated.yaml")
