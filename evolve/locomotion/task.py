@@ -50,6 +50,7 @@ class TaskConfig:
     progress_coeff: float = 0.0  # selection tie-breaker: pelvis progress, per leg length
     selection_distance_cap: float = 0.0  # > 0: selection counts distance up to this many leg lengths
     selection_walk_bonus: float = 0.0  # selection adds this for a walk (upright to the end, >= 2.2 leg lengths)
+    selection_heading_deg: float = 0.0  # > 0: the bonus only for a walk whose heading stayed this close to the start's
     phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (symmetry.PHASE_INPUTS)
     efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (symmetry.GOAL_SUFFIX)
     harness_generations: int = 100  # generations with the support harness (0: never)
@@ -90,6 +91,9 @@ class TaskConfig:
         if config.phase_period_s and not PHASE_RANGE_S[0] <= config.phase_period_s <= PHASE_RANGE_S[1]:
             raise ConfigError(source, prefix + "phase_period_s", f"must be 0 (no clock) or within "
                               f"[{PHASE_RANGE_S[0]:g}, {PHASE_RANGE_S[1]:g}] s, got {config.phase_period_s:g}")
+        if config.selection_heading_deg and not (config.selection_walk_bonus and config.selection_heading_deg < 180):
+            raise ConfigError(source, prefix + "selection_heading_deg", "limits which walks earn "
+                              "selection_walk_bonus: give the bonus too, and less than 180 deg")
         if not 0 < config.fall_height < 1:
             raise ConfigError(source, prefix + "fall_height", "must be within (0, 1)")
         return config
