@@ -31,6 +31,7 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
     changes = {"episode_s": float(seconds)} if seconds is not None else {}
     changes["phase_period_s"] = data.phase_period_s or 0.0  # the file's clock, whatever its task block says
     changes["efference_copy"] = data.efference_copy  # and its inputs
+    changes["heading_input"] = data.heading_input
     if keep_going:
         changes.update(fall_height=1e-6, fall_tilt_deg=180.0)
     if keep_going or not stagnation_stop:
@@ -93,7 +94,8 @@ DRAWN = {"mass_scale": lambda p: p.mass_scale.mean(1), "com_offset_m": lambda p:
          "friction_scale": lambda p: p.friction_scale.mean(1), "armature_scale": lambda p: p.armature_scale.mean(1),
          "derivative_ms": lambda p: p.derivative_s * 1e3, "backlash_deg": lambda p: np.degrees(p.backlash_rad).mean(1),
          "latency_ms": lambda p: p.latency_s * 1e3, "joint_noise_deg": lambda p: np.degrees(p.joint_noise_sd_rad),
-         "up_noise": lambda p: p.up_noise_sd, "foot_flip": lambda p: p.foot_flip_p}
+         "up_noise": lambda p: p.up_noise_sd, "foot_flip": lambda p: p.foot_flip_p,
+         "heading_drift_deg_s": lambda p: np.degrees(np.abs(p.heading_drift_rad_s))}
 
 
 def walk_rate_by_draw(p, walked: np.ndarray) -> dict[str, dict[str, Any]]:

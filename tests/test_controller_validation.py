@@ -676,10 +676,15 @@ def _with_efference(valid: dict) -> dict:
     return _with_inputs(valid, [name + "_goal" for name in joints], efference_copy=True)
 
 
+def _with_heading(valid: dict) -> dict:
+    return _with_inputs(valid, ["heading"], heading_input=True)
+
+
 @pytest.mark.parametrize("extend, has", [
     (_with_clock, lambda c: c.phase_period_s == 0.6 and c.layout(ROBOT).phase),
     (_with_efference, lambda c: c.efference_copy and c.layout(ROBOT).efference),
-], ids=["clock", "efference-copy"])
+    (_with_heading, lambda c: c.heading_input and c.layout(ROBOT).heading),
+], ids=["clock", "efference-copy", "heading"])
 def test_a_controller_with_more_inputs_round_trips_and_fits_its_robot(valid, tmp_path, extend, has):
     data = extend(valid)
     jsonschema.validate(data, SCHEMA)
@@ -699,3 +704,15 @@ def test_a_broken_efference_copy_is_refused_by_name(valid, mutate, expected):
     mutate(data)
     with pytest.raises(ConfigError, match=expected):
         Controller.from_dict(data, "efference.json", ROBOT)
+
+
+@pytest.mark.parametrize("mutate, expected", [
+    (lambda d: d.pop("heading_input"), r"inputs: has 12 names where .*a heading input needs heading_input: true.* has 11"),
+    (lambda d: d.update(heading_input=1), r"heading_input: must be true or false, got 1"),
+    (lambda d: d.update(inputs=d["inputs"][:-1]), r"inputs: has 11 names where .*the heading \(heading_input\)"),
+], ids=["heading-without-flag", "flag-not-a-boolean", "heading-missing"])
+def test_a_broken_heading_input_is_refused_by_name(valid, mutate, expected):
+    data = _with_heading(valid)
+    mutate(data)
+    with pytest.raises(ConfigError, match=expected):
+        Controller.from_dict(data, "heading.json", ROBOT)

@@ -197,19 +197,27 @@ def test_the_task_no_longer_owns_the_contact_threshold(tmp_path):
         load_robot(robot_file(tmp_path, contact_share=0.0))
 
 
-# -- the up-vector's unit and signed registers ---------------------------------------------------
+# -- the up-vector's and the heading's units and signed registers ---------------------------------
 def test_the_board_profile_gives_the_up_vectors_unit_to_the_simulated_bus_and_the_runtime():
     board = ROBOT.sensor_board
     assert board.profile.units["up_vector_unit"] == 1 / 16384  # Q14, from foot_sensor_board.yaml
-    coarse = dataclasses.replace(board.profile, units={"up_vector_unit": 1 / 1000})
+    assert board.profile.units["heading_unit"] == 1 / 8192  # Q13 [rad]
+    coarse = dataclasses.replace(board.profile, units={"up_vector_unit": 1 / 1000, "heading_unit": 1 / 100})
     robot = dataclasses.replace(ROBOT, sensor_board=dataclasses.replace(board, profile=coarse))
     sim = physics.PhysicsChain(robot)  # writes the board's registers in the profile's unit
     assert abs(sim.devices[board.id].get_named("up_vector_z") - 1000) <= 2
+    yaw = 0.7  # turn the robot left about world up: the heading follows
+    w, z = np.cos(yaw / 2), np.sin(yaw / 2)
+    q = sim.data.qpos[3:7].copy()
+    sim.data.qpos[3:7] = [w * q[0] - z * q[3], w * q[1] - z * q[2], w * q[2] + z * q[1], w * q[3] + z * q[0]]
+    physics.mujoco.mj_forward(sim.model, sim.data)
+    sim._publish()
+    assert abs(sim.devices[board.id].get_named("heading") - 70) <= 1
     bus = MockBus(robot)
     bus.devices = sim.devices  # the runtime's chain reads them in the same unit
     bus.open()
-    feet, up = ServoChain(bus, robot).read_board()
-    assert up == pytest.approx([0.0, 0.0, 1.0], abs=3e-3)
+    feet, up, heading = ServoChain(bus, robot).read_board()
+    assert up == pytest.approx([0.0, 0.0, 1.0], abs=3e-3) and heading == pytest.approx(yaw, abs=0.011)
 
 
 def test_signed_registers_are_decoded_by_one_function():

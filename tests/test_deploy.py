@@ -228,3 +228,44 @@ def test_biped_run_works_where_mujoco_cannot_be_imported(tmp_path):
     out = subprocess.run([sys.executable, "-m", "evolve.cli", "robot", "mjcf"], capture_output=True, text=True,
                          timeout=120, env=env)
     assert out.returncode == 2 and "needs MuJoCo" in out.stderr and "[sim]" in out.stderr
+
+
+def _heading_controller():
+    """A controller whose only link runs from the heading input to the own hip roll."""
+    from evolve.locomotion.evaluator import neat_layout
+    from evolve.locomotion.export import controller_from_genome
+    from evolve.locomotion.task import TaskConfig
+    from evolve.neat import Genome
+    from evolve.neat.genome import ConnectionGene
+    from sim2real.controller.symmetry import symmetric_layout
+
+    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"], heading=True)
+    genome = Genome(0, neat_layout(layout))
+    genome.add_connection(ConnectionGene(0, layout.input_names.index("heading"), layout.n_inputs + layout.n_bias,
+                                         3.0, True, genome.active_module))
+    return controller_from_genome(genome, ROBOT, layout, TaskConfig(heading_input=True), 1.0, {})
+
+
+def test_a_heading_controller_reads_the_boards_heading_and_traces_it(tmp_path):
+    from sim2real.hardware.trace import Trace
+
+    bus = MockBus(ROBOT)
+    bus.devices[ROBOT.sensor_board.id].set_named("heading", 4096)  # 0.5 rad: the start, whatever it is
+    report = run(bus, _heading_controller(), duration_s=0.2, trace_path=tmp_path / "run.csv")
+    assert report.stop_reason == "duration reached" and all(v == 0 for v in torque(bus).values())
+    assert Trace.read(tmp_path / "run.csv")["heading_rad"] == pytest.approx(0.5)
+
+
+def test_a_heading_controller_is_refused_before_any_servo_moves_on_a_board_without_heading():
+    import dataclasses
+
+    from sim2real.errors import UsageError
+
+    board = ROBOT.sensor_board
+    table = {k: v for k, v in board.profile.control_table.items() if k != "heading"}
+    robot = dataclasses.replace(ROBOT, sensor_board=dataclasses.replace(
+        board, profile=dataclasses.replace(board.profile, control_table=table)))
+    bus = MockBus(robot)
+    with pytest.raises(UsageError, match="reads the torso's heading .* reports none"):
+        drive(bus, robot, _heading_controller(), duration_s=0.2, ramp_s=0.05, log=lambda s: None)
+    assert not bus.writes and not bus.is_open

@@ -10,6 +10,7 @@ from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, NeatConfig, Population
 from sim2real.controller.symmetry import (
     bias_values,
+    heading_input,
     joint_outputs,
     network_inputs,
     symmetric_layout,
@@ -59,6 +60,20 @@ def test_a_mirror_symmetric_state_reads_the_same_on_both_sides():
     right, left = network_inputs(layout, joints, np.array([[1.0, -1.0]]), up)
     assert (right[-4], right[-3]) == (-1.0, 1.0) and (left[-4], left[-3]) == (1.0, -1.0)
     assert bias_values(1).tolist() == [[1.0, 1.0], [1.0, -1.0]]
+
+
+def test_the_heading_reads_as_a_turn_toward_each_networks_own_side():
+    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"], heading=True)
+    joints, feet, up = np.zeros((1, len(ROBOT.joints))), np.array([[-1.0, -1.0]]), np.array([[0.0, 0.0, 1.0]])
+    turned_left = heading_input(3.0 + 0.5, 3.0)  # yaw counter-clockwise from above: a turn to the left
+    assert turned_left == pytest.approx(-0.5 / np.pi)
+    right, left = network_inputs(layout, joints, feet, up, heading=np.atleast_1d(turned_left))
+    column = layout.input_names.index("heading")
+    assert right[column] == pytest.approx(-0.5 / np.pi) and left[column] == pytest.approx(0.5 / np.pi)
+    assert heading_input(-3.0, 3.0) == pytest.approx(-(2 * np.pi - 6.0) / np.pi)  # wrapped: a small turn left
+    assert abs(heading_input(np.pi, 0.0)) == pytest.approx(1.0)  # facing back
+    with pytest.raises(ValueError, match="give the heading"):
+        network_inputs(layout, joints, feet, up)
 
 
 def test_waist_gets_the_mean_of_both_networks():

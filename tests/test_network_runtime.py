@@ -13,9 +13,9 @@ from sim2real.controller.symmetry import bias_values, symmetric_layout
 from sim2real.robot import load_robot
 
 
-def _grown_controller(seed=4, modules=("main",), efference=False):
+def _grown_controller(seed=4, modules=("main",), efference=False, heading=False):
     robot = load_robot()
-    layout = symmetric_layout(robot, robot.control_sets["walk"], efference=efference)
+    layout = symmetric_layout(robot, robot.control_sets["walk"], efference=efference, heading=heading)
     config = NeatConfig(population_size=20, target_species=3, add_node_prob=0.4, add_link_prob=0.6,
                         sigmoid_steepness=2.5)
     pop = Population(config, neat_layout(layout), seed=seed, modules=modules)
@@ -23,7 +23,7 @@ def _grown_controller(seed=4, modules=("main",), efference=False):
     for _ in range(12):
         pop.step(lambda gs: rng.random(len(gs)))
     genome = max(pop.genomes, key=lambda g: len(g.conns))
-    task = TaskConfig(efference_copy=efference)
+    task = TaskConfig(efference_copy=efference, heading_input=heading)
     return genome, controller_from_genome(genome, robot, layout, task, 2.5, {"seed": seed})
 
 
@@ -53,32 +53,37 @@ def test_switching_a_module_off_by_name():
         ControllerNetworks(controller, disabled_modules=["run"])
 
 
-@pytest.mark.parametrize("efference", [False, True], ids=["plain", "efference-copy"])
-def test_policy_fast_path_equals_the_evolution_wiring(efference):
+@pytest.mark.parametrize("efference, heading", [(False, False), (True, False), (False, True), (True, True)],
+                         ids=["plain", "efference-copy", "heading", "both"])
+def test_policy_fast_path_equals_the_evolution_wiring(efference, heading):
     from sim2real.controller.mapping import (
         normalized_angle,
         output_to_angle,
         rate_limit,
     )
     from sim2real.controller.policy import Policy
-    from sim2real.controller.symmetry import joint_outputs, network_inputs
+    from sim2real.controller.symmetry import heading_input, joint_outputs, network_inputs
 
-    genome, controller = _grown_controller(seed=6, efference=efference)
+    genome, controller = _grown_controller(seed=6, efference=efference, heading=heading)
     robot = load_robot()
     policy = Policy(controller, robot)
-    assert policy.layout.efference == efference
+    assert policy.layout.efference == efference and policy.layout.heading == heading
     reference = ControllerNetworks(controller)
     rng = np.random.default_rng(2)
     goal = ref_goal = policy.reset()
+    start = None
     for _ in range(200):
         angles = rng.uniform(policy.low, policy.high)
         feet = rng.random(2) < 0.5
         up = rng.normal(size=3)
         up /= np.linalg.norm(up)
         sent = normalized_angle(goal, policy.low, policy.high)[None] if efference else None
-        goal = policy.step(angles, feet, up, goal)
+        yaw = rng.uniform(-4.0, 4.0)  # [rad] a board's heading, the first one the start
+        start = yaw if start is None else start
+        goal = policy.step(angles, feet, up, goal, heading=yaw if heading else None)
         x = network_inputs(policy.layout, normalized_angle(angles, policy.low, policy.high)[None],
-                           np.where(feet, -1.0, 1.0)[None], up[None], goals=sent)
+                           np.where(feet, -1.0, 1.0)[None], up[None], goals=sent,
+                           heading=np.atleast_1d(heading_input(yaw, start)) if heading else None)
         out = joint_outputs(policy.layout, reference.activate(x), len(policy.low))[0]
         d = policy.driven
         ref_goal = ref_goal.copy()
@@ -170,3 +175,44 @@ def test_an_efference_copy_feeds_back_the_last_goals_in_evolution_and_the_runtim
         goal = policy.step(np.zeros(len(goal)), np.array([True, True]), np.array([0.0, 0.0, 1.0]), goal)
         assert np.array_equal(goal[policy.driven], simulated[policy.driven]), k
     assert np.ptp(np.array(goals)[:, hip]) > 0.1  # the feedback moved the hip
+
+
+def test_the_heading_drives_evolution_and_the_runtime_alike_drift_included():
+    """Heading -> own hip roll only: the hips follow the board's heading (here mostly a
+    gyro's drift), tick for tick the same in the evaluator and the policy; the start's
+    heading reads zero, and the two networks see the turn mirrored."""
+    from evolve.locomotion.evaluator import LocomotionEvaluator
+    from evolve.neat import Genome
+    from evolve.neat.genome import ConnectionGene
+    from sim2real.controller.policy import Policy
+    from sim2real.simulation.reality import load_reality
+
+    robot = load_robot()
+    task = TaskConfig(heading_input=True, episode_s=1.0)
+    layout = symmetric_layout(robot, robot.control_sets["walk"], heading=True)
+    assert layout.input_names[layout.input_names.index("up_sideways") + 1] == "heading"
+    genome = Genome(0, neat_layout(layout))
+    out = layout.n_inputs + layout.n_bias
+    genome.add_connection(ConnectionGene(0, layout.input_names.index("heading"),
+                                         out + layout.output_names.index("own_hip_roll"), 6.0, True,
+                                         genome.active_module))
+    controller = Controller.from_dict(controller_from_genome(genome, robot, layout, task, 1.0, {}).to_dict())
+    assert controller.heading_input and controller.to_dict()["heading_input"] is True
+    spinning = load_reality({"heading_drift_deg_s": 90.0})  # a gyro gone bad: a quarter turn a second
+    evaluator = LocomotionEvaluator(robot, task, 1, threads=1, reality=spinning)
+    p = evaluator.sample(np.array([[1, 0]]))
+    goals, headings = [], [float(evaluator.heading(np.array([0]), 0, p)[0])]
+    evaluator.evaluate([genome], 1.0, harness=1.0, perturbation=p, on_tick=lambda ev, alive: (
+        goals.append(ev.ctrl[0].copy()), headings.append(float(ev.heading(alive, len(goals), p)[0]))))
+    policy = Policy(controller, robot)
+    goal = policy.reset()
+    right, left = robot.joint_names.index("right_hip_roll"), robot.joint_names.index("left_hip_roll")
+    for k, simulated in enumerate(goals):
+        goal = policy.step(np.zeros(len(goal)), np.array([True, True]), np.array([0.0, 0.0, 1.0]), goal,
+                           heading=headings[k])
+        assert np.array_equal(goal[policy.driven], simulated[policy.driven]), k
+    swing = np.array(goals)[:, [right, left]] - policy.hold[[right, left]]
+    assert np.ptp(swing[:, 0]) > 0.05 and np.allclose(swing[:, 0], -swing[:, 1])  # mirrored: roll is anatomical
+    with pytest.raises(ValueError, match="heading"):
+        Policy(controller, robot).step(np.zeros(len(goal)), np.array([True, True]), np.array([0.0, 0.0, 1.0]),
+                                       goal)

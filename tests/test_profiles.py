@@ -94,6 +94,20 @@ def test_sensor_board_documents_feet_and_up_vector():
     names = set(board.control_table)
     assert {"foot_switch_left", "foot_switch_right", "up_vector_x", "up_vector_y", "up_vector_z"} <= names
     assert board.register("up_vector_z").signed
+    assert board.register("heading").signed and board.units["heading_unit"] == 1 / 8192
+    last = board.register("heading")
+    assert last.address + last.size - board.register("foot_switch_left").address == 10  # one read of 10 bytes
+
+
+@pytest.mark.parametrize("mutate, problem", [
+    (lambda d: d["sensors"].pop("heading_unit"), "heading_unit .* must be given"),
+    (lambda d: d["sensors"].update(heading_unit="1/4096"), "must be given and be heading's unit"),
+])
+def test_a_boards_heading_needs_its_unit(mutate, problem, tmp_path):
+    doc = yaml.safe_load((profiles_dir() / "foot_sensor_board.yaml").read_text())
+    mutate(doc)
+    with pytest.raises(ConfigError, match=problem):
+        parse_profile(doc, tmp_path / "board.yaml")
 
 
 def _xl430_doc():

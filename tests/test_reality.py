@@ -69,6 +69,8 @@ def test_draws_depend_on_the_key_only(evaluator):
     assert np.allclose(half.kp_scale - 1.0, (together.kp_scale - 1.0) / 2)
     assert np.allclose(half.backlash_rad, together.backlash_rad / 2)
     assert np.array_equal(evaluator.sample(keys, intensity=1.0).kp_scale, together.kp_scale)
+    drift = np.degrees(together.heading_drift_rad_s)  # either way, per episode
+    assert drift.shape == (4,) and (np.abs(drift) <= 0.2).all() and len(set(np.sign(drift))) == 2
 
 
 def test_only_realities_that_draw_backlash_get_backlash_joints():

@@ -41,6 +41,7 @@ from sim2real.controller.symmetry import (
     SymmetricLayout,
     bias_values,
     foot_inputs,
+    heading_input,
     joint_outputs,
     network_inputs,
     phase_inputs,
@@ -49,7 +50,7 @@ from sim2real.controller.symmetry import (
 from sim2real.robot import RobotSpec
 from sim2real.robot.spec import GRAVITY
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import JointAngles, build_model
+from sim2real.simulation.model_builder import JointAngles, build_model, heading_rad
 from sim2real.simulation.reality import (
     NOMINAL,
     PERTURBED_FIELDS,
@@ -90,7 +91,7 @@ class LocomotionEvaluator:
                                          backlash=needs_backlash_joints(reality))
         self.n_ticks = int(round(task.episode_s / self.tick_s))
         self.layout = symmetric_layout(robot, robot.control_sets[task.control_set], task.phase_period_s > 0,
-                                       task.efference_copy)
+                                       task.efference_copy, task.heading_input)
         names = [j.name for j in robot.joints]
         self.driven = np.array([names.index(n) for n in self.layout.driven], dtype=np.intp)
         self.low = np.array([j.range_rad[0] for j in robot.joints])
@@ -102,6 +103,7 @@ class LocomotionEvaluator:
         self.angles = JointAngles.of(model, names)
         self.touch_adr = np.array([model.sensor_adr[model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")])
         self.up_adr = model.sensor_adr[model.sensor("torso_up").id]
+        self.forward_adr = model.sensor_adr[model.sensor("torso_forward").id]
         self.soles = np.array([model.site(f"{s}_sole").id for s in ("left", "right")])
         self.pelvis = model.body("pelvis").id
         self.leg = robot.body.leg_length
@@ -115,6 +117,12 @@ class LocomotionEvaluator:
         self.site_xpos, self.xipos = self.batch.bind("site_xpos"), self.batch.bind("xipos")
         self.subtree_com = self.batch.bind("subtree_com")
         self._perturbed = np.zeros(max_population, dtype=bool)
+
+    def heading(self, ids: np.ndarray, tick: int, p: Perturbation | None) -> np.ndarray:
+        """The heading the boards of simulations ``ids`` report at ``tick`` [rad]: the torso's
+        yaw, plus the gyro's drift since the start."""
+        yaw = heading_rad(self.sensordata[ids, self.forward_adr:self.forward_adr + 3])
+        return yaw if p is None else yaw + p.heading_drift_rad_s[ids] * (tick * self.tick_s)
 
     def joint_angles(self, ids: np.ndarray) -> np.ndarray:
         """Joint angles of simulations ``ids`` (len(ids), joints) [rad], unquantized and
@@ -175,6 +183,7 @@ class LocomotionEvaluator:
         p = perturbation
 
         d_low, d_high, d_step = self.low[self.driven], self.high[self.driven], self.max_step[self.driven]
+        start_heading = self.heading(ids, 0, p) if task.heading_input else None
         for t in range(self.n_ticks):
             sensors = self.sensordata[alive]
             q = self.joint_angles(alive)
@@ -193,8 +202,9 @@ class LocomotionEvaluator:
                 sent = np.broadcast_to(self.hold, (len(alive), len(self.hold))).copy()
                 sent[:, self.driven] = goal[alive]
                 sent = normalized_angle(sent, self.low, self.high)
+            turn = heading_input(self.heading(alive, t, p), start_heading[alive]) if task.heading_input else None
             inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high), foot_inputs(touch), up,
-                                    clock, sent)
+                                    clock, sent, turn)
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
             goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)
             goal[alive] = goal_alive

@@ -53,6 +53,7 @@ class TaskConfig:
     selection_heading_deg: float = 0.0  # > 0: the bonus only for a walk whose heading stayed this close to the start's
     phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (symmetry.PHASE_INPUTS)
     efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (symmetry.GOAL_SUFFIX)
+    heading_input: bool = False  # the networks get the torso's turn since the start (symmetry.HEADING_INPUT)
     harness_generations: int = 100  # generations with the support harness (0: never)
     harness_fade_generations: int = 50  # over its last this many generations it weakens to nothing
     harness_stiffness: float = 10.0  # harness spring: this many body weights per leg length [m g / L]

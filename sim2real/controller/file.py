@@ -55,6 +55,7 @@ from sim2real.controller.symmetry import (
     BIAS,
     CENTER_OUTPUT,
     GOAL_SUFFIX,
+    HEADING_INPUT,
     PHASE_INPUTS,
     SENSOR_INPUTS,
     SIDES,
@@ -73,7 +74,7 @@ _FIELDS, _DEFS = SCHEMA["properties"], SCHEMA["$defs"]
 FORMAT: str = _FIELDS["format"]["const"]
 VERSION: int = _FIELDS["version"]["const"]
 REQUIRED: tuple[str, ...] = tuple(SCHEMA["required"])
-OPTIONAL: tuple[str, ...] = tuple(k for k in _FIELDS if k not in REQUIRED)  # phase_period_s, efference_copy
+OPTIONAL: tuple[str, ...] = tuple(k for k in _FIELDS if k not in REQUIRED)  # phase_period_s, heading_input, efference_copy
 PHASE_RANGE_S = (float(_FIELDS["phase_period_s"]["minimum"]), float(_FIELDS["phase_period_s"]["maximum"]))
 MAX_WEIGHT = float(_FIELDS["connections"]["items"]["prefixItems"][2]["maximum"])  # NeatConfig clips to 20
 MAX_STEEPNESS = float(_FIELDS["sigmoid_steepness"]["maximum"])  # seed 000 uses 1, classic NEAT 4.9
@@ -200,6 +201,7 @@ class Controller:
     provenance: Mapping[str, Any]  # seed, generation, fitness, ... (free-form)
     phase_period_s: float | None = None  # the gait clock's period [s]; None: no clock
     efference_copy: bool = False  # the last goals are inputs too
+    heading_input: bool = False  # the torso's heading is an input (the sensor board must report it)
 
     format: ClassVar[str] = FORMAT
     version: ClassVar[int] = VERSION
@@ -228,11 +230,14 @@ class Controller:
                             joints.get("output_rule")),
             task=_frozen(data["task"]), provenance=_frozen(data["provenance"]),
             phase_period_s=data.get("phase_period_s"), efference_copy=data.get("efference_copy", False),
+            heading_input=data.get("heading_input", False),
         )
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON values of the file, keys in the format's order."""
         input_keys = {} if self.phase_period_s is None else {"phase_period_s": self.phase_period_s}
+        if self.heading_input:
+            input_keys["heading_input"] = True
         if self.efference_copy:
             input_keys["efference_copy"] = True
         return {
@@ -265,7 +270,7 @@ class Controller:
                             MappingProxyType({j.name: float(hold[i]) for i, j in enumerate(robot.joints)
                                               if j.name not in layout.driven}), OUTPUT_RULE),
             task=_frozen(dict(task)), provenance=_frozen(dict(provenance)), phase_period_s=phase_period_s,
-            efference_copy=layout.efference,
+            efference_copy=layout.efference, heading_input=layout.heading,
         )
 
     # -- files ---------------------------------------------------------------------------------
@@ -296,8 +301,8 @@ class Controller:
         try:
             clock = self.phase_period_s is not None
             wired = wired_layout(robot, s.right, s.left, s.center, s.center_mirror_for_left, clock,
-                                 self.efference_copy)
-            rule = symmetric_layout(robot, self.joints.driven, clock, self.efference_copy)
+                                 self.efference_copy, self.heading_input)
+            rule = symmetric_layout(robot, self.joints.driven, clock, self.efference_copy, self.heading_input)
         except ValueError as exc:
             raise ConfigError(source, "symmetry", str(exc)) from None
         if wired != rule or (rule.input_names, rule.output_names) != (self.inputs, self.outputs):
@@ -486,9 +491,10 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
     clock = "phase_period_s" in data
     if clock:
         c.number(data["phase_period_s"], "phase_period_s", *PHASE_RANGE_S)
-    efference = data.get("efference_copy", False)
-    if not isinstance(efference, bool):
-        raise c.error("efference_copy", f"must be true or false, got {_show(efference)}")
+    efference, heading = data.get("efference_copy", False), data.get("heading_input", False)
+    for key, value in (("efference_copy", efference), ("heading_input", heading)):
+        if not isinstance(value, bool):
+            raise c.error(key, f"must be true or false, got {_show(value)}")
     rob = c.obj(data["robot"], "robot", ("name", "joint_map_hash"))
     c.string(rob["name"], "robot.name")
     if not isinstance(rob["joint_map_hash"], str) or not re.fullmatch(r"[0-9a-f]{16}", rob["joint_map_hash"]):
@@ -506,7 +512,7 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
         for k, value in enumerate(row):
             c.number(value, f"bias[{s}][{k}]", *BIAS_RANGE)
     driven = _check_joints(c, data["joints"])
-    _check_symmetry(c, data["symmetry"], driven, inputs, outputs, clock, efference)  # the interface first: it numbers the nodes
+    _check_symmetry(c, data["symmetry"], driven, inputs, outputs, clock, efference, heading)  # the interface first: it numbers the nodes
     n_in, n_bias, n_out = len(inputs), len(bias[0]), len(outputs)
     n_modules = _check_modules(c, data["modules"])
     hidden = _check_hidden(c, data["hidden"], n_in + n_bias + n_out, n_modules)
@@ -609,11 +615,11 @@ def _check_joints(c: _Checker, joints: Any) -> list[str]:
 
 
 def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str], outputs: list[str],
-                    clock: bool, efference: bool) -> None:
+                    clock: bool, efference: bool, heading: bool) -> None:
     """The symmetry block against the driven joints, and the inputs and outputs it implies
-    (:func:`sim2real.controller.symmetry.symmetric_layout` names them so), the clock's after
-    the sensors when the file has a ``phase_period_s``, the last goals last with an
-    ``efference_copy``."""
+    (:func:`sim2real.controller.symmetry.symmetric_layout` names them so): the heading after
+    the sensors with a ``heading_input``, the clock's after them when the file has a
+    ``phase_period_s``, the last goals last with an ``efference_copy``."""
     c.obj(sym, "symmetry", ("networks", "leg_joints", "center_joints", "center_mirror_for_left"),
           ("center_output",))
     if sym["networks"] != NETWORKS:
@@ -646,11 +652,12 @@ def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str],
     why = f"the symmetry block ({k} leg joints, centre joints {_show(center)})"
     c.same_names("outputs", outputs, own + center, why)
     angles = own + ["other_" + n[4:] for n in own] + center
-    sensors = list(SENSOR_INPUTS) + (list(PHASE_INPUTS) if clock else [])
+    sensors = list(SENSOR_INPUTS) + ([HEADING_INPUT] if heading else []) + (list(PHASE_INPUTS) if clock else [])
     goals = [n + GOAL_SUFFIX for n in angles] if efference else []
     c.same_names("inputs", inputs, angles + sensors + goals,
-                 why[:-1] + (", then 4 sensors and the clock (phase_period_s)" if clock
-                             else ", then 4 sensors; a clock's inputs need a phase_period_s")
+                 why[:-1] + (", then 4 sensors" + (" and the heading (heading_input)" if heading
+                                                   else "; a heading input needs heading_input: true"))
+                 + (", then the clock (phase_period_s)" if clock else "; a clock's inputs need a phase_period_s")
                  + (", then the last goals (efference_copy))" if efference
                     else "; the last goals as inputs need efference_copy: true)"))
 
@@ -677,7 +684,8 @@ def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
                                                        "(task.control_set)", sorted(set(driven) - members),
                                                        sorted(members - set(driven))))
     try:
-        layout = symmetric_layout(robot, tuple(driven), "phase_period_s" in data, data.get("efference_copy", False))
+        layout = symmetric_layout(robot, tuple(driven), "phase_period_s" in data, data.get("efference_copy", False),
+                                  data.get("heading_input", False))
     except (ValueError, KeyError) as exc:
         raise c.error("joints.driven", str(exc)) from None
     why = f"robot {robot.name} driving {_show(list(layout.driven))}"

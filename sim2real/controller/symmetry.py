@@ -11,6 +11,11 @@ Each network reads its side's view of the robot and drives its side's joints:
   the walk preset of a biped with a waist, that is seed 000's eleven inputs.  The paper
   names its tilt inputs X and Z: the horizontal components of the up-vector in its y-up
   world, which are forward and sideways here.
+* optionally the torso's heading (:data:`HEADING_INPUT`): how far it has turned since the start
+  toward the network's own side, in half turns (:func:`heading_input`), from the board's
+  heading (an IMU's yaw).  The up-vector does not change when the robot yaws, so without it a
+  network cannot tell that it is turning, and a walker that turns a little on the model may
+  walk back on a robot a little off it (``benchmarks/RESULTS.md``, "Heading").
 * optionally a clock (:data:`PHASE_INPUTS`): the sine and cosine of the gait phase
   ``2 pi t / period``, the left network's half a period later (both negated), so that one
   genome's two networks step in antiphase.  A recurrent network then need not find its own
@@ -40,8 +45,18 @@ SIDES = ("right", "left")
 BIAS = ((1.0, 1.0), (1.0, -1.0))  # the bias nodes of the (right, left) network: +1, and the side
 CENTER_OUTPUT = "mean of both networks"  # what a centre joint gets
 SENSOR_INPUTS = ("own_foot", "other_foot", "up_forward", "up_sideways")  # after the joint angles
-PHASE_INPUTS = ("phase_sin", "phase_cos")  # after the sensors, with a clock
+HEADING_INPUT = "heading"  # after the sensors, with a heading
+PHASE_INPUTS = ("phase_sin", "phase_cos")  # after the sensors (and the heading), with a clock
 GOAL_SUFFIX = "_goal"  # an efference copy's input: a joint input's name and this, last
+
+
+def heading_input(heading_rad: np.ndarray | float, start_rad: np.ndarray | float) -> np.ndarray:
+    """The right network's heading input: the turn from ``start_rad`` to ``heading_rad``
+    (yaw about world up, counter-clockwise seen from above, as an IMU reports it [rad]),
+    wrapped to [-pi, pi] and divided by -pi - turning right (toward the right network's own
+    side) is positive, and facing back reads +-1."""
+    turn = np.angle(np.exp(1j * (np.asarray(heading_rad, dtype=float) - start_rad)))
+    return -turn / np.pi
 
 
 def phase_inputs(t_s: np.ndarray | float, period_s: float) -> np.ndarray:
@@ -62,6 +77,7 @@ class SymmetricLayout:
     output_names: tuple[str, ...]
     phase: bool = False  # the clock's inputs come after the sensors
     efference: bool = False  # the last goals come last
+    heading: bool = False  # the torso's heading comes after the sensors
 
     n_bias = len(BIAS[0])
 
@@ -81,7 +97,7 @@ class SymmetricLayout:
         if not isinstance(other, SymmetricLayout):
             return NotImplemented
         return (self.driven == other.driven and self.leg_slots == other.leg_slots and self.phase == other.phase
-                and self.efference == other.efference
+                and self.efference == other.efference and self.heading == other.heading
                 and self.input_names == other.input_names and self.output_names == other.output_names
                 and all(np.array_equal(self.leg_index[s], other.leg_index[s]) for s in SIDES)
                 and np.array_equal(self.center_index, other.center_index)
@@ -89,10 +105,11 @@ class SymmetricLayout:
 
 
 def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...], phase: bool = False,
-                     efference: bool = False) -> SymmetricLayout:
+                     efference: bool = False, heading: bool = False) -> SymmetricLayout:
     """The wiring the rule gives for ``driven`` joints: leg slots in robot order, both sides
     of each; centre joints in robot order, yaw and roll mirrored for the left network; with
-    ``phase``, the clock's inputs after the sensors; with ``efference``, the last goals last."""
+    ``heading``, the heading after the sensors; with ``phase``, the clock's inputs after
+    them; with ``efference``, the last goals last."""
     joints = {j.name: j for j in robot.joints}
     unknown = [n for n in driven if n not in joints]
     if unknown:
@@ -115,11 +132,12 @@ def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...], phase: bool = Fa
         legs[side] = tuple(names)
     centers = tuple(n for n in sorted(driven, key=order.get) if joints[n].side == "center")
     mirror = tuple(-1.0 if joints[n].axis in ("yaw", "roll") else 1.0 for n in centers)
-    return wired_layout(robot, legs["right"], legs["left"], centers, mirror, phase, efference)
+    return wired_layout(robot, legs["right"], legs["left"], centers, mirror, phase, efference, heading)
 
 
 def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...], center: tuple[str, ...],
-                 center_mirror: tuple[float, ...], phase: bool = False, efference: bool = False) -> SymmetricLayout:
+                 center_mirror: tuple[float, ...], phase: bool = False, efference: bool = False,
+                 heading: bool = False) -> SymmetricLayout:
     """The layout of given wiring - a controller file's symmetry block: each side's leg
     joints slot by slot, the centre joints and their mirror signs for the left network."""
     order = {j.name: i for i, j in enumerate(robot.joints)}
@@ -130,6 +148,8 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
     slot_names = [f"{loc}_{axis}" if loc != "knee" else "knee" for loc, axis in slots]
     angles = [f"own_{s}" for s in slot_names] + [f"other_{s}" for s in slot_names] + list(center)
     inputs = angles + list(SENSOR_INPUTS)
+    if heading:
+        inputs.append(HEADING_INPUT)
     if phase:
         inputs += PHASE_INPUTS
     if efference:
@@ -146,6 +166,7 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
         output_names=tuple(outputs),
         phase=phase,
         efference=efference,
+        heading=heading,
     )
 
 
@@ -155,7 +176,8 @@ def foot_inputs(touching: np.ndarray) -> np.ndarray:
 
 
 def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray,
-                   up: np.ndarray, phase: np.ndarray | None = None, goals: np.ndarray | None = None) -> np.ndarray:
+                   up: np.ndarray, phase: np.ndarray | None = None, goals: np.ndarray | None = None,
+                   heading: np.ndarray | None = None) -> np.ndarray:
     """Inputs of both networks of every robot.
 
     Args:
@@ -165,6 +187,8 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
       phase: (n, 2) the right network's clock (:func:`phase_inputs`), if the layout has one.
       goals: (n, n_joints) the goals sent last tick, normalized as ``joints``, if the layout
         has an efference copy.
+      heading: (n,) the right network's heading input (:func:`heading_input`), if the layout
+        has one.
 
     Returns:
       (2 n, n_inputs), rows interleaved right, left.
@@ -175,11 +199,15 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
     if layout.efference != (goals is not None):
         raise ValueError("goals given to a layout without an efference copy" if goals is not None
                          else "this layout has an efference copy: give the last goals")
+    if layout.heading != (heading is not None):
+        raise ValueError("a heading given to a layout without one" if heading is not None
+                         else "this layout has a heading input: give the heading")
     n = joints.shape[0]
     out = np.empty((n, 2, len(layout.input_names)))
     k = layout.n_leg
     m = 2 * k + len(layout.center_index)  # where the sensors start
-    last = m + len(SENSOR_INPUTS) + (len(PHASE_INPUTS) if phase is not None else 0)  # where the goals start
+    clock = m + len(SENSOR_INPUTS) + (1 if heading is not None else 0)  # where the clock starts
+    last = clock + (len(PHASE_INPUTS) if phase is not None else 0)  # where the goals start
     for s, (own_foot, other_foot, side_sign) in enumerate(((feet[:, 1], feet[:, 0], 1.0),
                                                            (feet[:, 0], feet[:, 1], -1.0))):
         row = out[:, s]
@@ -192,8 +220,10 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
         # leaning toward the network's own side is positive on both sides (leaning right
         # tilts world up toward the torso's +y)
         row[:, m + 3] = up[:, 1] * side_sign
+        if heading is not None:
+            row[:, m + 4] = heading * side_sign  # turning toward the network's own side is positive
         if phase is not None:
-            row[:, m + 4:m + 6] = phase * side_sign  # the left network half a period later
+            row[:, clock:clock + 2] = phase * side_sign  # the left network half a period later
     return out.reshape(2 * n, -1)
 
 

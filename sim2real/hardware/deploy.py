@@ -6,7 +6,7 @@ Start-up (:mod:`sim2real.hardware.dynamixel.startup`) checks that the bus holds 
 the config and configures its servos; then torque goes on and the goals ramp slowly from the
 present pose to the controller's start pose.  The loop keeps a fixed rate on absolute
 deadlines (an overrun re-syncs instead of catching up, and is counted); each tick reads
-joints, feet and up-vector, activates, maps and sync-writes.
+joints, feet, up-vector (and heading, from a board with one), activates, maps and sync-writes.
 
 A noisy bus does not stop the robot: a failed read is retried while the tick's budget lasts,
 a tick without a good read holds the last goals (and is counted), and communication counts
@@ -37,7 +37,7 @@ from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, UsageError
 from sim2real.hardware.bus import Bus, CommunicationError, ServoError
-from sim2real.hardware.dynamixel.chain import ServoChain
+from sim2real.hardware.dynamixel.chain import BoardReading, ServoChain, board_reports_heading
 from sim2real.hardware.dynamixel.errors import decode_hardware_error
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.dynamixel.startup import StartupError, start_up
@@ -48,7 +48,7 @@ from sim2real.hardware.realtime import (
     request_realtime,
 )
 from sim2real.hardware.readings import MotionReadings
-from sim2real.hardware.trace import TraceWriter
+from sim2real.hardware.trace import HEADING_CHANNEL, Channel, TraceWriter
 from sim2real.robot import RobotSpec
 
 RAMP_S = 2.0  # start-up and shutdown ramps [s]
@@ -119,7 +119,7 @@ class GoalSource(Protocol):
     def reset(self) -> np.ndarray: ...  # the pose the run starts from [rad]
 
     def step(self, angles: np.ndarray, feet_touching: np.ndarray, up: np.ndarray, previous: np.ndarray,
-             tick: int = 0) -> np.ndarray: ...  # this tick's goals [rad]
+             tick: int = 0, heading: float | None = None) -> np.ndarray: ...  # this tick's goals [rad]
 
     def trace_metadata(self) -> dict[str, Any]: ...
 
@@ -165,9 +165,9 @@ class RealTimeLoop:
             if readings is None:  # hold the last goals; writing them again keeps the watchdog fed
                 report.missed_ticks += 1
             else:
-                angles, feet, up = readings
+                angles, (feet, up, heading) = readings
                 t0 = self.clock()
-                goal = self.policy.step(angles, feet, up, self.goal, tick=report.ticks)
+                goal = self.policy.step(angles, feet, up, self.goal, tick=report.ticks, heading=heading)
                 compute_s = self.clock() - t0
                 if not np.all(np.isfinite(goal)):
                     raise UnsafeOutput(f"non-finite goal at tick {report.ticks}: held the last goals")
@@ -183,9 +183,10 @@ class RealTimeLoop:
                 report.overruns += 1
                 deadline = now  # re-sync: never try to catch up
             if self.trace is not None and readings is not None:
-                extra = ()
+                extra = () if heading is None else (heading,)
                 if self.motion is not None:  # traced only: a tick without them loses its row, not its goals
-                    extra = self._attempt(lambda: self.motion.read(attempts=1), began + self.tick_s, report)
+                    motion = self._attempt(lambda: self.motion.read(attempts=1), began + self.tick_s, report)
+                    extra = None if motion is None else (*extra, *motion)
                 if extra is not None:
                     self.trace.write(began - start, report.ticks, self.goal, angles, feet, up, compute_s, bus_s,
                                      overrun, extra)
@@ -193,8 +194,8 @@ class RealTimeLoop:
             if not overrun:
                 self._wait_until(deadline)
 
-    def _read(self, give_up_at: float, report: RunReport) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """Joint angles, foot switches and up-vector, each read retried until ``give_up_at``;
+    def _read(self, give_up_at: float, report: RunReport) -> tuple[np.ndarray, BoardReading] | None:
+        """Joint angles and the board's reading, each read retried until ``give_up_at``;
         None when the tick ran out.  Raises :class:`CommunicationError` once reads have
         failed for ``lost_after_s`` without one success."""
         angles = self._attempt(lambda: self.mapping.angles(self.chain.sync_read(Reg.PRESENT_POSITION, attempts=1)),
@@ -205,7 +206,7 @@ class RealTimeLoop:
         if board is None:
             return None
         self.failing_since = None
-        return angles, board[0], board[1]
+        return angles, board
 
     def _attempt(self, read: Callable[[], Any], give_up_at: float, report: RunReport) -> Any:
         for attempt in range(TICK_ATTEMPTS):
@@ -295,6 +296,10 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
     if duration_s is not None and not (math.isfinite(duration_s) and round(duration_s / policy.tick_s) >= 1):
         raise UsageError(f"duration {duration_s!r} s: not a finite time of at least one control tick "
                          f"({policy.tick_s} s)")  # before any servo moves
+    layout = getattr(policy, "layout", None)
+    if layout is not None and layout.heading and not board_reports_heading(robot):
+        raise UsageError(f"the controller reads the torso's heading (heading_input), but robot {robot.name}'s sensor "
+                         "board reports none (no heading register in its profile)")  # before any servo moves
     report = RunReport()
     chain = ServoChain(bus, robot)
     mapping = ServoMapping(robot)
@@ -313,9 +318,10 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
             if motion is not None and motion.left_out:
                 log(f"note: the trace leaves out servo {' and '.join(motion.left_out)}: not at one address on every servo")
             if trace_path is not None:
+                heading = (Channel(HEADING_CHANNEL, "rad"),) if board_reports_heading(robot) else ()
                 trace = TraceWriter(trace_path, robot.joint_names, {
                     "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"},
-                    extra=motion.channels if motion else ())
+                    extra=heading + (motion.channels if motion else ()))
             present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION, None, PATIENT_ATTEMPTS, PATIENCE_S))
             chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)
             ramp(chain, mapping, present, policy.reset(), ramp_s, sleep)

@@ -47,6 +47,9 @@ class Channel:
     unit: str
 
 
+HEADING_CHANNEL = "heading_rad"  # the board's heading, when it reports one (after the loop's channels)
+
+
 def loop_channels(joints: Sequence[str]) -> tuple[Channel, ...]:
     """What the real-time loop records each tick, in CSV order after ``time_s``: the tick's
     number, goals and present angles per joint, the foot switches (1 touching), the torso's

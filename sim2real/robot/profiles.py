@@ -214,6 +214,13 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
                 raise sensors.error(f"up_vector_unit ({sensors.get('up_vector_unit').value}) must be given and be "
                                     f"up_vector_{axis}'s unit ({reg.unit})", key="up_vector_unit")
         units = {"up_vector_unit": up_unit} if up_unit is not None else {}
+        reg = table.get("heading")
+        if reg is not None:  # optional: a board without it serves controllers without a heading input
+            heading_unit = _lsb(sensors["heading_unit"]) if sensors.has("heading_unit") else None
+            if heading_unit is None or reg.unit is None or _lsb(Node(reg.unit, str(path))) != heading_unit:
+                raise sensors.error(f"heading_unit ({sensors.get('heading_unit').value}) must be given and be "
+                                    f"heading's unit ({reg.unit}) [rad]", key="heading_unit")
+            units["heading_unit"] = heading_unit
         return DeviceProfile(**profile, sensors=dict(sensors.free_mapping()), units=units)
 
     pos = root["position"].mapping(

@@ -23,7 +23,7 @@ from sim2real.controller.policy import Policy
 from sim2real.errors import ConfigError
 from sim2real.hardware.trace import TIMING, Trace, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
-from sim2real.simulation.model_builder import JointAngles
+from sim2real.simulation.model_builder import JointAngles, heading_rad
 from sim2real.simulation.reality import Reality, load_reality, perturbed_model
 
 MAX_LAG_S = 0.5
@@ -40,6 +40,7 @@ def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray, policy: Po
     joint_angles = JointAngles.of(model, names)
     touch = [model.sensor_adr[model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
     up_adr = model.sensor_adr[model.sensor("torso_up").id]
+    forward_adr = model.sensor_adr[model.sensor("torso_forward").id]
     resolution = ServoMapping(robot).rad_per_tick
     angles = np.zeros((len(times), len(names)))
     feet = np.zeros((len(times), 2), dtype=bool)
@@ -48,7 +49,8 @@ def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray, policy: Po
         angles[k] = quantize(joint_angles.read(data.qpos), resolution)
         feet[k] = [data.sensordata[a] > robot.foot_contact_n for a in touch]
         if policy is not None:
-            goal = policy.step(angles[k], feet[k], data.sensordata[up_adr:up_adr + 3], goal)
+            goal = policy.step(angles[k], feet[k], data.sensordata[up_adr:up_adr + 3], goal,
+                               heading=float(heading_rad(data.sensordata[forward_adr:forward_adr + 3])))
             data.ctrl[:] = goal
         else:
             data.ctrl[:] = goals[k]

@@ -10,8 +10,9 @@ pelvis only with the floor; links of one side never collide with each other (adj
 links overlap at the joints, and a servo bracket cannot pass through itself anyway).
 
 Sensors: ``<side>_foot_touch`` (normal force under each sole [N]), ``torso_up`` (world up
-in the torso frame, x forward, y left, z up: what the sensor board's IMU reports) and
-``<joint>_pos`` (the servo joint's angle [rad], unquantized).  The keyframe ``home`` holds
+in the torso frame, x forward, y left, z up: what the sensor board's IMU reports),
+``torso_forward`` (the torso's x axis in the world frame, whose yaw :func:`heading_rad` is the
+board's heading) and ``<joint>_pos`` (the servo joint's angle [rad], unquantized).  The keyframe ``home`` holds
 the standing pose in ``qpos`` and ``ctrl``.
 
 Gear backlash, when asked for (``backlash=True``), is a passive hinge ``<joint>_backlash``
@@ -220,11 +221,20 @@ def build_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
     spec.add_sensor(name="torso_up", type=mujoco.mjtSensor.mjSENS_FRAMEZAXIS,
                     objtype=mujoco.mjtObj.mjOBJ_BODY, objname="world",
                     reftype=mujoco.mjtObj.mjOBJ_SITE, refname="imu")
+    # the torso's forward axis in the world: its yaw is the heading the board's IMU reports
+    spec.add_sensor(name="torso_forward", type=mujoco.mjtSensor.mjSENS_FRAMEXAXIS,
+                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
     for joint in robot.joints:
         spec.add_sensor(name=f"{joint.name}_pos", type=mujoco.mjtSensor.mjSENS_JOINTPOS,
                         objtype=mujoco.mjtObj.mjOBJ_JOINT, objname=joint.name)
         _add_actuator(spec, joint)
     return spec
+
+
+def heading_rad(forward: np.ndarray) -> np.ndarray:
+    """The heading an IMU reports from the ``torso_forward`` sensor's values (..., 3): the
+    yaw of the torso's forward axis about world up, counter-clockwise seen from above [rad]."""
+    return np.arctan2(forward[..., 1], forward[..., 0])
 
 
 def _add_actuator(spec: mujoco.MjSpec, joint: Joint) -> None:

@@ -57,6 +57,8 @@ PERTURBATIONS: dict[str, tuple[float, str]] = {
     "joint_noise_deg": (0.0, "standard deviation of the noise on joint readings [deg]"),
     "up_noise": (0.0, "standard deviation of the noise on each up-vector component"),
     "foot_flip": (0.0, "chance that a foot switch reads wrong at a tick"),
+    "heading_drift_deg_s": (0.0, "the heading's drift, a gyro's uncorrected bias [deg/s] (drawn per episode; "
+                                 "give a range about 0 for either sign)"),
 }
 # Effects only the simulated bus gives its robot: it steps one model in Python and can change
 # it between physics steps, which mujoco.batch (evolution, `biped eval`) cannot.  They make the
@@ -71,6 +73,7 @@ EFFECTS: dict[str, tuple[float, str]] = {
 }
 SCALES = ("mass_scale", "floor_friction_scale", "kp_scale", "torque_scale", "damping_scale", "friction_scale",
           "armature_scale")
+SIGNED = ("heading_drift_deg_s",)  # may be negative: a drift either way
 PER_SERVO = ("kp_scale", "torque_scale", "damping_scale", "friction_scale", "armature_scale", "backlash_deg")
 
 
@@ -164,7 +167,7 @@ def _value_or_range(key: str, item: Node) -> tuple[float, float]:
         lo, hi = item.pair()
     else:
         lo = hi = item.number()
-    if lo < 0:
+    if lo < 0 and key not in SIGNED:
         raise item.error(f"must not be negative, got {item.value!r}")
     if key in SCALES and lo == 0:
         raise item.error("a scale must be > 0")
@@ -254,6 +257,7 @@ class Perturbation:
     joint_noise_rad: np.ndarray  # (n, n_ticks, nu)
     up_noise: np.ndarray  # (n, n_ticks, 3)
     foot_flip: np.ndarray  # (n, n_ticks, 2) bool
+    heading_drift_rad_s: np.ndarray  # (n,)
 
     def __len__(self) -> int:
         return len(self.latency_s)
@@ -302,6 +306,7 @@ def sample(reality: Reality, keys: np.ndarray, model: mujoco.MjModel, n_ticks: i
         out["armature_scale"].append(draw("armature_scale", nu))
         out["derivative_s"].append(draw("derivative_ms") / 1e3)
         out["latency_s"][-1] += draw("latency_ms") / 1e3
+        out["heading_drift_rad_s"].append(np.radians(draw("heading_drift_deg_s")))
         for joint, index in joint_columns:  # a joint's own values: drawn last, as above
             for key, (lo, hi) in reality.joint_ranges[joint].items():
                 value = lo if lo == hi else rng.uniform(lo, hi)

@@ -9,7 +9,7 @@ the foot switches and up-vector from the sensor board.
 from __future__ import annotations
 
 import time
-from typing import Callable, TypeVar
+from typing import Callable, NamedTuple, TypeVar
 
 import numpy as np
 
@@ -19,6 +19,20 @@ from sim2real.robot import RobotSpec
 from sim2real.robot.profiles import DeviceProfile, Register
 
 T = TypeVar("T")
+
+
+class BoardReading(NamedTuple):
+    """One read of the sensor board."""
+
+    feet: np.ndarray  # (2,) bool: left, right touching
+    up: np.ndarray  # (3,) world up in the torso frame, unit
+    heading: float | None  # [rad] the IMU's yaw; None from a board without the register
+
+
+def board_reports_heading(robot: RobotSpec) -> bool:
+    """Whether the robot's sensor board has a heading register (controllers with a heading
+    input need one)."""
+    return robot.sensor_board is not None and Reg.HEADING in robot.sensor_board.profile.control_table
 
 
 def decode(reg: Register, raw: int) -> int:
@@ -134,13 +148,15 @@ class ServoChain:
                 raise
             return exc.value
 
-    def read_board(self, attempts: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Foot switches (left, right: True touching) and the torso up-vector (unit, torso frame)."""
+    def read_board(self, attempts: int | None = None) -> BoardReading:
+        """Foot switches (left, right: True touching), the torso up-vector (unit, torso frame)
+        and, from a board that reports one, the heading [rad] - in one read."""
         if self.board_id is None:
             raise ValueError(f"robot {self.robot.name} has no sensor board")
         profile = self.devices[self.board_id]
+        has_heading = Reg.HEADING in profile.control_table
         first = profile.register(Reg.FOOT_SWITCH_LEFT)
-        last = profile.register(Reg.UP_VECTOR_Z)
+        last = profile.register(Reg.HEADING if has_heading else Reg.UP_VECTOR_Z)
         size = last.address + last.size - first.address
         raw = self.with_retries(lambda: self.bus.read(self.board_id, first.address, size), attempts)
         block = raw.to_bytes(size, "little")
@@ -154,4 +170,5 @@ class ServoChain:
         feet = np.array([field(Reg.FOOT_SWITCH_LEFT) == touching, field(Reg.FOOT_SWITCH_RIGHT) == touching])
         up = np.array([field(Reg.UP_VECTOR_X), field(Reg.UP_VECTOR_Y), field(Reg.UP_VECTOR_Z)], dtype=float) \
             * profile.units["up_vector_unit"]
-        return feet, up
+        heading = field(Reg.HEADING) * profile.units["heading_unit"] if has_heading else None
+        return BoardReading(feet, up, heading)

@@ -39,6 +39,7 @@ class Reg(StrEnum):
     UP_VECTOR_X = "up_vector_x"
     UP_VECTOR_Y = "up_vector_y"
     UP_VECTOR_Z = "up_vector_z"
+    HEADING = "heading"  # [heading_unit of the profile: rad] the IMU's yaw, counter-clockwise from above
 
 
 POSITION_MODE = 3  # Operating Mode value of position control (X series e-manual, address 11)

@@ -6,7 +6,8 @@ simulation catches up with the wall clock, each servo driven toward its Goal Pos
 report - Present Position quantized to the encoder, Present Velocity, Present Load (or
 Present Current on servos that sense it) - and
 the sensor board its foot switches (closed above the robot's ``foot_contact_n``) and the
-torso's up-vector (in its profile's ``up_vector_unit``).  A servo that holds its stall torque for ``overload_s`` latches an
+torso's up-vector (in its profile's ``up_vector_unit``) and, if its profile has the register, its
+heading (``heading_unit``).  A servo that holds its stall torque for ``overload_s`` latches an
 overload: alert bit, Hardware Error Status, torque off until REBOOT.
 
 A reality profile (:mod:`sim2real.simulation.reality`) perturbs the robot behind the bus: masses,
@@ -33,7 +34,7 @@ from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
-from sim2real.simulation.model_builder import JointAngles
+from sim2real.simulation.model_builder import JointAngles, heading_rad
 from sim2real.simulation.reality import EFFECTS, NOMINAL, Reality, perturbed_model
 
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
@@ -90,6 +91,7 @@ class PhysicsChain:
                         if reality.effects else None)
         self.touch = [self.model.sensor_adr[self.model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
         self.up = self.model.sensor_adr[self.model.sensor("torso_up").id]
+        self.forward = self.model.sensor_adr[self.model.sensor("torso_forward").id]
         self.board = robot.sensor_board.id if robot.sensor_board else None
         self.saturated = np.zeros(len(names))
         self.overload_at: dict[int, float] = {}  # fault injection: servo id -> simulated time
@@ -182,6 +184,10 @@ class PhysicsChain:
             up = self.data.sensordata[self.up:self.up + 3] + self.rng.normal(0.0, 1.0, 3) * p.up_noise_sd[0]
             for reg, value in zip((Reg.UP_VECTOR_X, Reg.UP_VECTOR_Y, Reg.UP_VECTOR_Z), up):
                 board.set_named(reg, int(round(float(value) / board.profile.units["up_vector_unit"])))
+            if Reg.HEADING in board.profile.control_table:  # the IMU's yaw, drifting as this robot's gyro does
+                yaw = heading_rad(self.data.sensordata[self.forward:self.forward + 3])
+                yaw = math.remainder(float(yaw) + p.heading_drift_rad_s[0] * self.data.time, 2 * math.pi)
+                board.set_named(Reg.HEADING, int(round(yaw / board.profile.units["heading_unit"])))
 
     # -- ground truth, for dry-run reports ---------------------------------------------------------
     def sole_x(self) -> np.ndarray:
