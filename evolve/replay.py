@@ -48,6 +48,23 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
     return data, spec, evaluator, genome
 
 
+class TurnTracker:
+    """``on_tick`` hook: how far each simulation's torso has turned about world up since the
+    start (counter-clockwise positive, unwrapped) [rad], and the largest turn either way."""
+
+    def __init__(self, n: int):
+        self.last: np.ndarray | None = None
+        self.turn, self.max_turn = np.zeros(n), np.zeros(n)
+
+    def __call__(self, evaluator: LocomotionEvaluator, alive: np.ndarray) -> None:
+        yaw = evaluator.heading(np.arange(len(self.turn)), 0, None)  # the true yaw: no drift
+        if self.last is not None:
+            step = np.angle(np.exp(1j * (yaw - self.last)))
+            self.turn[alive] += step[alive]
+            self.max_turn[alive] = np.maximum(self.max_turn[alive], np.abs(self.turn[alive]))
+        self.last = yaw
+
+
 def evaluate_controller(path: Path | str, robot: str | None = None, seconds: float | None = None,
                         episodes: int = 1, disabled_modules: tuple[str, ...] = (),
                         randomize: str | Reality | None = None, seed: int = 0,
@@ -61,8 +78,9 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
                                            disabled_modules=disabled_modules, stagnation_stop=stagnation_stop)
     keys = np.array([[seed, e] for e in range(episodes)])
     perturbation = None if reality.is_nominal else evaluator.sample(keys)
+    turn = TurnTracker(episodes)
     result = evaluator.evaluate([genome] * episodes, data.sigmoid_steepness, harness=0.0,
-                                disabled_modules=disabled_modules, perturbation=perturbation)
+                                disabled_modules=disabled_modules, perturbation=perturbation, on_tick=turn)
     leg = spec.body.leg_length
     walked = result.walked(leg, evaluator.episode_s)
     return {
@@ -74,8 +92,10 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         "falls": int(result.fell.sum()),
         "walked_share": float(walked.mean()),
         "walked": int(walked.sum()),
-        "per_episode": [{"distance_m": float(d), "upright_s": float(u), "fell": bool(f)}
-                        for d, u, f in zip(result.distance_m, result.upright_s, result.fell)],
+        "per_episode": [{"distance_m": float(d), "upright_s": float(u), "fell": bool(f), "turn_deg": float(t),
+                         "max_turn_deg": float(m)}
+                        for d, u, f, t, m in zip(result.distance_m, result.upright_s, result.fell,
+                                                 np.degrees(turn.turn), np.degrees(turn.max_turn))],
         "fitness": float(np.mean(result.fitness)),
         "leg_length_m": leg,
         "episodes": episodes,

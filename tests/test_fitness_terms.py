@@ -120,23 +120,39 @@ def test_a_walk_bonus_counts_in_selection_for_the_episodes_that_walked():
 
 def test_with_a_heading_limit_only_walks_that_kept_their_heading_earn_the_bonus():
     from evolve.locomotion.export import genome_from_controller
-    from evolve.locomotion.objectives import yaw_rad
+    from sim2real.simulation.model_builder import heading_rad
     from sim2real.controller.file import Controller
     from sim2real.robot.paths import data_root
 
-    quarter = np.array([[np.cos(np.pi / 8), 0.0, 0.0, np.sin(np.pi / 8)], [1.0, 0.0, 0.0, 0.0]])
-    assert yaw_rad(quarter) == pytest.approx([np.pi / 4, 0.0])
+    assert heading_rad(np.array([[1.0, 1.0, 0.3], [1.0, 0.0, 0.0]])) == pytest.approx([np.pi / 4, 0.0])
     walker = Controller.load(data_root() / "configs" / "controllers" / "xl430_biped.json")
     bonus, headings = {}, []
-    for limit in (150.0, 30.0):  # on the nominal robot it walks to the left, turning ~96 deg in 10 s
+    for limit in (150.0, 30.0):  # on the nominal robot it walks to the left, turning ~90 deg in 10 s
         task = TaskConfig(episode_s=10.0, harness_generations=0, phase_period_s=walker.phase_period_s,
                           selection_walk_bonus=5.0, selection_heading_deg=limit)
         evaluator = LocomotionEvaluator(ROBOT, task, 1, threads=1)
         e = evaluator.evaluate([genome_from_controller(walker)], 1.0, harness=0.0,
-                               on_tick=lambda ev, alive: headings.append(np.degrees(yaw_rad(ev.qpos[:1, 3:7])[0])))
+                               on_tick=lambda ev, alive: headings.append(np.degrees(ev.heading(alive, 0, None)[0])))
         assert e.walked(ROBOT.body.leg_length, evaluator.episode_s).tolist() == [True]
         bonus[limit] = float(e.selection[0] - e.fitness[0])
     assert 30.0 < np.abs(headings).max() < 150.0
     assert bonus == {150.0: 5.0, 30.0: 0.0}
     with pytest.raises(ConfigError, match="selection_heading_deg"):
         TaskConfig.from_mapping({"selection_heading_deg": 20.0})
+
+
+def test_the_replays_turn_is_unwrapped_and_its_largest_kept():
+    from evolve.replay import TurnTracker
+
+    class Spinning:  # an evaluator whose two torsos yaw along given paths [rad]
+        def __init__(self, paths):
+            self.paths, self.t = np.array(paths), 0
+
+        def heading(self, ids, tick, p):
+            return np.angle(np.exp(1j * self.paths[:, min(self.t, self.paths.shape[1] - 1)]))
+
+    ev = Spinning([[0.0, 1.5, 3.0, 4.5, 6.0], [0.0, -0.5, -1.0, 0.2, 0.1]])  # one turns a full circle
+    turn = TurnTracker(2)
+    for ev.t in range(5):
+        turn(ev, np.array([0, 1]) if ev.t < 4 else np.array([0]))  # the second fell before the last tick
+    assert turn.turn == pytest.approx([6.0, 0.2]) and turn.max_turn == pytest.approx([6.0, 1.0])

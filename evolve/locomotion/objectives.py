@@ -59,12 +59,6 @@ class Objective(Protocol):
     def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes: ...
 
 
-def yaw_rad(quat: np.ndarray) -> np.ndarray:
-    """Heading [rad] of MuJoCo quaternions (w, x, y, z), shape (n, 4): the rotation about z."""
-    w, x, y, z = quat.T
-    return np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-
-
 class WalkObjective:
     """Seed 000 eq. 3, ``f = c_d max(proj_j d, eps) + c_t t``, with its early termination:
     the pelvis below ``fall_height`` of its start height or the torso tilted past
@@ -79,7 +73,7 @@ class WalkObjective:
     lengths, so that beyond a walk a faster gait gains nothing over a steadier one; with its
     ``selection_walk_bonus`` > 0, selection adds that much for an episode that walked
     (:meth:`Episodes.walked`), so that a steady walk beats a longer run that falls; with
-    ``selection_heading_deg`` > 0 only for a walk whose heading (the root's yaw) never turned
+    ``selection_heading_deg`` > 0 only for a walk whose heading (the torso's yaw) never turned
     further than that from the start's: seed 000's sensors give no heading, and a walker
     that turns may end up walking back on a robot a little off the model.
     """
@@ -99,7 +93,7 @@ class WalkObjective:
         self.distance = np.zeros(n)
         self.fell = np.zeros(n, dtype=bool)
         self.min_up_z = np.cos(np.radians(task.fall_tilt_deg))
-        self.start_yaw = yaw_rad(ev.qpos[:n, 3:7])
+        self.start_yaw = ev.heading(np.arange(n), 0, None)  # the true yaw, as the board's IMU would read it
         self.turned = np.zeros(n)  # [rad] the largest turn from the start's heading while upright
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
@@ -122,7 +116,7 @@ class WalkObjective:
         self.last_gain[alive[gained]] = elapsed[alive[gained]]
         self.fell[alive[down & ~bad]] = True
         if task.selection_heading_deg:
-            turn = np.abs(np.angle(np.exp(1j * (yaw_rad(ev.qpos[live, 3:7]) - self.start_yaw[live]))))
+            turn = np.abs(np.angle(np.exp(1j * (ev.heading(live, 0, None) - self.start_yaw[live]))))
             self.turned[live] = np.maximum(self.turned[live], turn)
         self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
         self.time_term[alive[bad]] = 0.0
