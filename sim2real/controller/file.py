@@ -74,7 +74,7 @@ _FIELDS, _DEFS = SCHEMA["properties"], SCHEMA["$defs"]
 FORMAT: str = _FIELDS["format"]["const"]
 VERSION: int = _FIELDS["version"]["const"]
 REQUIRED: tuple[str, ...] = tuple(SCHEMA["required"])
-OPTIONAL: tuple[str, ...] = tuple(k for k in _FIELDS if k not in REQUIRED)  # phase_period_s, heading_input, efference_copy
+OPTIONAL: tuple[str, ...] = tuple(k for k in _FIELDS if k not in REQUIRED)  # the inputs' options
 PHASE_RANGE_S = (float(_FIELDS["phase_period_s"]["minimum"]), float(_FIELDS["phase_period_s"]["maximum"]))
 MAX_WEIGHT = float(_FIELDS["connections"]["items"]["prefixItems"][2]["maximum"])  # NeatConfig clips to 20
 MAX_STEEPNESS = float(_FIELDS["sigmoid_steepness"]["maximum"])  # seed 000 uses 1, classic NEAT 4.9
@@ -512,7 +512,8 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
         for k, value in enumerate(row):
             c.number(value, f"bias[{s}][{k}]", *BIAS_RANGE)
     driven = _check_joints(c, data["joints"])
-    _check_symmetry(c, data["symmetry"], driven, inputs, outputs, clock, efference, heading)  # the interface first: it numbers the nodes
+    # the interface first: it numbers the nodes
+    _check_symmetry(c, data["symmetry"], driven, inputs, outputs, clock, efference, heading)
     n_in, n_bias, n_out = len(inputs), len(bias[0]), len(outputs)
     n_modules = _check_modules(c, data["modules"])
     hidden = _check_hidden(c, data["hidden"], n_in + n_bias + n_out, n_modules)

@@ -1,8 +1,8 @@
 """A controller as a policy: robot readings in, joint goals out (no MuJoCo).
 
 Evolution's wiring, tick for tick: present joint angles, foot switches, the torso's
-up-vector (and its heading, for a controller with a heading input) become both networks' inputs (:mod:`sim2real.controller.symmetry`); their
-outputs become joint goals by the central-0.8 rule, rate-limited to the servos' no-load
+up-vector (and its heading, for a controller with a heading input) become both networks'
+inputs (:mod:`sim2real.controller.symmetry`); their outputs become joint goals by the central-0.8 rule, rate-limited to the servos' no-load
 speed per tick (:mod:`sim2real.controller.mapping`); joints the controller does not drive
 hold the centre of their range.  Only the wiring is fused, into gathers derived from
 :func:`~sim2real.controller.symmetry.network_inputs` and
