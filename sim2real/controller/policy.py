@@ -2,9 +2,10 @@
 
 Evolution's wiring, tick for tick: present joint angles, foot switches, the torso's
 up-vector (and its heading, for a controller with a heading input) become both networks'
-inputs (:mod:`sim2real.controller.symmetry`); their outputs become joint goals by the central-0.8 rule, rate-limited to the servos' no-load
-speed per tick (:mod:`sim2real.controller.mapping`); joints the controller does not drive
-hold the centre of their range.  Only the wiring is fused, into gathers derived from
+inputs (:mod:`sim2real.controller.symmetry`); their outputs become joint goals by the
+central-0.8 rule, rate-limited to the servos' no-load speed per tick
+(:mod:`sim2real.controller.mapping`); joints the controller does not drive hold the centre
+of their range.  Only the wiring is fused, into gathers derived from
 :func:`~sim2real.controller.symmetry.network_inputs` and
 :func:`~sim2real.controller.symmetry.joint_outputs` (their test oracles); every number is
 computed as in evolution, bit for bit.
