@@ -321,7 +321,7 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
                 heading = (Channel(HEADING_CHANNEL, "rad"),) if board_reports_heading(robot) else ()
                 trace = TraceWriter(trace_path, robot.joint_names, {
                     "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"},
-                    extra=heading + (motion.channels if motion else ()))
+                    extra=(*heading, *(motion.channels if motion else ())))
             present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION, None, PATIENT_ATTEMPTS, PATIENCE_S))
             chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)
             ramp(chain, mapping, present, policy.reset(), ramp_s, sleep)
