@@ -33,7 +33,7 @@ def test_a_short_dry_run_stands_and_ends_with_torque_off(standing_controller, tm
     result = dry_run(standing_controller, duration_s=1.0, trace_path=tmp_path / "t.csv", log=lambda s: None,
                      ramp_s=0.3)
     assert result["stop_reason"] == "duration reached"
-    assert not result["fell"] and abs(result["distance_m"]) < 0.02
+    assert not result["fell"] and abs(result["distance_m"]) < 0.02 and abs(result["heading_deg"]) < 2.0
     assert result["bus_errors"] == 0 and result["ticks"] == round(1.0 / 0.034)
     # the ground truth is the loop's end: start-up, the 0.3 s ramp and 1 s, not the stop's ramp after
     assert result["simulated_s"] >= 1.3 and result["fell_after_stop"] is False

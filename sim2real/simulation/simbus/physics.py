@@ -100,6 +100,7 @@ class PhysicsChain:
         self._started = clock()
         self._publish()
         self._start_soles, self._start_height = self.sole_x(), self.pelvis_height()
+        self._start_heading = self.heading()
         for k, dxl_id in enumerate(self.ids):
             self.devices[dxl_id].set_named(Reg.GOAL_POSITION, int(self.devices[dxl_id].get_named(Reg.PRESENT_POSITION)))
 
@@ -185,8 +186,7 @@ class PhysicsChain:
             for reg, value in zip((Reg.UP_VECTOR_X, Reg.UP_VECTOR_Y, Reg.UP_VECTOR_Z), up):
                 board.set_named(reg, int(round(float(value) / board.profile.units["up_vector_unit"])))
             if Reg.HEADING in board.profile.control_table:  # the IMU's yaw, drifting as this robot's gyro does
-                yaw = heading_rad(self.data.sensordata[self.forward:self.forward + 3])
-                yaw = math.remainder(float(yaw) + p.heading_drift_rad_s[0] * self.data.time, 2 * math.pi)
+                yaw = math.remainder(self.heading() + p.heading_drift_rad_s[0] * self.data.time, 2 * math.pi)
                 board.set_named(Reg.HEADING, int(round(yaw / board.profile.units["heading_unit"])))
 
     # -- ground truth, for dry-run reports ---------------------------------------------------------
@@ -199,9 +199,14 @@ class PhysicsChain:
     def upright(self) -> float:
         return float(self.data.sensordata[self.up + 2])
 
+    def heading(self) -> float:
+        """The torso's true yaw [rad] (no drift)."""
+        return float(heading_rad(self.data.sensordata[self.forward:self.forward + 3]))
+
     def ground_truth(self) -> dict[str, float | bool]:
-        """Distance of the hindmost sole since the start [m] and whether the robot fell (as in
-        evolution: pelvis below 70 % of its start height, or torso tilted past 60 deg) - at the
+        """Distance of the hindmost sole since the start [m], whether the robot fell (as in
+        evolution: pelvis below 70 % of its start height, or torso tilted past 60 deg) and how
+        far it faces from its start heading (wrapped to +-180 deg, left positive) - at the
         end of the run's loop if :meth:`mark_end_of_run` was called (the stop's ramp to rest
         and torque off come after it: a runner braked to rest, or a limp robot, may topple
         then, and that is not the controller's walk), else now."""
@@ -219,5 +224,6 @@ class PhysicsChain:
         with self.lock:
             fell = (self.pelvis_height() < FALL_HEIGHT * self._start_height
                     or self.upright() < math.cos(math.radians(FALL_TILT_DEG)))
+            turn = math.degrees(math.remainder(self.heading() - self._start_heading, 2 * math.pi))
             return {"distance_m": float(np.min(self.sole_x() - self._start_soles)), "fell": bool(fell),
-                    "simulated_s": float(self.data.time)}
+                    "heading_deg": turn, "simulated_s": float(self.data.time)}
