@@ -17,6 +17,7 @@ from evolve.locomotion.export import genome_from_controller
 from evolve.locomotion.task import TaskConfig
 from sim2real.controller.activation import check_disabled_modules
 from sim2real.controller.file import Controller
+from sim2real.controller.symmetry import turn_rad
 from sim2real.errors import ConfigError, UsageError
 from sim2real.figures.gait import Gait
 from sim2real.simulation.reality import NOMINAL, Reality, load_reality
@@ -59,7 +60,7 @@ class TurnTracker:
     def __call__(self, evaluator: LocomotionEvaluator, alive: np.ndarray) -> None:
         yaw = evaluator.heading(np.arange(len(self.turn)), 0, None)  # the true yaw: no drift
         if self.last is not None:
-            step = np.angle(np.exp(1j * (yaw - self.last)))
+            step = turn_rad(yaw, self.last)
             self.turn[alive] += step[alive]
             self.max_turn[alive] = np.maximum(self.max_turn[alive], np.abs(self.turn[alive]))
         self.last = yaw

@@ -694,25 +694,21 @@ def test_a_controller_with_more_inputs_round_trips_and_fits_its_robot(valid, tmp
     assert json.loads(path.read_text()) == data
 
 
-@pytest.mark.parametrize("mutate, expected", [
-    (lambda d: d.pop("efference_copy"), r"inputs: has 18 names where .*need efference_copy: true.* has 11"),
-    (lambda d: d.update(efference_copy="yes"), r"efference_copy: must be true or false, got 'yes'"),
-    (lambda d: d.update(inputs=d["inputs"][:-1]), r"inputs: has 17 names where .*the last goals \(efference_copy\)"),
-], ids=["goals-without-flag", "flag-not-a-boolean", "a-goal-missing"])
-def test_a_broken_efference_copy_is_refused_by_name(valid, mutate, expected):
-    data = _with_efference(valid)
+@pytest.mark.parametrize("extend, mutate, expected", [
+    (_with_efference, lambda d: d.pop("efference_copy"),
+     r"inputs: has 18 names where .*need efference_copy: true.* has 11"),
+    (_with_efference, lambda d: d.update(efference_copy="yes"), r"efference_copy: must be true or false, got 'yes'"),
+    (_with_efference, lambda d: d.update(inputs=d["inputs"][:-1]),
+     r"inputs: has 17 names where .*the last goals \(efference_copy\)"),
+    (_with_heading, lambda d: d.pop("heading_input"),
+     r"inputs: has 12 names where .*a heading input needs heading_input: true.* has 11"),
+    (_with_heading, lambda d: d.update(heading_input=1), r"heading_input: must be true or false, got 1"),
+    (_with_heading, lambda d: d.update(inputs=d["inputs"][:-1]),
+     r"inputs: has 11 names where .*the heading \(heading_input\)"),
+], ids=["goals-without-flag", "efference-flag-not-a-boolean", "a-goal-missing",
+        "heading-without-flag", "heading-flag-not-a-boolean", "heading-missing"])
+def test_a_broken_input_option_is_refused_by_name(valid, extend, mutate, expected):
+    data = extend(valid)
     mutate(data)
     with pytest.raises(ConfigError, match=expected):
-        Controller.from_dict(data, "efference.json", ROBOT)
-
-
-@pytest.mark.parametrize("mutate, expected", [
-    (lambda d: d.pop("heading_input"), r"inputs: has 12 names where .*a heading input needs heading_input: true.* has 11"),
-    (lambda d: d.update(heading_input=1), r"heading_input: must be true or false, got 1"),
-    (lambda d: d.update(inputs=d["inputs"][:-1]), r"inputs: has 11 names where .*the heading \(heading_input\)"),
-], ids=["heading-without-flag", "flag-not-a-boolean", "heading-missing"])
-def test_a_broken_heading_input_is_refused_by_name(valid, mutate, expected):
-    data = _with_heading(valid)
-    mutate(data)
-    with pytest.raises(ConfigError, match=expected):
-        Controller.from_dict(data, "heading.json", ROBOT)
+        Controller.from_dict(data, "inputs.json", ROBOT)

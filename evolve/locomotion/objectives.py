@@ -20,6 +20,8 @@ from typing import Any, Callable, Mapping, Protocol
 
 import numpy as np
 
+from sim2real.controller.symmetry import turn_rad
+
 
 # "walked": 2.2 leg lengths forward, upright to the end (seed 000's 2 m for a 0.9 m human leg)
 WALK_LEG_LENGTHS = 2.2
@@ -116,7 +118,7 @@ class WalkObjective:
         self.last_gain[alive[gained]] = elapsed[alive[gained]]
         self.fell[alive[down & ~bad]] = True
         if task.selection_heading_deg:
-            turn = np.abs(np.angle(np.exp(1j * (ev.heading(live, 0, None) - self.start_yaw[live]))))
+            turn = np.abs(turn_rad(ev.heading(live, 0, None), self.start_yaw[live]))
             self.turned[live] = np.maximum(self.turned[live], turn)
         self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
         self.time_term[alive[bad]] = 0.0

@@ -50,13 +50,16 @@ PHASE_INPUTS = ("phase_sin", "phase_cos")  # after the sensors (and the heading)
 GOAL_SUFFIX = "_goal"  # an efference copy's input: a joint input's name and this, last
 
 
+def turn_rad(heading_rad: np.ndarray | float, start_rad: np.ndarray | float) -> np.ndarray:
+    """The turn from ``start_rad`` to ``heading_rad`` (yaws about world up, counter-clockwise
+    seen from above, as an IMU reports them [rad]), wrapped to [-pi, pi]."""
+    return np.angle(np.exp(1j * (np.asarray(heading_rad, dtype=float) - start_rad)))
+
+
 def heading_input(heading_rad: np.ndarray | float, start_rad: np.ndarray | float) -> np.ndarray:
-    """The right network's heading input: the turn from ``start_rad`` to ``heading_rad``
-    (yaw about world up, counter-clockwise seen from above, as an IMU reports it [rad]),
-    wrapped to [-pi, pi] and divided by -pi - turning right (toward the right network's own
-    side) is positive, and facing back reads +-1."""
-    turn = np.angle(np.exp(1j * (np.asarray(heading_rad, dtype=float) - start_rad)))
-    return -turn / np.pi
+    """The right network's heading input: :func:`turn_rad` divided by -pi - turning right
+    (toward the right network's own side) is positive, and facing back reads +-1."""
+    return -turn_rad(heading_rad, start_rad) / np.pi
 
 
 def phase_inputs(t_s: np.ndarray | float, period_s: float) -> np.ndarray:

@@ -190,7 +190,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     if "distance_m" not in truth:
         raise BipedError("the simulated bus ended without its report (it crashed?)")
     summary = report.summary()
-    return {"distance_m": truth["distance_m"], "fell": truth["fell"], "heading_deg": truth.get("heading_deg"),
+    return {"distance_m": truth["distance_m"], "fell": truth["fell"], "heading_deg": truth["heading_deg"],
             "ticks": report.ticks,
             "overruns": report.overruns, "bus_errors": report.bus_errors, "retries": report.retries,
             "missed_ticks": report.missed_ticks, "corrupt_replies": report.corrupt_replies,

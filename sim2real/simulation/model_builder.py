@@ -12,8 +12,8 @@ links overlap at the joints, and a servo bracket cannot pass through itself anyw
 Sensors: ``<side>_foot_touch`` (normal force under each sole [N]), ``torso_up`` (world up
 in the torso frame, x forward, y left, z up: what the sensor board's IMU reports),
 ``torso_forward`` (the torso's x axis in the world frame, whose yaw :func:`heading_rad` is the
-board's heading) and ``<joint>_pos`` (the servo joint's angle [rad], unquantized).  The keyframe ``home`` holds
-the standing pose in ``qpos`` and ``ctrl``.
+board's heading) and ``<joint>_pos`` (the servo joint's angle [rad], unquantized).  The
+keyframe ``home`` holds the standing pose in ``qpos`` and ``ctrl``.
 
 Gear backlash, when asked for (``backlash=True``), is a passive hinge ``<joint>_backlash``
 in series behind each joint: same body and axis, right after the servo joint (MuJoCo

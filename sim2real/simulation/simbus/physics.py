@@ -29,6 +29,7 @@ import mujoco
 import numpy as np
 
 from sim2real.controller.mapping import ServoMapping
+from sim2real.controller.symmetry import turn_rad
 from sim2real.hardware.dynamixel.chain import decode
 from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
 from sim2real.hardware.dynamixel.registers import Reg
@@ -186,7 +187,7 @@ class PhysicsChain:
             for reg, value in zip((Reg.UP_VECTOR_X, Reg.UP_VECTOR_Y, Reg.UP_VECTOR_Z), up):
                 board.set_named(reg, int(round(float(value) / board.profile.units["up_vector_unit"])))
             if Reg.HEADING in board.profile.control_table:  # the IMU's yaw, drifting as this robot's gyro does
-                yaw = math.remainder(self.heading() + p.heading_drift_rad_s[0] * self.data.time, 2 * math.pi)
+                yaw = float(turn_rad(self.heading() + p.heading_drift_rad_s[0] * self.data.time, 0.0))
                 board.set_named(Reg.HEADING, int(round(yaw / board.profile.units["heading_unit"])))
 
     # -- ground truth, for dry-run reports ---------------------------------------------------------
@@ -224,6 +225,6 @@ class PhysicsChain:
         with self.lock:
             fell = (self.pelvis_height() < FALL_HEIGHT * self._start_height
                     or self.upright() < math.cos(math.radians(FALL_TILT_DEG)))
-            turn = math.degrees(math.remainder(self.heading() - self._start_heading, 2 * math.pi))
+            turn = math.degrees(turn_rad(self.heading(), self._start_heading))
             return {"distance_m": float(np.min(self.sole_x() - self._start_soles)), "fell": bool(fell),
                     "heading_deg": turn, "simulated_s": float(self.data.time)}
