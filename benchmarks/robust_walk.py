@@ -23,7 +23,9 @@ Wall minutes are the evolution's own (``stats.csv``'s ``wall_s``: every generati
 validation), measured with nothing else running; the tests of champions come on top and are
 reported apart (``test_s``).  With ``--out`` each seed keeps its folder and ``result.json``:
 a finished seed is not run again, an interrupted one resumes from its checkpoint (a seed
-fixes the run, so the resumed run is the one that was cut).  ``--measure CONTROLLER`` measures
+fixes the run, so the resumed run is the one that was cut).  The summary's
+``transfer_ratio_median`` counts a walker that falls on the nominal model as keeping 0 (there
+is no walk to keep), and ``transfer_passed`` counts the checks passed.  ``--measure CONTROLLER`` measures
 one controller the same way, without evolving; ``--ship FILE`` writes the walker with the
 command and its measures in its provenance (``robust`` says whether it met the bar).
 """
@@ -136,6 +138,12 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
     return result
 
 
+def kept(transfer: dict[str, Any]) -> float:
+    """The transfer check's ratio, or 0 when the nominal simulation did not walk: a share kept
+    of a walk that never was (a fall on the model) is no transfer."""
+    return transfer["ratio"] if transfer["sim_walked"] else 0.0
+
+
 def summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
     robust = [r for r in runs if r["robust"]]
 
@@ -147,7 +155,8 @@ def summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
         "seeds": len(runs), "robust_seeds": len(robust),
         "median_minutes": median(r["minutes"] for r in robust),
         "median_generations": median(r["generations"] for r in robust),
-        "transfer_ratio_median": median(r["transfer"]["ratio"] for r in robust),
+        "transfer_ratio_median": median(kept(r["transfer"]) for r in robust),
+        "transfer_passed": sum(r["transfer"]["passed"] for r in robust),
         "sustained_s_median": median(r["sustained"]["default"]["upright_s"] for r in robust),
         "sustained_m_median": median(r["sustained"]["default"]["distance_m"] for r in robust),
         "speed_m_s_median": median(r["sustained"]["nominal"]["speed_m_s"] for r in robust),

@@ -23,6 +23,9 @@
                               # of the candidate's distance on the model (which it must walk too)
       centre: my_robot.yaml   # optional: the ranges around this robot (fixed values, e.g. from
                               # `biped sysid`) instead of the nominal model: scales multiply, the rest adds
+      push:                   # optional: pushes in selection's episodes (evolve/locomotion/pushes.py)
+        speed_m_s: 0.15       # the largest whole-body speed change of a push (times the ramp)
+        every_s: 2.0          # between pushes
     stages: [...]             # optional: a developmental hierarchy (evolve.stages)
 """
 
@@ -35,6 +38,7 @@ from typing import Any
 
 import yaml
 
+from evolve.locomotion.pushes import Pushes
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig
 from evolve.stages import Stage, check_stage_joints, parse_stages
@@ -95,6 +99,8 @@ class RandomizeConfig:
     # Common random numbers: every genome of a generation meets the same ``episodes`` robots
     # (new ones each generation), so selection compares genomes, not their luck of the draw.
     shared: bool = False
+    # Pushes in selection's episodes (evolve/locomotion/pushes.py): speeds grow with the ramp.
+    push: Pushes | None = None
 
     @property
     def active(self) -> bool:
@@ -130,6 +136,8 @@ class RandomizeConfig:
             out["centre"] = self.centre
         if self.shared:
             out["shared"] = True
+        if self.push is not None:
+            out["push"] = self.push.to_dict()
         return out
 
 
@@ -138,7 +146,7 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
         return RandomizeConfig()
     node = Node(doc, source, "randomize").mapping(optional=("reality", "episodes", "score", "ramp_generations",
                                                             "start_generation", "validation", "centre",
-                                                            "shared", "strength"))
+                                                            "shared", "strength", "push"))
     reality = node.value.get("reality", "nominal")
     if not isinstance(reality, (str, dict)):
         raise node["reality"].error(f"must be a reality name, path or mapping, got {reality!r}")
@@ -169,8 +177,15 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
         except FileNotFoundError as exc:
             raise node["centre"].error(str(exc)) from None
     shared = node["shared"].boolean() if node.has("shared") else False
+    push = None
+    if node.has("push"):
+        v = node["push"].mapping(required=("speed_m_s",), optional=("every_s",))
+        push = Pushes(v["speed_m_s"].number(positive=True, hi=2.0),
+                      v["every_s"].number(positive=True) if v.has("every_s") else Pushes.every_s)
+        if reality == "nominal":
+            raise v.error("pushes come with the randomization's ramp: give randomize.reality (ranges to draw from)")
     config = RandomizeConfig(reality, episodes, score, ramp, start, strength=strength, validation=validation,
-                             centre=centre, shared=shared)
+                             centre=centre, shared=shared, push=push)
     load_reality(config.profile)  # a centre of ranges, not fixed values, is refused here, by name
     return config
 

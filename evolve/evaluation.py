@@ -16,6 +16,7 @@ import numpy as np
 
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.objectives import Episodes
+from evolve.locomotion.pushes import Pushes, push_schedule
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from evolve.stages import Stage
@@ -55,17 +56,22 @@ class Job:
     harness: float
     stage: Stage | None  # None: the walk objective
     intensity: float  # randomization strength: 0 nominal, 1 the evaluator's reality in full
+    pushes: Pushes | None = None  # training's pushes (selection only), their speeds times intensity
 
     def rows(self, lo: int, hi: int) -> "Job":
-        return Job(self.genomes[lo:hi], self.keys[lo:hi], self.steepness, self.harness, self.stage, self.intensity)
+        return Job(self.genomes[lo:hi], self.keys[lo:hi], self.steepness, self.harness, self.stage, self.intensity,
+                   self.pushes)
 
 
 def run_job(evaluator: LocomotionEvaluator, job: Job) -> Episodes:
     """Simulate every simulation of ``job`` on ``evaluator`` (the reference for every backend)."""
     perturbation = evaluator.sample(job.keys, job.intensity) if job.intensity > 0 else None
+    pushes = None
+    if job.pushes is not None and job.intensity > 0:
+        pushes = push_schedule(job.pushes, job.keys, evaluator.n_ticks, evaluator.tick_s, job.intensity)
     objective = job.stage.make_objective if job.stage is not None else None
     return evaluator.evaluate(job.genomes, job.steepness, job.harness, perturbation=perturbation,
-                              objective=objective)
+                              objective=objective, pushes=pushes)
 
 
 class Backend(Protocol):
@@ -99,7 +105,7 @@ def repeated(e: Episodes, times: int) -> Episodes:
 
 def score_population(backend: Backend, genomes: list[Genome], *, steepness: float, harness: float,
                      stage: Stage | None, episodes: int, score: str, intensity: float,
-                     key: tuple[int, int, int], shared: bool = False) -> Episodes:
+                     key: tuple[int, int, int], shared: bool = False, pushes: Pushes | None = None) -> Episodes:
     """Every genome on ``episodes`` episodes; the outcome per genome.
 
     Per genome, fitness and the other measures are the ``score`` (mean or worst) of its
@@ -108,12 +114,13 @@ def score_population(backend: Backend, genomes: list[Genome], *, steepness: floa
     ``intensity`` scales the randomization (0: none; then every episode of a genome would be
     the same simulation, so one is run and counted ``episodes`` times - the same numbers).
     ``shared``: every genome's episode e is drawn from one key, so all meet the same robots.
+    ``pushes``: training's pushes, drawn per episode with its robot (none while ``intensity`` is 0).
     """
     n = len(genomes)
     runs = episodes if intensity > 0 else 1
     sims = [g for g in genomes for _ in range(runs)]
     keys = np.array([[*key, 0 if shared else i, e] for i in range(n) for e in range(runs)], dtype=np.int64)
-    per_sim = backend.run(Job(sims, keys, steepness, harness, stage, intensity))
+    per_sim = backend.run(Job(sims, keys, steepness, harness, stage, intensity, pushes))
     if episodes == 1:
         return per_sim
     if runs == 1:

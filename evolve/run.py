@@ -221,7 +221,8 @@ class Run:
                 episodes["e"] = score_population(
                     self.backend, genomes, steepness=config.neat.sigmoid_steepness, harness=harness, stage=stage,
                     episodes=config.randomize.episodes, score=config.randomize.score, intensity=intensity,
-                    key=(config.seed, index, pop.generation), shared=config.randomize.shared)
+                    key=(config.seed, index, pop.generation), shared=config.randomize.shared,
+                    pushes=config.randomize.push)
                 return episodes["e"].selection
 
             stats = pop.evaluate(evaluate)

@@ -152,16 +152,21 @@ class LocomotionEvaluator:
                  disabled_modules: tuple[str, ...] = (),
                  on_tick: Callable[["LocomotionEvaluator", np.ndarray], None] | None = None,
                  perturbation: Perturbation | None = None,
-                 objective: Callable[["LocomotionEvaluator", int], Objective] | None = None) -> Episodes:
+                 objective: Callable[["LocomotionEvaluator", int], Objective] | None = None,
+                 pushes: np.ndarray | None = None) -> Episodes:
         """Run one episode per genome, with the support harness at ``harness`` strength
         (0: none, 1: full), each simulation perturbed by its row of ``perturbation`` (None:
-        the nominal robot), scored by ``objective(self, n)`` (default :class:`WalkObjective`);
+        the nominal robot) and pushed by its row of ``pushes`` (n, ticks, 2): the whole robot's
+        velocity change [m/s] at each tick, as :func:`evolve.locomotion.pushes.push_schedule`
+        draws them; scored by ``objective(self, n)`` (default :class:`WalkObjective`);
         ``on_tick(self, alive_ids)`` is called after every tick (to record frames of a replay)."""
         n = len(genomes)
         if n > self.max_population:
             raise ValueError(f"{n} genomes but the batch holds {self.max_population} simulations")
         if perturbation is not None and len(perturbation) != n:
             raise ValueError(f"{len(perturbation)} perturbations for {n} genomes")
+        if pushes is not None and pushes.shape != (n, self.n_ticks, 2):
+            raise ValueError(f"pushes of shape {pushes.shape} for {n} genomes of {self.n_ticks} ticks")
         task, tick = self.task, self.tick_s
         ids = np.arange(n)
         self._perturb(ids, perturbation)
@@ -209,8 +214,11 @@ class LocomotionEvaluator:
             goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)
             goal[alive] = goal_alive
             self.ctrl[alive[:, None], self.driven] = goal_alive
-            if harness:
-                self.xfrc[alive, self.pelvis, :3] = self._harness(alive, start_pelvis, k, c, cap)
+            if harness or pushes is not None:
+                force = self._harness(alive, start_pelvis, k, c, cap) if harness else np.zeros((len(alive), 3))
+                if pushes is not None:  # an impulse of mass x speed change, spread over the tick
+                    force[:, :2] += pushes[alive, t] * (self.mass / tick)
+                self.xfrc[alive, self.pelvis, :3] = force
             failed = np.zeros(len(alive), dtype=bool)
             try:
                 self.batch.step(alive, self.substeps)
