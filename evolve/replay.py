@@ -33,6 +33,7 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
     changes["phase_period_s"] = data.phase_period_s or 0.0  # the file's clock, whatever its task block says
     changes["efference_copy"] = data.efference_copy  # and its inputs
     changes["heading_input"] = data.heading_input
+    changes["heading_scale_deg"] = data.heading_scale_deg
     if keep_going:
         changes.update(fall_height=1e-6, fall_tilt_deg=180.0)
     if keep_going or not stagnation_stop:

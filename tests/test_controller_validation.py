@@ -677,13 +677,13 @@ def _with_efference(valid: dict) -> dict:
 
 
 def _with_heading(valid: dict) -> dict:
-    return _with_inputs(valid, ["heading"], heading_input=True)
+    return _with_inputs(valid, ["heading"], heading_input=True, heading_scale_deg=45.0)
 
 
 @pytest.mark.parametrize("extend, has", [
     (_with_clock, lambda c: c.phase_period_s == 0.6 and c.layout(ROBOT).phase),
     (_with_efference, lambda c: c.efference_copy and c.layout(ROBOT).efference),
-    (_with_heading, lambda c: c.heading_input and c.layout(ROBOT).heading),
+    (_with_heading, lambda c: c.heading_input and c.heading_scale_deg == 45.0 and c.layout(ROBOT).heading),
 ], ids=["clock", "efference-copy", "heading"])
 def test_a_controller_with_more_inputs_round_trips_and_fits_its_robot(valid, tmp_path, extend, has):
     data = extend(valid)
@@ -700,13 +700,19 @@ def test_a_controller_with_more_inputs_round_trips_and_fits_its_robot(valid, tmp
     (_with_efference, lambda d: d.update(efference_copy="yes"), r"efference_copy: must be true or false, got 'yes'"),
     (_with_efference, lambda d: d.update(inputs=d["inputs"][:-1]),
      r"inputs: has 17 names where .*the last goals \(efference_copy\)"),
-    (_with_heading, lambda d: d.pop("heading_input"),
+    (_with_heading, lambda d: d.update(heading_input=False),
+     r"heading_scale_deg: is the heading input's scale: give it only with heading_input: true"),
+    (_with_heading, lambda d: (d.pop("heading_input"), d.pop("heading_scale_deg")),
      r"inputs: has 12 names where .*a heading input needs heading_input: true.* has 11"),
+    (_with_heading, lambda d: d.update(heading_scale_deg=0), r"heading_scale_deg: must be within \(0, 180\], got 0"),
+    (_with_heading, lambda d: d.update(heading_scale_deg=270.0),
+     r"heading_scale_deg: must be within \(0, 180\], got 270"),
     (_with_heading, lambda d: d.update(heading_input=1), r"heading_input: must be true or false, got 1"),
     (_with_heading, lambda d: d.update(inputs=d["inputs"][:-1]),
      r"inputs: has 11 names where .*the heading \(heading_input\)"),
 ], ids=["goals-without-flag", "efference-flag-not-a-boolean", "a-goal-missing",
-        "heading-without-flag", "heading-flag-not-a-boolean", "heading-missing"])
+        "heading-scale-without-input", "heading-without-flag", "heading-scale-zero", "heading-scale-too-large",
+        "heading-flag-not-a-boolean", "heading-missing"])
 def test_a_broken_input_option_is_refused_by_name(valid, extend, mutate, expected):
     data = extend(valid)
     mutate(data)

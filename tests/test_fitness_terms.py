@@ -141,6 +141,17 @@ def test_with_a_heading_limit_only_walks_that_kept_their_heading_earn_the_bonus(
         TaskConfig.from_mapping({"selection_heading_deg": 20.0})
 
 
+@pytest.mark.parametrize("values, problem", [
+    ({"heading_scale_deg": 45.0}, "heading_scale_deg: is the heading input's scale: give it only with heading_input"),
+    ({"heading_input": True, "heading_scale_deg": 0.0}, r"heading_scale_deg: must be within \(0, 180\], got 0"),
+    ({"heading_input": True, "heading_scale_deg": 200.0}, r"heading_scale_deg: must be within \(0, 180\], got 200"),
+])
+def test_a_heading_scale_is_a_turn_within_half_a_turn_and_needs_the_input(values, problem):
+    with pytest.raises(ConfigError, match=problem):
+        TaskConfig.from_mapping(values, "walk.yaml")
+    assert TaskConfig.from_mapping({"heading_input": True, "heading_scale_deg": 45.0}).heading_scale_deg == 45.0
+
+
 def test_the_replays_turn_is_unwrapped_and_its_largest_kept():
     from evolve.replay import TurnTracker
 

@@ -72,6 +72,8 @@ def test_the_heading_reads_as_a_turn_toward_each_networks_own_side():
     assert right[column] == pytest.approx(-0.5 / np.pi) and left[column] == pytest.approx(0.5 / np.pi)
     assert heading_input(-3.0, 3.0) == pytest.approx(-(2 * np.pi - 6.0) / np.pi)  # wrapped: a small turn left
     assert abs(heading_input(np.pi, 0.0)) == pytest.approx(1.0)  # facing back
+    assert heading_input(-0.2, 0.0, 45.0) == pytest.approx(0.2 / np.radians(45.0))  # a smaller scale ...
+    assert heading_input(-1.0, 0.0, 45.0) == 1.0 and heading_input(2.0, 0.0, 45.0) == -1.0  # ... saturates
     with pytest.raises(ValueError, match="give the heading"):
         network_inputs(layout, joints, feet, up)
 

@@ -188,7 +188,7 @@ def test_the_heading_drives_evolution_and_the_runtime_alike_drift_included():
     from sim2real.simulation.reality import load_reality
 
     robot = load_robot()
-    task = TaskConfig(heading_input=True, episode_s=1.0)
+    task = TaskConfig(heading_input=True, heading_scale_deg=30.0, episode_s=1.0)  # saturates after 1/3 s
     layout = symmetric_layout(robot, robot.control_sets["walk"], heading=True)
     assert layout.input_names[layout.input_names.index("up_sideways") + 1] == "heading"
     genome = Genome(0, neat_layout(layout))
@@ -198,6 +198,7 @@ def test_the_heading_drives_evolution_and_the_runtime_alike_drift_included():
                                          genome.active_module))
     controller = Controller.from_dict(controller_from_genome(genome, robot, layout, task, 1.0, {}).to_dict())
     assert controller.heading_input and controller.to_dict()["heading_input"] is True
+    assert controller.heading_scale_deg == 30.0
     spinning = load_reality({"heading_drift_deg_s": 90.0})  # a gyro gone bad: a quarter turn a second
     evaluator = LocomotionEvaluator(robot, task, 1, threads=1, reality=spinning)
     p = evaluator.sample(np.array([[1, 0]]))

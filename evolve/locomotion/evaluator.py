@@ -207,7 +207,8 @@ class LocomotionEvaluator:
                 sent = np.broadcast_to(self.hold, (len(alive), len(self.hold))).copy()
                 sent[:, self.driven] = goal[alive]
                 sent = normalized_angle(sent, self.low, self.high)
-            turn = heading_input(self.heading(alive, t, p), start_heading[alive]) if task.heading_input else None
+            turn = (heading_input(self.heading(alive, t, p), start_heading[alive], task.heading_scale_deg)
+                    if task.heading_input else None)
             inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high), foot_inputs(touch), up,
                                     clock, sent, turn)
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]

@@ -27,13 +27,15 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from sim2real.controller.file import PHASE_RANGE_S
+from sim2real.controller.file import HEADING_SCALE_MAX_DEG, PHASE_RANGE_S
+from sim2real.controller.symmetry import HEADING_SCALE_DEG
 from sim2real.errors import ConfigError
 from sim2real.robot.spec import DEFAULT_CONTACT_SHARE
 from sim2real.robot.validation import dataclass_from_mapping
 
 # (key, low, high): the value must lie in (low, high]
-BOUNDED = (("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")), ("harness_height", 0.0, 1.0))
+BOUNDED = (("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")), ("harness_height", 0.0, 1.0),
+           ("heading_scale_deg", 0.0, HEADING_SCALE_MAX_DEG))
 LEGACY_CONTACT_THRESHOLD = "contact_threshold"  # the task's key for it until the robot owned it
 
 
@@ -54,6 +56,7 @@ class TaskConfig:
     phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (symmetry.PHASE_INPUTS)
     efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (symmetry.GOAL_SUFFIX)
     heading_input: bool = False  # the networks get the torso's turn since the start (symmetry.HEADING_INPUT)
+    heading_scale_deg: float = HEADING_SCALE_DEG  # [deg] the turn that input reads as 1 (clipped beyond)
     harness_generations: int = 100  # generations with the support harness (0: never)
     harness_fade_generations: int = 50  # over its last this many generations it weakens to nothing
     harness_stiffness: float = 10.0  # harness spring: this many body weights per leg length [m g / L]
@@ -95,6 +98,9 @@ class TaskConfig:
         if config.selection_heading_deg and not (config.selection_walk_bonus and config.selection_heading_deg < 180):
             raise ConfigError(source, prefix + "selection_heading_deg", "limits which walks earn "
                               "selection_walk_bonus: give the bonus too, and less than 180 deg")
+        if config.heading_scale_deg != HEADING_SCALE_DEG and not config.heading_input:
+            raise ConfigError(source, prefix + "heading_scale_deg", "is the heading input's scale: give it only "
+                              "with heading_input: true")
         if not 0 < config.fall_height < 1:
             raise ConfigError(source, prefix + "fall_height", "must be within (0, 1)")
         return config

@@ -56,6 +56,7 @@ from sim2real.controller.symmetry import (
     CENTER_OUTPUT,
     GOAL_SUFFIX,
     HEADING_INPUT,
+    HEADING_SCALE_DEG,
     PHASE_INPUTS,
     SENSOR_INPUTS,
     SIDES,
@@ -76,6 +77,7 @@ VERSION: int = _FIELDS["version"]["const"]
 REQUIRED: tuple[str, ...] = tuple(SCHEMA["required"])
 OPTIONAL: tuple[str, ...] = tuple(k for k in _FIELDS if k not in REQUIRED)  # the inputs' options
 PHASE_RANGE_S = (float(_FIELDS["phase_period_s"]["minimum"]), float(_FIELDS["phase_period_s"]["maximum"]))
+HEADING_SCALE_MAX_DEG = float(_FIELDS["heading_scale_deg"]["maximum"])
 MAX_WEIGHT = float(_FIELDS["connections"]["items"]["prefixItems"][2]["maximum"])  # NeatConfig clips to 20
 MAX_STEEPNESS = float(_FIELDS["sigmoid_steepness"]["maximum"])  # seed 000 uses 1, classic NEAT 4.9
 TICK_RANGE_S = (float(_FIELDS["tick_s"]["minimum"]), float(_FIELDS["tick_s"]["maximum"]))  # [s]; robots: 10-70 ms
@@ -202,6 +204,7 @@ class Controller:
     phase_period_s: float | None = None  # the gait clock's period [s]; None: no clock
     efference_copy: bool = False  # the last goals are inputs too
     heading_input: bool = False  # the torso's heading is an input (the sensor board must report it)
+    heading_scale_deg: float = HEADING_SCALE_DEG  # [deg] the turn the heading input reads as 1
 
     format: ClassVar[str] = FORMAT
     version: ClassVar[int] = VERSION
@@ -231,6 +234,7 @@ class Controller:
             task=_frozen(data["task"]), provenance=_frozen(data["provenance"]),
             phase_period_s=data.get("phase_period_s"), efference_copy=data.get("efference_copy", False),
             heading_input=data.get("heading_input", False),
+            heading_scale_deg=data.get("heading_scale_deg", HEADING_SCALE_DEG),
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -238,6 +242,8 @@ class Controller:
         input_keys = {} if self.phase_period_s is None else {"phase_period_s": self.phase_period_s}
         if self.heading_input:
             input_keys["heading_input"] = True
+            if self.heading_scale_deg != HEADING_SCALE_DEG:  # files of the default stay as they were
+                input_keys["heading_scale_deg"] = self.heading_scale_deg
         if self.efference_copy:
             input_keys["efference_copy"] = True
         return {
@@ -255,10 +261,11 @@ class Controller:
     def for_robot(cls, robot: RobotSpec, layout: SymmetricLayout, *, sigmoid_steepness: float,
                   modules: tuple[str, ...], hidden: list[tuple[int, int]],
                   connections: list[tuple[int, int, float, int]], task: Mapping[str, Any],
-                  provenance: Mapping[str, Any], phase_period_s: float | None = None) -> "Controller":
+                  provenance: Mapping[str, Any], phase_period_s: float | None = None,
+                  heading_scale_deg: float = HEADING_SCALE_DEG) -> "Controller":
         """An evolved network (``hidden`` and ``connections`` in node ids) wired for
-        ``robot``'s joints by ``layout`` (with a clock of ``phase_period_s`` [s] when the
-        layout has one): its tick, bias values, symmetry block, joint ranges and hold pose are
+        ``robot``'s joints by ``layout`` (with a clock of ``phase_period_s`` [s] and a heading
+        read on ``heading_scale_deg`` when the layout has them): its tick, bias values, symmetry block, joint ranges and hold pose are
         the robot's and the conventions' own."""
         hold = hold_pose(robot, layout.driven)
         return cls(
@@ -271,6 +278,7 @@ class Controller:
                                               if j.name not in layout.driven}), OUTPUT_RULE),
             task=_frozen(dict(task)), provenance=_frozen(dict(provenance)), phase_period_s=phase_period_s,
             efference_copy=layout.efference, heading_input=layout.heading,
+            heading_scale_deg=heading_scale_deg if layout.heading else HEADING_SCALE_DEG,
         )
 
     # -- files ---------------------------------------------------------------------------------
@@ -495,6 +503,10 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
     for key, value in (("efference_copy", efference), ("heading_input", heading)):
         if not isinstance(value, bool):
             raise c.error(key, f"must be true or false, got {_show(value)}")
+    if "heading_scale_deg" in data:
+        if not heading:
+            raise c.error("heading_scale_deg", "is the heading input's scale: give it only with heading_input: true")
+        c.number(data["heading_scale_deg"], "heading_scale_deg", 0.0, HEADING_SCALE_MAX_DEG, lo_open=True)
     rob = c.obj(data["robot"], "robot", ("name", "joint_map_hash"))
     c.string(rob["name"], "robot.name")
     if not isinstance(rob["joint_map_hash"], str) or not re.fullmatch(r"[0-9a-f]{16}", rob["joint_map_hash"]):

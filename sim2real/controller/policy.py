@@ -40,6 +40,7 @@ class Policy:
         self.high = np.array([j.range_rad[1] for j in robot.joints])
         self.tick_s = float(controller.tick_s)
         self.phase_period_s = controller.phase_period_s  # None: no clock
+        self.heading_scale_deg = controller.heading_scale_deg  # [deg] the turn the heading input reads as 1
         self.ticks = 0  # since reset: the clock's time
         self.start_heading: float | None = None  # [rad] the board's heading at the first tick since reset
         self.max_step = max_steps(robot, self.tick_s)
@@ -102,7 +103,7 @@ class Policy:
                                  "board report one?)")
             if self.start_heading is None:
                 self.start_heading = float(heading)
-            parts.append(np.atleast_1d(heading_input(heading, self.start_heading)))
+            parts.append(np.atleast_1d(heading_input(heading, self.start_heading, self.heading_scale_deg)))
         if self.phase_period_s is not None:
             parts.append(phase_inputs(tick * self.tick_s, self.phase_period_s))
         if self.layout.efference:

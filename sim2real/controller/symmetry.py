@@ -12,8 +12,8 @@ Each network reads its side's view of the robot and drives its side's joints:
   names its tilt inputs X and Z: the horizontal components of the up-vector in its y-up
   world, which are forward and sideways here.
 * optionally the torso's heading (:data:`HEADING_INPUT`): how far it has turned since the start
-  toward the network's own side, in half turns (:func:`heading_input`), from the board's
-  heading (an IMU's yaw).  The up-vector does not change when the robot yaws, so without it a
+  toward the network's own side, in half turns or on a smaller scale (:func:`heading_input`),
+  from the board's heading (an IMU's yaw).  The up-vector does not change when the robot yaws, so without it a
   network cannot tell that it is turning, and a walker that turns a little on the model may
   walk back on a robot a little off it (``benchmarks/RESULTS.md``, "Heading").
 * optionally a clock (:data:`PHASE_INPUTS`): the sine and cosine of the gait phase
@@ -56,10 +56,17 @@ def turn_rad(heading_rad: np.ndarray | float, start_rad: np.ndarray | float) -> 
     return np.angle(np.exp(1j * (np.asarray(heading_rad, dtype=float) - start_rad)))
 
 
-def heading_input(heading_rad: np.ndarray | float, start_rad: np.ndarray | float) -> np.ndarray:
-    """The right network's heading input: :func:`turn_rad` divided by -pi - turning right
-    (toward the right network's own side) is positive, and facing back reads +-1."""
-    return -turn_rad(heading_rad, start_rad) / np.pi
+HEADING_SCALE_DEG = 180.0  # the turn that reads 1 unless a controller says otherwise: half turns
+
+
+def heading_input(heading_rad: np.ndarray | float, start_rad: np.ndarray | float,
+                  scale_deg: float = HEADING_SCALE_DEG) -> np.ndarray:
+    """The right network's heading input: :func:`turn_rad` over ``-scale_deg``, clipped to
+    [-1, 1] - turning right (toward the right network's own side) is positive, and a turn of
+    ``scale_deg`` or more reads +-1.  The default reads half turns (facing back is +-1); a
+    smaller scale makes the turns a walk must correct (tens of degrees) inputs of the size of
+    the others, which fixed-variance weight mutation can use."""
+    return np.clip(-turn_rad(heading_rad, start_rad) / np.radians(scale_deg), -1.0, 1.0)
 
 
 def phase_inputs(t_s: np.ndarray | float, period_s: float) -> np.ndarray:
