@@ -265,8 +265,8 @@ class Controller:
                   heading_scale_deg: float = HEADING_SCALE_DEG) -> "Controller":
         """An evolved network (``hidden`` and ``connections`` in node ids) wired for
         ``robot``'s joints by ``layout`` (with a clock of ``phase_period_s`` [s] and a heading
-        read on ``heading_scale_deg`` when the layout has them): its tick, bias values, symmetry block, joint ranges and hold pose are
-        the robot's and the conventions' own."""
+        read on ``heading_scale_deg`` when the layout has them): its tick, bias values,
+        symmetry block, joint ranges and hold pose are the robot's and the conventions' own."""
         hold = hold_pose(robot, layout.driven)
         return cls(
             robot_name=robot.name, joint_map_hash=joint_map_hash(robot), tick_s=control_timing(robot).tick_s,

@@ -13,9 +13,10 @@ Each network reads its side's view of the robot and drives its side's joints:
   world, which are forward and sideways here.
 * optionally the torso's heading (:data:`HEADING_INPUT`): how far it has turned since the start
   toward the network's own side, in half turns or on a smaller scale (:func:`heading_input`),
-  from the board's heading (an IMU's yaw).  The up-vector does not change when the robot yaws, so without it a
-  network cannot tell that it is turning, and a walker that turns a little on the model may
-  walk back on a robot a little off it (``benchmarks/RESULTS.md``, "Heading").
+  from the board's heading (an IMU's yaw).  The up-vector does not change when the robot
+  yaws, so without it a network cannot tell that it is turning, and a walker that turns a
+  little on the model may walk back on a robot a little off it (``benchmarks/RESULTS.md``,
+  "Heading").
 * optionally a clock (:data:`PHASE_INPUTS`): the sine and cosine of the gait phase
   ``2 pi t / period``, the left network's half a period later (both negated), so that one
   genome's two networks step in antiphase.  A recurrent network then need not find its own
