@@ -18,6 +18,8 @@ Resumable: every run lives in ``--out/<preset>-seed<S>/`` (``<file>_<preset>-see
 walker, ``walker.json``, and ``result.json`` once finished).  A call does what is left,
 finished runs are read back, and ``--hours`` bounds a call's wall time (a run cut off continues
 from its checkpoint next time).  Wall minutes are the evolution's own, summed over calls.
+``--ship DIR`` writes each preset's best walker as ``DIR/human_<preset>.json`` (how
+``configs/controllers/human_*.json`` were made: their provenance has the command).
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from benchmarks.common import parser, progress, report
+from benchmarks.common import command_line, parser, progress, report, ship_controller
 from evolve.cli_commands import resolve_config
 from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
@@ -107,6 +109,7 @@ def finish(preset: str, seed: int, folder: Path, quiet: bool) -> dict:
         "sustained_s": walk["upright_s"], "sustained_m": walk["distance_m"],
         "speed_m_s": walk["distance_m"] / walk["upright_s"] if walk["upright_s"] > 0 else 0.0,
         "fell": walk["fell"],
+        "turn_deg": walk["per_episode"][0]["turn_deg"],
     }
     write_json_atomic(folder / "result.json", result)
     progress(f"{preset} seed {seed}: walked {result['walked']} (generation {result['generation']}), "
@@ -128,6 +131,9 @@ def main(argv=None) -> None:
     p.add_argument("--threads", type=int, default=1, help="simulation threads a run (default 1)")
     p.add_argument("--hours", type=float, default=1e6, help="wall-time budget of this call")
     p.add_argument("--quiet", action="store_true")
+    p.add_argument("--ship", type=Path, metavar="DIR", help="write each preset's best walker (farthest in its "
+                   "60 s walk, over the seeds run) as DIR/human_<preset>.json, with this command and its "
+                   "measures in its provenance")
     args = p.parse_args(argv)
     deadline = time.monotonic() + args.hours * 3600.0
     runs, unfinished = [], []
@@ -149,9 +155,29 @@ def main(argv=None) -> None:
             else:
                 unfinished.append(folder.name)
     walked = sum(r["walked"] for r in runs)
-    report({"runs": runs, "walked": walked, "rate": walked / len(runs) if runs else None,
-            "unfinished": unfinished, "generations": args.generations, "after_walker": args.after_walker,
-            "config": args.config, "robot": args.robot}, args.json)
+    result = {"runs": runs, "walked": walked, "rate": walked / len(runs) if runs else None,
+              "unfinished": unfinished, "generations": args.generations, "after_walker": args.after_walker,
+              "config": args.config, "robot": args.robot}
+    if args.ship:
+        result["shipped"] = ship(runs, args.out, args.robot, args.ship, argv)
+    report(result, args.json)
+
+
+def ship(runs: list[dict], out: Path, robot: str, into: Path, argv: list[str] | None) -> list[str]:
+    """Each preset's best walker of ``runs`` (farthest in its 60 s walk) as
+    ``into/human_<preset>.json``; presets without a walker get no file."""
+    into.mkdir(parents=True, exist_ok=True)
+    shipped = []
+    for preset in dict.fromkeys(r["preset"] for r in runs):
+        walkers = [r for r in runs if r["preset"] == preset and r["walked"]]
+        if not walkers:
+            continue
+        best = max(walkers, key=lambda r: r["sustained_m"])
+        made = {"made_by": command_line("benchmarks.human_walk", argv), "human_walk": best}
+        path = into / f"human_{preset}.json"
+        ship_controller(run_folder(out, preset, best["seed"], robot) / "walker.json", path, made)
+        shipped.append(str(path))
+    return shipped
 
 
 if __name__ == "__main__":

@@ -38,7 +38,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
-from benchmarks.common import parser, progress, report
+from benchmarks.common import command_line, parser, progress, report, ship_controller
 from benchmarks.transfer import transfer_check
 from evolve.cli_commands import resolve_config
 from evolve.config import load_evolve_config
@@ -215,21 +215,11 @@ def main(argv=None) -> None:
 def ship(walker: Path, measured: dict[str, Any], path: Path, argv: list[str] | None) -> str:
     """``walker`` as ``path``, with this command and its measures (robustness test, transfer,
     60 s walks) in its provenance."""
-    import shlex
-    import sys
-
-    from sim2real.controller.file import Controller
-
-    command = "python -m benchmarks.robust_walk " + shlex.join(sys.argv[1:] if argv is None else argv)
-    made = {"made_by": command, "robust": measured["robust"], "robustness": measured["test"],
-            "walk_rate": measured["rate"],
+    made = {"made_by": command_line("benchmarks.robust_walk", argv), "robust": measured["robust"],
+            "robustness": measured["test"], "walk_rate": measured["rate"],
             "transfer_ratio": measured["transfer"]["ratio"], "sustained": {
                 where: {k: v for k, v in s.items() if k != "per_episode"} for where, s in measured["sustained"].items()}}
-    data = Controller.load(walker).to_dict()
-    data["provenance"] = {**data["provenance"], **made}
-    Controller.from_dict(data, str(path)).save(path)
-    return str(path)
-
+    return ship_controller(walker, path, made)
 
 if __name__ == "__main__":
     main()

@@ -1,0 +1,42 @@
+"""Seed 000's humans: the shipped per-preset walkers walk, and `benchmarks.human_walk --ship`
+picks each preset's farthest walker."""
+
+import shutil
+
+import pytest
+
+from benchmarks.human_walk import ship
+from evolve.replay import evaluate_controller
+from sim2real.controller.file import Controller
+from sim2real.robot.paths import data_root
+
+CONTROLLERS = data_root() / "configs" / "controllers"
+SHIPPED = sorted(CONTROLLERS.glob("human_*.json"))
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
+def test_a_shipped_human_walks_by_seed_000s_test(path):
+    """Upright the whole 10 s episode and more than 2 m, on the preset its name gives."""
+    controller = Controller.load(path)
+    preset = path.stem.removeprefix("human_")
+    assert controller.robot_name.split(":")[1] == preset
+    assert controller.provenance["made_by"].startswith("python -m benchmarks.human_walk")
+    walk = evaluate_controller(path)
+    assert walk["upright_s"] >= 10.0 - 1e-6 and not walk["fell"]
+    assert walk["distance_m"] > 2.0
+
+
+def test_ship_writes_each_presets_farthest_walker(tmp_path):
+    out, robot = tmp_path / "runs", "human_stepping"
+    for name in ("human_stepping_male_50-seed1", "human_stepping_male_50-seed2"):
+        (out / name).mkdir(parents=True)
+        shutil.copy(CONTROLLERS / "xl430_biped.json", out / name / "walker.json")
+    runs = [{"preset": "male_50", "seed": 1, "walked": True, "sustained_m": 4.0},
+            {"preset": "male_50", "seed": 2, "walked": True, "sustained_m": 9.0},
+            {"preset": "male_5", "seed": 1, "walked": False, "sustained_m": 30.0}]
+    shipped = ship(runs, out, robot, tmp_path / "controllers", ["--ship", "controllers"])
+    assert [p.rsplit("/", 1)[1] for p in shipped] == ["human_male_50.json"]
+    provenance = Controller.load(shipped[0]).provenance
+    assert provenance["human_walk"]["seed"] == 2
+    assert provenance["made_by"] == "python -m benchmarks.human_walk --ship controllers"
+    assert "run" not in provenance  # the evolution machine's folder stays out of a shipped file
