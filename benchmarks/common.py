@@ -71,7 +71,7 @@ def map_runs(function: Callable[[T], R], items: Sequence[T], workers: int = 1,
     return results  # type: ignore[return-value]
 
 
-def ship_controller(walker, path, made: dict[str, Any]) -> str:
+def ship_controller(walker: os.PathLike | str, path: os.PathLike | str, made: dict[str, Any]) -> str:
     """Write the controller file ``walker`` as ``path`` with ``made`` (the command that made it,
     its measures) added to its provenance; the evolution's local run folder is left out."""
     from sim2real.controller.file import Controller

@@ -221,5 +221,6 @@ def ship(walker: Path, measured: dict[str, Any], path: Path, argv: list[str] | N
                 where: {k: v for k, v in s.items() if k != "per_episode"} for where, s in measured["sustained"].items()}}
     return ship_controller(walker, path, made)
 
+
 if __name__ == "__main__":
     main()
