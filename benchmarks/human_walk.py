@@ -167,15 +167,16 @@ def ship(runs: list[dict], out: Path, robot: str, into: Path, argv: list[str] | 
     """Each preset's best walker of ``runs`` (farthest in its 60 s walk) as
     ``into/human_<preset>.json``; presets without a walker get no file."""
     into.mkdir(parents=True, exist_ok=True)
+    made_by = command_line("benchmarks.human_walk", argv)
     shipped = []
     for preset in dict.fromkeys(r["preset"] for r in runs):
         walkers = [r for r in runs if r["preset"] == preset and r["walked"]]
         if not walkers:
             continue
         best = max(walkers, key=lambda r: r["sustained_m"])
-        made = {"made_by": command_line("benchmarks.human_walk", argv), "human_walk": best}
         path = into / f"human_{preset}.json"
-        ship_controller(run_folder(out, preset, best["seed"], robot) / "walker.json", path, made)
+        ship_controller(run_folder(out, preset, best["seed"], robot) / "walker.json", path,
+                        {"made_by": made_by, "human_walk": best})
         shipped.append(str(path))
     return shipped
 
