@@ -47,6 +47,22 @@ def test_human_presets_scale_with_stature_and_mass():
     assert small.joint("left_ankle_pitch").range_rad == pytest.approx((-math.pi / 4, math.pi / 4))
 
 
+def test_torque_cap_in_proportion_to_mass():
+    doc = _doc("human")
+    doc["pd_gains"] = {"kp": 300.0, "kd": 30.0, "max_torque_nm_per_kg": 4.0}
+    small, large = (parse_robot(doc, "human.yaml", preset) for preset in ("female_5", "male_95"))
+    assert small.pd.max_torque_nm == pytest.approx(4.0 * 50.7)
+    assert large.pd.max_torque_nm == pytest.approx(4.0 * 131.8)
+
+
+@pytest.mark.parametrize("caps", [{}, {"max_torque_nm": 300.0, "max_torque_nm_per_kg": 4.0}])
+def test_torque_cap_must_be_given_one_way(caps):
+    doc = _doc("human")
+    doc["pd_gains"] = {"kp": 300.0, "kd": 30.0, **caps}
+    with pytest.raises(ConfigError, match="pd_gains: give exactly one of max_torque_nm"):
+        parse_robot(doc, "human.yaml")
+
+
 def _doc(name="xl430_biped"):
     return yaml.safe_load((ROOT / "configs" / "robots" / f"{name}.yaml").read_text())
 

@@ -77,7 +77,7 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         body, measures = anthropometry.human_body(root, preset)
         if not root.has("pd_gains"):
             raise root.error("missing required key 'pd_gains' for actuation: pd", key="pd_gains")
-        pd = _read_pd(root["pd_gains"])
+        pd = _read_pd(root["pd_gains"], float(measures["mass_kg"]))
     else:
         if preset is not None:
             raise root.error(f"robot has no presets, got {preset!r}", key="name")
@@ -155,9 +155,17 @@ def _read_body(node: Node) -> Body:
     return body
 
 
-def _read_pd(node: Node) -> PDGains:
-    node.mapping(required=("kp", "kd", "max_torque_nm"))
-    return PDGains(**{k: node[k].number(positive=True) for k in ("kp", "kd", "max_torque_nm")})
+def _read_pd(node: Node, mass_kg: float) -> PDGains:
+    """Eq. 2's gains and the torque cap: ``max_torque_nm`` for every body, or
+    ``max_torque_nm_per_kg`` times the body's mass [kg] (strength in proportion to size)."""
+    node.mapping(required=("kp", "kd"), optional=("max_torque_nm", "max_torque_nm_per_kg"))
+    caps = [key for key in ("max_torque_nm", "max_torque_nm_per_kg") if node.has(key)]
+    if len(caps) != 1:
+        raise node.error("give exactly one of max_torque_nm (a fixed cap) and max_torque_nm_per_kg "
+                         f"(in proportion to body mass), got {len(caps)}")
+    cap = node[caps[0]].number(positive=True)
+    return PDGains(kp=node["kp"].number(positive=True), kd=node["kd"].number(positive=True),
+                   max_torque_nm=cap * mass_kg if caps[0] == "max_torque_nm_per_kg" else cap)
 
 
 def _read_joint(node: Node, servo_robot: bool, default_model: str | None) -> Joint:
