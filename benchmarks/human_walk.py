@@ -27,6 +27,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import mujoco
+
 from benchmarks.common import command_line, parser, progress, report, ship_controller
 from evolve.cli_commands import resolve_config
 from evolve.config import load_evolve_config
@@ -165,7 +167,9 @@ def main(argv=None) -> None:
 
 def ship(runs: list[dict], out: Path, robot: str, into: Path, argv: list[str] | None) -> list[str]:
     """Each preset's best walker of ``runs`` (farthest in its 60 s walk) as
-    ``into/human_<preset>.json``; presets without a walker get no file."""
+    ``into/human_<preset>.json``; presets without a walker get no file.  The MuJoCo version goes
+    into the provenance: these walkers replay exactly only on the physics they were evolved on
+    (``benchmarks.tolerance``)."""
     into.mkdir(parents=True, exist_ok=True)
     made_by = command_line("benchmarks.human_walk", argv)
     shipped = []
@@ -176,7 +180,7 @@ def ship(runs: list[dict], out: Path, robot: str, into: Path, argv: list[str] | 
         best = max(walkers, key=lambda r: r["sustained_m"])
         path = into / f"human_{preset}.json"
         ship_controller(run_folder(out, preset, best["seed"], robot) / "walker.json", path,
-                        {"made_by": made_by, "human_walk": best})
+                        {"made_by": made_by, "human_walk": best, "mujoco": mujoco.__version__})
         shipped.append(str(path))
     return shipped
 
