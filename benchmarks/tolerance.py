@@ -36,29 +36,37 @@ def perturbation(kind: str, size: float) -> dict[str, Any]:
     return {"description": f"{kind} 1 +- {size:g}", kind: [1.0 - size, 1.0 + size]}
 
 
+def upright_share(walk: dict[str, Any]) -> float:
+    """The share of ``walk``'s episodes (an :func:`evaluate_controller` result) upright for the
+    whole episode: neither fallen nor ended early (by the stagnation stop or instability)."""
+    full = [not e["fell"] and e["upright_s"] >= walk["seconds"] - 1e-9 for e in walk["per_episode"]]
+    return sum(full) / len(full)
+
+
 def measure(controller: Path, sizes: tuple[float, ...], episodes: int, seconds: float | None,
             quiet: bool) -> dict[str, Any]:
     """One controller's nominal walk, and its upright share and distance under each kind and size."""
     nominal = evaluate_controller(controller, seconds=seconds)
     out: dict[str, Any] = {"controller": str(controller), "seconds": nominal["seconds"],
-                           "nominal_upright": not nominal["fell"], "nominal_m": nominal["distance_m"],
+                           "nominal_upright": upright_share(nominal) == 1.0, "nominal_m": nominal["distance_m"],
                            "by_kind": {}, "tolerates": {}}
     for kind in KINDS:
         rows = []
         for size in sizes:
             walk = evaluate_controller(controller, seconds=seconds, episodes=episodes,
                                        randomize=perturbation(kind, size), seed=0)
-            rows.append({"size": size, "upright": 1.0 - walk["falls"] / episodes,
+            rows.append({"size": size, "upright": upright_share(walk),
                          "distance_m": walk["distance_m"], "upright_s": walk["upright_s"]})
             progress(f"{controller.name} {kind} {size:g}: upright {rows[-1]['upright']:.0%}, "
                      f"{walk['distance_m']:.2f} m, {walk['upright_s']:.1f} s", quiet)
         out["by_kind"][kind] = rows
-        # the largest size below which every size tried kept every episode upright
+        # the largest size up to which every size tried kept every episode upright
         held = 0.0
-        for row in rows:
-            if row["upright"] < 1.0 or not out["nominal_upright"]:
-                break
-            held = row["size"]
+        if out["nominal_upright"]:
+            for row in rows:
+                if row["upright"] < 1.0:
+                    break
+                held = row["size"]
         out["tolerates"][kind] = held
     return out
 

@@ -22,6 +22,14 @@ def test_each_kind_is_a_valid_reality_of_that_perturbation_alone(kind):
         assert (lo, hi) == pytest.approx((0.99, 1.01))
 
 
+def test_an_episode_ended_early_without_a_fall_is_not_upright():
+    # the stagnation stop ends an episode without a fall: it did not stay up the whole episode
+    episode = lambda upright_s, fell: {"upright_s": upright_s, "fell": fell}  # noqa: E731
+    walk = {"seconds": 10.01, "per_episode": [episode(10.01, False), episode(4.2, False), episode(3.0, True),
+                                               episode(10.01, False)]}
+    assert tolerance.upright_share(walk) == 0.5
+
+
 def test_tolerates_is_the_largest_size_kept_upright(capsys):
     # the randomization-hardened walker stays up at 1e-3; at 0.9 (masses and gains off by up
     # to 90 %) it cannot stay up in every episode of every kind
