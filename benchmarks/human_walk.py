@@ -18,8 +18,9 @@ Resumable: every run lives in ``--out/<preset>-seed<S>/`` (``<file>_<preset>-see
 walker, ``walker.json``, and ``result.json`` once finished).  A call does what is left,
 finished runs are read back, and ``--hours`` bounds a call's wall time (a run cut off continues
 from its checkpoint next time).  Wall minutes are the evolution's own, summed over calls.
-``--ship DIR`` writes each preset's best walker as ``DIR/human_<preset>.json`` (how
-``configs/controllers/human_*.json`` were made: their provenance has the command).
+``--ship DIR`` writes each preset's best walker that still walks when replayed on this machine
+as ``DIR/human_<preset>.json`` (how ``configs/controllers/human_*.json`` were made: their
+provenance has the command).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.replay import evaluate_controller
 from evolve.run import Run
 from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.controller.activation import exp_fingerprint
 
 PRESETS = ("female_5", "female_50", "female_95", "male_5", "male_50", "male_95",
            "male_heavy_short", "female_heavy_short")
@@ -94,12 +96,20 @@ def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, rob
     return done(run.population.generation - 1)
 
 
+def sustained_walk(controller: Path) -> dict:
+    """``controller``'s walk of :data:`SUSTAINED_S` without the stagnation stop: seconds upright,
+    distance before toppling, speed, whether it fell, and its turn [deg]."""
+    walk = evaluate_controller(controller, seconds=SUSTAINED_S, stagnation_stop=False)
+    return {"sustained_s": walk["upright_s"], "sustained_m": walk["distance_m"],
+            "speed_m_s": walk["distance_m"] / walk["upright_s"] if walk["upright_s"] > 0 else 0.0,
+            "fell": walk["fell"], "turn_deg": walk["per_episode"][0]["turn_deg"]}
+
+
 def finish(preset: str, seed: int, folder: Path, quiet: bool) -> dict:
     """The run's result: its first walker, and its best walker's 60 s walk."""
     state = read_json(folder / "state.json") if (folder / "state.json").exists() else {"first_walker": None}
     first = state["first_walker"]
     controller = folder / "walker.json" if first else folder / "run" / "controller.json"
-    walk = evaluate_controller(controller, seconds=SUSTAINED_S, stagnation_stop=False)
     stats = (folder / "run" / "stats.csv").read_text().splitlines()
     result = {
         "preset": preset, "seed": seed, "walked": first is not None,
@@ -108,10 +118,7 @@ def finish(preset: str, seed: int, folder: Path, quiet: bool) -> dict:
         "first_walker_m": first["distance_m"] if first else None,
         "generations_run": len(stats) - 1,
         "sustained_of": "best walker" if first else "best controller (no walker)",
-        "sustained_s": walk["upright_s"], "sustained_m": walk["distance_m"],
-        "speed_m_s": walk["distance_m"] / walk["upright_s"] if walk["upright_s"] > 0 else 0.0,
-        "fell": walk["fell"],
-        "turn_deg": walk["per_episode"][0]["turn_deg"],
+        **sustained_walk(controller),
     }
     write_json_atomic(folder / "result.json", result)
     progress(f"{preset} seed {seed}: walked {result['walked']} (generation {result['generation']}), "
@@ -134,8 +141,8 @@ def main(argv=None) -> None:
     p.add_argument("--hours", type=float, default=1e6, help="wall-time budget of this call")
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--ship", type=Path, metavar="DIR", help="write each preset's best walker (farthest in its "
-                   "60 s walk, over the seeds run) as DIR/human_<preset>.json, with this command and its "
-                   "measures in its provenance")
+                   "60 s walk, over the seeds run, that still walks when replayed here) as "
+                   "DIR/human_<preset>.json, with this command and its measures in its provenance")
     args = p.parse_args(argv)
     deadline = time.monotonic() + args.hours * 3600.0
     runs, unfinished = [], []
@@ -161,27 +168,44 @@ def main(argv=None) -> None:
               "unfinished": unfinished, "generations": args.generations, "after_walker": args.after_walker,
               "config": args.config, "robot": args.robot}
     if args.ship:
-        result["shipped"] = ship(runs, args.out, args.robot, args.ship, argv)
+        result["shipped"] = ship(runs, args.out, args.robot, args.ship, argv, args.quiet)
     report(result, args.json)
 
 
-def ship(runs: list[dict], out: Path, robot: str, into: Path, argv: list[str] | None) -> list[str]:
-    """Each preset's best walker of ``runs`` (farthest in its 60 s walk) as
-    ``into/human_<preset>.json``; presets without a walker get no file.  The MuJoCo version goes
-    into the provenance: these walkers replay exactly only on the physics they were evolved on
-    (``benchmarks.tolerance``)."""
+def walks_here(walker: Path) -> bool:
+    """Does ``walker`` still walk by seed 000's test when replayed on this machine?"""
+    walk = evaluate_controller(walker)
+    return walk["upright_s"] >= walk["seconds"] - 1e-9 and not walk["fell"] and walk["distance_m"] > WALKED_M
+
+
+def ship(runs: list[dict], out: Path, robot: str, into: Path, argv: list[str] | None,
+         quiet: bool = True) -> list[str]:
+    """Each preset's best walker of ``runs`` - of those that still walk when replayed here, the
+    farthest in its 60 s walk here - as ``into/human_<preset>.json``; presets without one get no
+    file.
+
+    These walkers replay exactly only on the numbers they were evolved on
+    (``benchmarks.tolerance``), so a walker evolved on another machine or MuJoCo is judged and
+    walked again before it ships (the provenance's ``human_walk`` has this machine's 60 s walk),
+    and the provenance records the MuJoCo version and this machine's
+    :func:`~sim2real.controller.activation.exp_fingerprint`."""
     into.mkdir(parents=True, exist_ok=True)
     made_by = command_line("benchmarks.human_walk", argv)
+    numerics = {"mujoco": mujoco.__version__, "exp_fingerprint": exp_fingerprint()}
     shipped = []
     for preset in dict.fromkeys(r["preset"] for r in runs):
-        walkers = [r for r in runs if r["preset"] == preset and r["walked"]]
-        if not walkers:
-            continue
-        best = max(walkers, key=lambda r: r["sustained_m"])
-        path = into / f"human_{preset}.json"
-        ship_controller(run_folder(out, preset, best["seed"], robot) / "walker.json", path,
-                        {"made_by": made_by, "human_walk": best, "mujoco": mujoco.__version__})
-        shipped.append(str(path))
+        here = []
+        for run in (r for r in runs if r["preset"] == preset and r["walked"]):
+            walker = run_folder(out, preset, run["seed"], robot) / "walker.json"
+            if walks_here(walker):
+                here.append(({**run, **sustained_walk(walker)}, walker))
+            else:
+                progress(f"{preset} seed {run['seed']}: its walker falls when replayed here - not shipped", quiet)
+        if here:
+            best, walker = max(here, key=lambda pair: pair[0]["sustained_m"])
+            path = into / f"human_{preset}.json"
+            ship_controller(walker, path, {"made_by": made_by, "human_walk": best, **numerics})
+            shipped.append(str(path))
     return shipped
 
 

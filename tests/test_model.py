@@ -1,5 +1,10 @@
 """The MuJoCo model: every robot compiles, stands on its servos, and exports as MJCF."""
 
+import os
+import platform
+import subprocess
+import sys
+
 import mujoco
 import numpy as np
 import pytest
@@ -147,3 +152,31 @@ def test_closed_backlash_joints_stand_as_the_rigid_model():
     (rigid_z, rigid_q), (closed_z, closed_q) = held
     assert closed_z == pytest.approx(rigid_z, abs=2e-4)  # pelvis height [m]
     assert np.degrees(closed_q) == pytest.approx(np.degrees(rigid_q), abs=0.05)  # joints [deg]
+
+
+_MODEL_BYTES = """
+import hashlib, sys, mujoco, numpy as np
+from sim2real.robot import load_robot
+from sim2real.simulation.model_builder import build_model
+for name in sys.argv[1:]:
+    model = build_model(load_robot(name))
+    buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    print(name, hashlib.sha256(buffer.tobytes()).hexdigest())
+"""
+
+
+@pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="OpenBLAS's x86 kernel names")
+def test_a_model_is_the_same_to_the_bit_whatever_blas_kernel_the_cpu_gets():
+    """OpenBLAS picks its kernel for the CPU at load time (``OPENBLAS_CORETYPE`` overrides it;
+    an unsupported one falls back), and the kernels round differently: gains computed with
+    ``np.dot`` were an ulp apart between an AVX-512 Intel and an AMD machine, enough for a
+    knife-edge human walker to fall on one.  These two presets differed under the old code."""
+    names = ["human_stepping:male_50", "human:male_50"]
+    hashes = set()
+    for core in ("Prescott", "Haswell", "SkylakeX"):
+        env = {**os.environ, "OPENBLAS_CORETYPE": core}
+        done = subprocess.run([sys.executable, "-c", _MODEL_BYTES, *names], capture_output=True, text=True,
+                              env=env, check=True, timeout=300)
+        hashes.add(done.stdout)
+    assert len(hashes) == 1

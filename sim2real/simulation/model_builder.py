@@ -33,6 +33,7 @@ Each simulation's width goes into the backlash joints' ``jnt_range``
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -42,7 +43,7 @@ import numpy as np
 from sim2real.robot import Joint, RobotSpec
 from sim2real.robot.servo_model import ServoPhysics, servo_physics
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.statics import axis_inertia
+from sim2real.simulation.statics import axis_inertia, dot3
 
 FLOOR, LEFT, RIGHT, TORSO = 1, 2, 4, 8  # contype / conaffinity bits
 COLLISION_BITS = {  # (contype, conaffinity)
@@ -98,9 +99,9 @@ def joint_axis(joint: Joint) -> tuple[float, float, float]:
 
 def _look_at(forward: np.ndarray) -> list[float]:
     """Camera ``xyaxes`` looking along ``forward`` with the world's z up."""
-    f = forward / np.linalg.norm(forward)
+    f = forward / math.sqrt(dot3(forward, forward))  # not np.linalg.norm: see dot3
     x = np.cross(f, [0.0, 0.0, 1.0])
-    x /= np.linalg.norm(x)
+    x /= math.sqrt(dot3(x, x))
     return [*x, *np.cross(x, f)]
 
 
@@ -256,9 +257,12 @@ def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel)
     lowest = np.inf
     for side in ("left", "right"):
         geom = model.geom(f"{side}_foot").id
-        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-        world = data.geom_xpos[geom] + (corners * model.geom_size[geom]) @ data.geom_xmat[geom].reshape(3, 3).T
-        lowest = min(lowest, world[:, 2].min())
+        up_row = data.geom_xmat[geom].reshape(3, 3)[2]  # world z of the foot's local axes
+        for sx in (-1, 1):
+            for sy in (-1, 1):
+                for sz in (-1, 1):
+                    local = np.array([sx, sy, sz]) * model.geom_size[geom]
+                    lowest = min(lowest, float(data.geom_xpos[geom][2]) + dot3(local, up_row))
     qpos = data.qpos.copy()
     if model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE:  # standing: lowered onto the floor; hung: as it is
         qpos[2] -= lowest - SOLE_CLEARANCE_M

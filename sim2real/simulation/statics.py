@@ -60,17 +60,28 @@ def carried_bodies(model: mujoco.MjModel, joint: Joint) -> set[int]:
     return below if joint.location == "waist" else set(range(1, model.nbody)) - below
 
 
+def dot3(a, b) -> float:
+    """``a . b`` of two 3-vectors, summed left to right in plain floats.
+
+    Why not ``np.dot`` or ``@``: they go to OpenBLAS, whose kernel (picked for the CPU at
+    run time) rounds differently - the same robot got gains one ulp apart on an AVX-512
+    Intel and an AMD machine, and a walker evolved on one fell on the other (benchmarks/
+    RESULTS.md, "Why three walkers fell on another machine")."""
+    return float(a[0]) * float(b[0]) + float(a[1]) * float(b[1]) + float(a[2]) * float(b[2])
+
+
 def axis_inertia(model: mujoco.MjModel, data: mujoco.MjData, joint: Joint) -> float:
-    """Moment of inertia of the carried bodies about the joint's axis [kg m^2] (needs kinematics)."""
+    """Moment of inertia of the carried bodies about the joint's axis [kg m^2] (needs
+    kinematics); the same to the bit on every CPU (:func:`dot3`)."""
     jid = model.joint(joint.name).id
     anchor, axis = data.xanchor[jid], data.xaxis[jid]
     total = 0.0
     for b in carried_bodies(model, joint):
         rot = data.ximat[b].reshape(3, 3)
-        local = rot.T @ axis
+        local = [dot3(rot[:, k], axis) for k in range(3)]  # the axis in the body's inertia frame
         offset = data.xipos[b] - anchor
-        perp = offset - np.dot(offset, axis) * axis
-        total += float(np.dot(model.body_inertia[b], local**2) + model.body_mass[b] * np.dot(perp, perp))
+        perp = offset - dot3(offset, axis) * axis
+        total += dot3(model.body_inertia[b], [x * x for x in local]) + float(model.body_mass[b]) * dot3(perp, perp)
     return total
 
 
