@@ -170,8 +170,8 @@ for name in sys.argv[1:]:
 def test_a_model_is_the_same_to_the_bit_whatever_blas_kernel_the_cpu_gets():
     """OpenBLAS picks its kernel for the CPU at load time (``OPENBLAS_CORETYPE`` overrides it;
     an unsupported one falls back), and the kernels round differently: gains computed with
-    ``np.dot`` were an ulp apart between an AVX-512 Intel and an AMD machine, enough for a
-    knife-edge human walker to fall on one.  These two presets differed under the old code."""
+    ``np.dot`` were an ulp apart under the SkylakeX and Haswell kernels, enough for a
+    knife-edge human walker to fall with one.  These two presets differed under the old code."""
     names = ["human_stepping:male_50", "human:male_50"]
     hashes = set()
     for core in ("Prescott", "Haswell", "SkylakeX"):

@@ -64,9 +64,9 @@ def dot3(a, b) -> float:
     """``a . b`` of two 3-vectors, summed left to right in plain floats.
 
     Why not ``np.dot`` or ``@``: they go to OpenBLAS, whose kernel (picked for the CPU at
-    run time) rounds differently - the same robot got gains one ulp apart on an AVX-512
-    Intel and an AMD machine, and a walker evolved on one fell on the other (benchmarks/
-    RESULTS.md, "Why three walkers fell on another machine")."""
+    run time) rounds differently - the same robot got gains one ulp apart under its SkylakeX
+    and Haswell kernels, and a walker evolved with one fell with the other (benchmarks/
+    RESULTS.md, "Why a walker fell on another machine")."""
     return float(a[0]) * float(b[0]) + float(a[1]) * float(b[1]) + float(a[2]) * float(b[2])
 
 
