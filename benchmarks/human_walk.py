@@ -45,6 +45,11 @@ WALKED_M = 2.0  # seed 000: upright for more than 2 m
 SUSTAINED_S = 60.0
 
 
+def walked_by_seed_000(upright_s: float, distance_m: float, episode_s: float) -> bool:
+    """Seed 000's test: upright for the whole ``episode_s`` [s] and more than :data:`WALKED_M`."""
+    return upright_s >= episode_s - 1e-9 and distance_m > WALKED_M
+
+
 def run_folder(out: Path, preset: str, seed: int, robot: str = "human") -> Path:
     """A run's folder; a variant body's runs are named after its file, so that they are never
     read back as (or resumed from) the human's in the same ``--out``."""
@@ -78,7 +83,7 @@ def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, rob
         if row["harness"] == 0:
             result = judge.evaluate([run.champion.genome], run.config.neat.sigmoid_steepness, harness=0.0)
             distance, upright = float(result.distance_m[0]), float(result.upright_s[0])
-            if upright >= judge.episode_s - 1e-9 and distance > WALKED_M:
+            if walked_by_seed_000(upright, distance, judge.episode_s):
                 walker = {"generation": generation, "minutes": run.wall_s / 60.0, "distance_m": distance}
                 if state["first_walker"] is None:
                     state["first_walker"] = walker
@@ -175,7 +180,7 @@ def main(argv=None) -> None:
 def walks_here(walker: Path) -> bool:
     """Does ``walker`` still walk by seed 000's test when replayed on this machine?"""
     walk = evaluate_controller(walker)
-    return walk["upright_s"] >= walk["seconds"] - 1e-9 and not walk["fell"] and walk["distance_m"] > WALKED_M
+    return not walk["fell"] and walked_by_seed_000(walk["upright_s"], walk["distance_m"], walk["seconds"])
 
 
 def ship(runs: list[dict], out: Path, robot: str, into: Path, argv: list[str] | None,

@@ -33,6 +33,7 @@ Each simulation's width goes into the backlash joints' ``jnt_range``
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -258,11 +259,9 @@ def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel)
     for side in ("left", "right"):
         geom = model.geom(f"{side}_foot").id
         up_row = data.geom_xmat[geom].reshape(3, 3)[2]  # world z of the foot's local axes
-        for sx in (-1, 1):
-            for sy in (-1, 1):
-                for sz in (-1, 1):
-                    local = np.array([sx, sy, sz]) * model.geom_size[geom]
-                    lowest = min(lowest, float(data.geom_xpos[geom][2]) + dot3(local, up_row))
+        centre_z = float(data.geom_xpos[geom][2])
+        for corner in itertools.product((-1, 1), repeat=3):
+            lowest = min(lowest, centre_z + dot3(np.array(corner) * model.geom_size[geom], up_row))
     qpos = data.qpos.copy()
     if model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE:  # standing: lowered onto the floor; hung: as it is
         qpos[2] -= lowest - SOLE_CLEARANCE_M
