@@ -29,11 +29,12 @@ from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.run import Run, read_stats
 from sim2real.robot import load_robot
 from sim2real.robot.paths import data_root
+from sim2real.robot.validation import load_yaml
 
 
 def robot_with_step(folder: Path, dt: float, preset: str) -> str:
     """The human character with physics step ``dt`` [s]: a copy of its config beside."""
-    doc = yaml.safe_load((data_root() / "configs" / "robots" / "human.yaml").read_text())
+    doc = load_yaml(data_root() / "configs" / "robots" / "human.yaml")  # the one bounded reader of YAML
     doc["physics_dt_s"] = dt
     path = folder / f"human_dt{dt * 1e3:g}ms.yaml"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
