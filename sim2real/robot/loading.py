@@ -15,9 +15,18 @@ from sim2real.robot.paths import robots_dir
 from sim2real.robot.profiles import DeviceProfile, load_profile
 from sim2real.robot.spec import (
     AXES,
+    CONTROL_TICK_S,
     DEFAULT_CONTACT_SHARE,
     DEFAULT_ROBOT,
+    JOINT_ANGLE_DEG,
     LOCATIONS,
+    MAX_TORQUE_NM,
+    MAX_TORQUE_NM_PER_KG,
+    PD_KD,
+    PD_KP,
+    PHYSICS_DT_S,
+    SEGMENT_MASS_KG,
+    SEGMENT_SIZE_M,
     SIDES,
     Body,
     Box,
@@ -30,7 +39,14 @@ from sim2real.robot.spec import (
     ServoMap,
     common_baud_rates,
 )
-from sim2real.robot.validation import Node, load_yaml
+from sim2real.robot.validation import Node, load_yaml, show
+
+SIZE = dict(lo=SEGMENT_SIZE_M[0], hi=SEGMENT_SIZE_M[1], unit="m",
+            why=f"a plausible segment: {SEGMENT_SIZE_M[0]:g}-{SEGMENT_SIZE_M[1]:g} m")
+MASS = dict(lo=SEGMENT_MASS_KG[0], hi=SEGMENT_MASS_KG[1], unit="kg",
+            why=f"a plausible segment: {SEGMENT_MASS_KG[0]:g}-{SEGMENT_MASS_KG[1]:g} kg")
+MAX_NAME = 64  # characters of a joint's name
+ANGLE = dict(lo=JOINT_ANGLE_DEG[0], hi=JOINT_ANGLE_DEG[1], unit="deg")
 
 _ROBOT_KEYS = dict(
     required=("name", "description", "body", "joints", "control_sets"),
@@ -55,7 +71,7 @@ def resolve_robot_path(name_or_path: str | Path) -> tuple[Path, str | None]:
     candidate = robots_dir() / f"{text}.yaml"
     if not candidate.exists():
         known = ", ".join(available_robots())
-        raise FileNotFoundError(f"unknown robot {text!r} (known: {known}; or give a path)")
+        raise FileNotFoundError(f"unknown robot {show(text)} (known: {known}; or give a path)")
     return candidate, preset
 
 
@@ -75,12 +91,13 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
     actuation = root.get("actuation", "servo").string(("servo", "pd"))
     if actuation == "pd":
         body, measures = anthropometry.human_body(root, preset)
+        _check_derived_body(root, body, str(measures["preset"]))
         if not root.has("pd_gains"):
             raise root.error("missing required key 'pd_gains' for actuation: pd", key="pd_gains")
         pd = _read_pd(root["pd_gains"], float(measures["mass_kg"]))
     else:
         if preset is not None:
-            raise root.error(f"robot has no presets, got {preset!r}", key="name")
+            raise root.error(f"robot has no presets, got {show(preset)}", key="name")
         for key in ("anthropometry", "proportions", "shape", "pd_gains"):
             if root.has(key):
                 raise root.error("only allowed with actuation: pd", key=key)
@@ -110,7 +127,7 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         members = tuple(n.string() for n in node.list(1))
         for i, member in enumerate(members):
             if member not in names:
-                raise node[i].error(f"unknown joint {member!r}")
+                raise node[i].error(f"unknown joint {show(member)}")
         control_sets[set_name] = members
 
     name = root["name"].string()
@@ -124,15 +141,15 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         bus=bus,
         sensor_board=board,
         pd=pd,
-        control_tick_s=root["control_tick_s"].number(positive=True) if root.has("control_tick_s") else None,
-        physics_dt_s=root["physics_dt_s"].number(0.0002, 0.02) if root.has("physics_dt_s") else None,
+        control_tick_s=root["control_tick_s"].number(*CONTROL_TICK_S, unit="s") if root.has("control_tick_s") else None,
+        physics_dt_s=root["physics_dt_s"].number(*PHYSICS_DT_S, unit="s") if root.has("physics_dt_s") else None,
         anthropometry={k: v for k, v in measures.items() if k != "preset"},
     )
 
 
 def _box(node: Node) -> Box:
     node.mapping(required=("size", "mass"))
-    return Box(size=node["size"].vector(3, positive=True), mass=node["mass"].number(positive=True))
+    return Box(size=node["size"].vector(3, **SIZE), mass=node["mass"].number(**MASS))
 
 
 def _read_body(node: Node) -> Body:
@@ -143,16 +160,33 @@ def _read_body(node: Node) -> Body:
     body = Body(
         trunk=_box(node["trunk"]),
         pelvis=_box(node["pelvis"]),
-        hip_spacing=node["hip_spacing"].number(positive=True),
+        hip_spacing=node["hip_spacing"].number(**SIZE),
         thigh=_box(node["thigh"]),
         shank=_box(node["shank"]),
-        foot=Foot(**{k: foot[k].number(positive=True) for k in Foot.__dataclass_fields__}),
+        foot=Foot(**{k: foot[k].number(**(MASS if k == "mass" else SIZE)) for k in Foot.__dataclass_fields__}),
     )
     if body.foot.heel >= body.foot.length:
         raise foot.error("must be shorter than the foot's length", key="heel")
     if body.foot.thickness >= body.foot.ankle_height:
         raise foot.error("must be below ankle_height", key="thickness")
     return body
+
+
+def _check_derived_body(root: Node, body: Body, preset: str) -> None:
+    """A body scaled from anthropometry (whose measures and ratios are checked one by one)
+    must still come out plausible: every size and mass within the robot ranges."""
+    boxes = {"trunk": body.trunk, "pelvis": body.pelvis, "thigh": body.thigh, "shank": body.shank}
+    values = [(f"{name}.size[{i}]", side, SEGMENT_SIZE_M, "m") for name, box in boxes.items()
+              for i, side in enumerate(box.size)]
+    values += [(f"{name}.mass", box.mass, SEGMENT_MASS_KG, "kg") for name, box in boxes.items()]
+    values += [(f"foot.{k}", getattr(body.foot, k), SEGMENT_MASS_KG if k == "mass" else SEGMENT_SIZE_M,
+                "kg" if k == "mass" else "m") for k in Foot.__dataclass_fields__]
+    values.append(("hip_spacing", body.hip_spacing, SEGMENT_SIZE_M, "m"))
+    for what, value, (lo, hi), unit in values:
+        if not lo <= value <= hi:
+            raise root.error(f"scaled from anthropometry (preset {show(preset)}), {what} is {value:g} {unit}, "
+                             f"outside the plausible {lo:g}-{hi:g} {unit}: check its measures, proportions "
+                             "and shape", key="body")
 
 
 def _read_pd(node: Node, mass_kg: float) -> PDGains:
@@ -163,8 +197,10 @@ def _read_pd(node: Node, mass_kg: float) -> PDGains:
     if len(caps) != 1:
         raise node.error("give exactly one of max_torque_nm (a fixed cap) and max_torque_nm_per_kg "
                          f"(in proportion to body mass), got {len(caps)}")
-    cap = node[caps[0]].number(positive=True)
-    return PDGains(kp=node["kp"].number(positive=True), kd=node["kd"].number(positive=True),
+    bound = MAX_TORQUE_NM if caps[0] == "max_torque_nm" else MAX_TORQUE_NM_PER_KG
+    cap = node[caps[0]].number(positive=True, hi=bound[1], unit="N m" if bound is MAX_TORQUE_NM else "N m/kg")
+    return PDGains(kp=node["kp"].number(positive=True, hi=PD_KP[1], unit="1/s^2"),
+                   kd=node["kd"].number(positive=True, hi=PD_KD[1], unit="1/s"),
                    max_torque_nm=cap * mass_kg if caps[0] == "max_torque_nm_per_kg" else cap)
 
 
@@ -173,6 +209,9 @@ def _read_joint(node: Node, servo_robot: bool, default_model: str | None) -> Joi
         required=("name", "location", "axis", "range_deg"), optional=("side", "home_deg", "servo")
     )
     name = node["name"].string()
+    if len(name) > MAX_NAME or not name.isprintable():
+        raise node.error(f"a joint name is at most {MAX_NAME} printable characters (it names a MuJoCo joint, "
+                         f"a trace column and a controller's input), got {show(name)}", key="name")
     side = node.get("side", "center").string(SIDES)
     location = node["location"].string(LOCATIONS)
     if (location == "waist") != (side == "center"):
@@ -180,14 +219,14 @@ def _read_joint(node: Node, servo_robot: bool, default_model: str | None) -> Joi
     axis = node["axis"].string(AXES)
     if location == "knee" and axis != "pitch":
         raise node.error("a knee is a pitch joint", key="axis")
-    lo, hi = node["range_deg"].pair()
-    home = node.get("home_deg", 0.5 * (lo + hi) if not lo <= 0 <= hi else 0.0).number()
+    lo, hi = node["range_deg"].pair(**ANGLE)
+    home = node.get("home_deg", 0.5 * (lo + hi) if not lo <= 0 <= hi else 0.0).number(**ANGLE)
     if not lo <= home <= hi:
         raise node.error(f"{home} deg is outside range_deg [{lo}, {hi}]", key="home_deg")
     servo = None
     if servo_robot:
         if not node.has("servo"):
-            raise node.error(f"joint {name!r} has no servo", key="servo")
+            raise node.error(f"joint {show(name)} has no servo", key="servo")
         servo = _read_servo(node["servo"], default_model, (lo, hi))
     elif node.has("servo"):
         raise node.error("servo blocks are only allowed with actuation: servo", key="servo")
@@ -226,7 +265,7 @@ def _read_servo(node: Node, default_model: str | None, range_deg: tuple[float, f
         id=node["id"].integer(0, 252),
         profile=profile,
         direction=direction,
-        zero_offset_rad=math.radians(node.get("zero_offset_deg", 0.0).number()),
+        zero_offset_rad=math.radians(node.get("zero_offset_deg", 0.0).number(**ANGLE)),
     )
     assert profile.position is not None
     s_lo, s_hi = profile.position.range_rad
@@ -261,22 +300,22 @@ def _check_joints(root: Node, joints: tuple[Joint, ...]) -> None:
     for i, joint in enumerate(joints):
         key = f"joints[{i}].name"
         if joint.name in seen:
-            raise ConfigError(root.source, key, f"duplicate joint name {joint.name!r}")
+            raise ConfigError(root.source, key, f"duplicate joint name {show(joint.name)}")
         seen[joint.name] = i
         slot = (joint.side, joint.location, joint.axis)
         if slot in slots:
-            raise ConfigError(root.source, key, f"{joint.name!r} repeats the {' '.join(slot)} axis of {slots[slot]!r}")
+            raise ConfigError(root.source, key, f"{show(joint.name)} repeats the {' '.join(slot)} axis of {show(slots[slot])}")
         slots[slot] = joint.name
     for joint in joints:
         if joint.side != "center":
             other = "left" if joint.side == "right" else "right"
             if (other, joint.location, joint.axis) not in slots:
-                raise ConfigError(root.source, "joints", f"{joint.name!r} has no {other} twin (bipeds are symmetric)")
+                raise ConfigError(root.source, "joints", f"{show(joint.name)} has no {other} twin (bipeds are symmetric)")
 
 
 def _check_ids(root: Node, joints: tuple[Joint, ...], board: SensorBoard | None) -> None:
     owners: dict[int, str] = {}
-    devices = [(j.servo.id, f"joint {j.name!r}") for j in joints if j.servo is not None]
+    devices = [(j.servo.id, f"joint {show(j.name)}") for j in joints if j.servo is not None]
     if board is not None:
         devices.append((board.id, "the sensor board"))
     for i, (dxl_id, owner) in enumerate(devices):

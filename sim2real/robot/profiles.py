@@ -20,7 +20,30 @@ from pathlib import Path
 from typing import Any
 
 from sim2real.robot.paths import profiles_dir
-from sim2real.robot.validation import Node, load_yaml
+from sim2real.robot.validation import Node, load_yaml, show
+
+# Plausible ranges of a profile's physical quantities, checked on reading with the key named:
+# any Dynamixel from the XL330 (0.52 N m, 18 g) to the largest Dynamixel-P (44.7 N m, 855 g),
+# with room to spare.  (low, high, unit); a low of 0 is exclusive where the value divides.
+MOTOR_RANGES: dict[str, tuple[float, float, str]] = {
+    "nominal_voltage_v": (3.0, 48.0, "V"),
+    "stall_torque_nm": (0.0, 100.0, "N m"),  # > 0
+    "stall_current_a": (0.0, 30.0, "A"),  # > 0
+    "no_load_speed_rpm": (0.0, 1000.0, "rpm"),  # > 0
+    "no_load_current_a": (0.0, 10.0, "A"),
+    "gear_ratio": (1.0, 5000.0, ""),
+    "armature_kgm2": (0.0, 1.0, "kg m^2"),
+    "viscous_friction_nms": (0.0, 10.0, "N m s/rad"),
+    "coulomb_friction_nm": (0.0, 100.0, "N m"),  # and below stall_torque_nm
+}
+_POSITIVE_MOTOR = ("stall_torque_nm", "stall_current_a", "no_load_speed_rpm")
+MASS_KG = (0.001, 5.0)  # a device's mass [kg], > 0
+GAIN_MAX = 2.0**20  # a gain's table value or divisor (registers are at most 32 bit; shipped: <= 65536)
+_DIVISORS = ("p_divisor", "i_divisor", "d_divisor", "pwm_limit", "torque_limit")  # > 0: they divide
+UNIT_MAX = 100.0  # a unit's size (velocity_unit_rpm, load_unit_percent, voltage_unit_v, LSBs), > 0
+TICK_LIMIT = 2**31  # position ticks are within (-2^31, 2^31)
+RESOLUTION = (2, 2**20)  # encoder ticks a revolution
+BAUD_RANGE = (9600, 10_500_000)  # [bit/s], as a robot's bus.baud
 
 
 @dataclass(frozen=True)
@@ -135,17 +158,20 @@ def _read_register(node: Node) -> Register:
     if size not in (1, 2, 4):
         raise node.error(f"must be 1, 2 or 4 bytes, got {size}", key="size")
     unit = node["unit"].value
+    signed = node["signed"].boolean()
+    bits = 8 * size  # a value must fit its bytes (the mock and simulated buses store it so)
+    fits = dict(lo=-(2 ** (bits - 1)), hi=2 ** (bits - 1) - 1) if signed else dict(lo=0, hi=2**bits - 1)
     return Register(
         name=node["name"].string(),
         address=node["address"].integer(0, 0xFFFF),
         size=size,
-        signed=node["signed"].boolean(),
+        signed=signed,
         access=node["access"].string(("R", "RW")),
         area=node["area"].string(("EEPROM", "RAM")),
         unit=None if unit is None else str(unit),
-        default=node.get("default", 0).integer(),
+        default=node.get("default", 0).integer(**fits),
         encoding=node["encoding"].string() if node.has("encoding") else None,
-        range=_register_range(node["range"]) if node.has("range") else None,
+        range=_register_range(node["range"], fits) if node.has("range") else None,
     )
 
 
@@ -156,15 +182,15 @@ def _lsb(node: Node) -> float:
         num, den = (part.strip() for part in value.split("/"))
         if num.isdigit() and den.isdigit() and int(num) > 0 and int(den) > 0:
             return int(num) / int(den)
-    if isinstance(value, (int, float)) and not isinstance(value, bool) and 0 < value < math.inf:
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and 0 < value <= UNIT_MAX:
         return float(value)
-    raise node.error(f"must be a positive number or a fraction like 1/16384, got {value!r}")
+    raise node.error(f"must be a positive number (at most {UNIT_MAX:g}) or a fraction like 1/16384, got {show(value)}")
 
 
-def _register_range(node: Node) -> tuple[int, int]:
+def _register_range(node: Node, fits: dict[str, int]) -> tuple[int, int]:
     items = node.list()
-    if len(items) != 2 or items[0].integer() > items[1].integer():
-        raise node.error(f"must be [min, max], got {node.value!r}")
+    if len(items) != 2 or items[0].integer(**fits) > items[1].integer(**fits):
+        raise node.error(f"must be [min, max], got {show(node.value)}")
     return items[0].integer(), items[1].integer()
 
 
@@ -184,7 +210,7 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     for entry in root["control_table"].list(min_len=1):
         reg = _read_register(entry)
         if reg.name in table:
-            raise entry.error(f"duplicate control-table entry {reg.name!r}", key="name")
+            raise entry.error(f"duplicate control-table entry {show(reg.name)}", key="name")
         table[reg.name] = reg
     for needed in ("model_number", "id", "return_delay_time"):
         if needed not in table:
@@ -198,12 +224,12 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
         kind=kind,
         model_number=root["model_number"].integer(0, 0xFFFF),
         protocol=protocol,
-        mass_kg=root["mass_kg"].number(positive=True),
+        mass_kg=root["mass_kg"].number(*MASS_KG, unit="kg"),
         source=root["source"].string(),
         path=Path(path),
         control_table=table,
         variants=tuple(v.string() for v in root.get("variants", []).list()),
-        baud_rates=tuple(sorted({b.integer(lo=1) for b in root.get("baud_rates", []).list()})),
+        baud_rates=tuple(sorted({b.integer(*BAUD_RANGE) for b in root.get("baud_rates", []).list()})),
     )
     if kind == "sensor_board":
         sensors = root["sensors"]
@@ -226,13 +252,16 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     pos = root["position"].mapping(
         required=("resolution", "min_tick", "max_tick", "center_tick", "range_deg")
     )
+    ticks = dict(lo=1 - TICK_LIMIT, hi=TICK_LIMIT - 1)
     position = PositionSpec(
-        resolution=pos["resolution"].integer(2),
-        min_tick=pos["min_tick"].integer(),
-        max_tick=pos["max_tick"].integer(),
-        center_tick=pos["center_tick"].integer(),
-        range_deg=pos["range_deg"].number(positive=True, hi=360.0),
+        resolution=pos["resolution"].integer(*RESOLUTION),
+        min_tick=pos["min_tick"].integer(**ticks),
+        max_tick=pos["max_tick"].integer(**ticks),
+        center_tick=pos["center_tick"].integer(**ticks),
+        range_deg=pos["range_deg"].number(positive=True, hi=360.0, unit="deg"),
     )
+    if position.max_tick <= position.min_tick:  # rad_per_tick divides by their difference
+        raise pos.error("must be above min_tick", key="max_tick")
     if not position.min_tick <= position.center_tick <= position.max_tick:
         raise pos.error("center_tick must lie between min_tick and max_tick", key="center_tick")
 
@@ -240,19 +269,22 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     numeric = [f for f in MotorSpec.__dataclass_fields__ if f != "sources"]
     mot.mapping(required=numeric, optional=("sources",))
     motor = MotorSpec(
-        **{f: mot[f].number(lo=0.0) for f in numeric},
+        **{f: mot[f].number(lo=None if f in _POSITIVE_MOTOR else MOTOR_RANGES[f][0], hi=MOTOR_RANGES[f][1],
+                            positive=f in _POSITIVE_MOTOR, unit=MOTOR_RANGES[f][2]) for f in numeric},
         sources={str(k): str(v) for k, v in (mot.get("sources", {}).value or {}).items()},
     )
-    for f in ("stall_torque_nm", "no_load_speed_rpm", "nominal_voltage_v", "gear_ratio"):
-        mot[f].number(positive=True)
     if motor.coulomb_friction_nm >= motor.stall_torque_nm:
         raise mot.error("must be below stall_torque_nm", key="coulomb_friction_nm")
+    # the servo model's back-EMF damping, (stall - coulomb) / no-load speed, includes the viscous part
+    if motor.viscous_friction_nms > (motor.stall_torque_nm - motor.coulomb_friction_nm) / motor.no_load_speed_rad_s:
+        raise mot.error("is too large to reach no_load_speed_rpm with stall_torque_nm", key="viscous_friction_nms")
 
     g = root["gains"]
     if not g.has("type"):
         raise g.error("missing required key 'type' (pid or compliance)", key="type")
     gtype = g["type"].string(("pid", "compliance"))
-    values = {k: n.number() for k, n in g.items() if k not in ("type", "source")}
+    values = {k: n.number(lo=None if k in _DIVISORS else 0.0, hi=GAIN_MAX, positive=k in _DIVISORS)
+              for k, n in g.items() if k not in ("type", "source")}
     need = (
         ("position_p", "p_divisor", "pwm_limit")
         if gtype == "pid"
@@ -261,8 +293,10 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     for key in need:
         if key not in values:
             raise g.error(f"missing required key {key!r} for {gtype} gains", key=key)
+    if gtype == "compliance" and values["cw_compliance_slope"] + values["ccw_compliance_slope"] <= 0:
+        raise g.error("the compliance slopes divide: give at least one > 0", key="cw_compliance_slope")
     gains = GainSpec(type=gtype, values=values, source=str(g.get("source", "").value))
-    units = {k: root[k].number(positive=True) for k in _UNIT_KEYS if root.has(k)}
+    units = {k: root[k].number(positive=True, hi=UNIT_MAX) for k in _UNIT_KEYS if root.has(k)}
     return DeviceProfile(**profile, position=position, motor=motor, gains=gains, units=units)
 
 
@@ -293,4 +327,4 @@ def load_profile(name: str, folder: Path | None = None) -> DeviceProfile:
         return profiles[name.upper()]
     except KeyError:
         known = ", ".join(available_profiles(folder))
-        raise KeyError(f"unknown servo profile {name!r} (known: {known})") from None
+        raise KeyError(f"unknown servo profile {show(name)} (known: {known})") from None

@@ -34,6 +34,20 @@ GRAVITY = 9.81  # [m/s^2], as in the MuJoCo model (its default)
 # the simulated bus and compare all read; robots without a board (simulation-only) use it too.
 DEFAULT_CONTACT_SHARE = 0.05
 
+# Plausible ranges of a robot config's physical quantities, checked on reading with the key
+# named (:mod:`sim2real.robot.loading`): wide enough for anything from a 20 cm hobby-servo
+# biped to the human character's largest preset (2.5 m, 300 kg), narrow enough that MuJoCo
+# never meets a 1000 m trunk or a 1e-300 kg foot (a singular inertia, or mjMINVAL).
+SEGMENT_SIZE_M = (0.002, 1.5)  # each side of a segment's box, each foot dimension, hip_spacing [m]
+SEGMENT_MASS_KG = (0.005, 200.0)  # each segment (trunk, pelvis, one thigh, shank or foot) [kg]
+JOINT_ANGLE_DEG = (-360.0, 360.0)  # range_deg, home_deg, zero_offset_deg [deg]: at most a turn either way
+PD_KP = (0.0, 10_000.0)  # pd_gains.kp, > 0 [1/s^2] (the human's 300: ~17 rad/s)
+PD_KD = (0.0, 1_000.0)  # pd_gains.kd, > 0 [1/s]
+MAX_TORQUE_NM = (0.0, 5_000.0)  # pd_gains.max_torque_nm, > 0 [N m]
+MAX_TORQUE_NM_PER_KG = (0.0, 50.0)  # pd_gains.max_torque_nm_per_kg, > 0 [N m/kg] (the human's 4.08)
+CONTROL_TICK_S = (0.001, 1.0)  # control_tick_s [s]: the controller format's tick_s range
+PHYSICS_DT_S = (0.0002, 0.02)  # physics_dt_s [s]: MuJoCo's timestep
+
 
 @dataclass(frozen=True)
 class Box:
