@@ -8,13 +8,12 @@ import json
 import sys
 from pathlib import Path
 
+from evolve.limits import MAX_EPISODE_S, MAX_EVAL_EPISODES, MAX_GENERATIONS, MAX_POPULATION, MAX_THREADS
 from sim2real.cli.args import (
-    int_at_least,
-    non_negative_int,
+    int_within,
     output_dir,
     output_file,
-    positive_finite_float,
-    positive_int,
+    positive_float_at_most,
     print_result,
     reality_name,
     require_module,
@@ -34,9 +33,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                     help="evolution config: a name from configs/evolve/ or a YAML path (default: walk)")
     ev.add_argument("--out", type=output_dir, help="run folder (default: runs/<config>-seed<S>)")
     ev.add_argument("--seed", type=seed, help="random seed (overrides the config)")
-    ev.add_argument("--generations", type=positive_int, help="generations to run (overrides the config)")
-    ev.add_argument("--population", type=int_at_least(2), help="population size (overrides the config)")
-    ev.add_argument("--threads", type=non_negative_int, help="simulation threads, 0 = all cores (overrides the config)")
+    ev.add_argument("--generations", type=int_within(1, MAX_GENERATIONS),
+                    help=f"generations to run, at most {MAX_GENERATIONS:,} (overrides the config)")
+    ev.add_argument("--population", type=int_within(2, MAX_POPULATION, "memory grows with it"),
+                    help=f"population size, 2-{MAX_POPULATION:,} (overrides the config)")
+    ev.add_argument("--threads", type=int_within(0, MAX_THREADS, "each holds a simulation's memory"),
+                    help=f"simulation threads, 0 = all cores, at most {MAX_THREADS} (overrides the config)")
     ev.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     ev.add_argument("--backend", choices=("local", "ray"), default="local",
                     help="where simulations run: this machine, or a Ray cluster (pip install '.[cluster]')")
@@ -57,8 +59,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         "distance walked, time upright and whether it fell.")
     ea.add_argument("controller", type=Path)
     ea.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
-    ea.add_argument("--seconds", type=positive_finite_float, help="episode length (default: the controller's task)")
-    ea.add_argument("--episodes", type=positive_int, help="episodes (each its own draw when randomized; default 1, "
+    ea.add_argument("--seconds", type=positive_float_at_most(MAX_EPISODE_S, "memory and time grow with it"),
+                    help=f"episode length, at most {MAX_EPISODE_S:g} s (default: the controller's task)")
+    ea.add_argument("--episodes", type=int_within(1, MAX_EVAL_EPISODES, "memory grows with it"),
+                    help=f"episodes, at most {MAX_EVAL_EPISODES:,} (each its own draw when randomized; default 1, "
                     "3 with --ablate)")
     ea.add_argument("--randomize", type=reality_name, nargs="?", const="randomize", metavar="RANGES",
                     help="randomize every episode with these ranges (default configs/reality/randomize.yaml)")
@@ -186,6 +190,15 @@ def cmd_evolve(args: argparse.Namespace) -> int:
                                        target_species=min(config.neat.target_species, max(1, args.population // 4)))
             changes["neat"] = neat
         config = config.replace(**changes)
+        if args.population is not None:  # within its own bound, but with the config's episodes?
+            from evolve.config import check_sizes
+            from sim2real.errors import ConfigError
+            from sim2real.robot import load_robot
+
+            try:
+                check_sizes(config, load_robot(config.robot), str(path))
+            except ConfigError as exc:
+                raise UsageError(f"--population {args.population}: {exc.problem}") from None
         out = args.out or Path("runs") / f"{path.stem}-seed{config.seed}"
         run = Run.create(config, out, log=log, backend=args.backend, address=args.address)
         log(f"evolving {config.robot} ({config.task.control_set} joints), population "

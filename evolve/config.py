@@ -27,6 +27,13 @@
         speed_m_s: 0.15       # the largest whole-body speed change of a push (times the ramp)
         every_s: 2.0          # between pushes
     stages: [...]             # optional: a developmental hierarchy (evolve.stages)
+
+Sizes that allocate are bounded (:mod:`evolve.limits`): population_size <= 10,000,
+generations (and a stage's) <= 1,000,000, threads <= 256, episodes <= 64, validation draws
+<= 1,000 and candidates <= 64, task.episode_s <= 300 s, at most 16 stages, and a generation's
+simulated control ticks (population x episodes x ticks an episode; validation's candidates x
+draws x ticks) <= 10 million.  The harness's physical settings have plausible ranges too
+(:data:`TASK_RANGES`).
 """
 
 from __future__ import annotations
@@ -38,17 +45,39 @@ from typing import Any
 
 import yaml
 
+from evolve.limits import (
+    MAX_CANDIDATES,
+    MAX_EPISODE_S,
+    MAX_EPISODES,
+    MAX_GENERATION_TICKS,
+    MAX_GENERATIONS,
+    MAX_POPULATION,
+    MAX_STAGES,
+    MAX_THREADS,
+    MAX_VALIDATION_DRAWS,
+)
 from evolve.locomotion.pushes import Pushes
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig
 from evolve.stages import Stage, check_stage_joints, parse_stages
 from sim2real.errors import ConfigError
-from sim2real.robot import DEFAULT_ROBOT, load_robot
-from sim2real.robot.validation import Node, load_yaml
+from sim2real.robot import DEFAULT_ROBOT, RobotSpec, load_robot
+from sim2real.robot.spec import JOINT_ANGLE_DEG
+from sim2real.robot.timing import control_timing
+from sim2real.robot.validation import Node, load_yaml, show, show_key
 from sim2real.simulation.reality import load_reality
 
 TOP_KEYS = ("robot", "seed", "generations", "threads", "checkpoint_every", "task", "neat", "randomize", "stages")
-INTEGER_KEYS = {"seed": (0, 2**32 - 1), "generations": (1, None), "threads": (0, None), "checkpoint_every": (0, None)}
+INTEGER_KEYS = {"seed": (0, 2**32 - 1), "generations": (1, MAX_GENERATIONS), "threads": (0, MAX_THREADS),
+                "checkpoint_every": (0, MAX_GENERATIONS)}
+# The support harness's physical settings (task.*): key -> (low, high), both included.
+TASK_RANGES: dict[str, tuple[float, float]] = {
+    "harness_stiffness": (0.0, 1_000.0),  # body weights per leg length
+    "harness_damping": (0.0, 100.0),  # damping ratio
+    "harness_max_force": (0.0, 10.0),  # share of the weight, each axis
+    "harness_sideways": (0.0, 10.0),  # times the sideways spring-damper
+}
+PUSH_EVERY_S = (0.05, MAX_EPISODE_S)  # randomize.push.every_s [s]
 
 
 @dataclass(frozen=True)
@@ -149,23 +178,23 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
                                                             "shared", "strength", "push"))
     reality = node.value.get("reality", "nominal")
     if not isinstance(reality, (str, dict)):
-        raise node["reality"].error(f"must be a reality name, path or mapping, got {reality!r}")
+        raise node["reality"].error(f"must be a reality name, path or mapping, got {show(reality)}")
     try:
         load_reality(reality)
     except FileNotFoundError as exc:
         raise node["reality"].error(str(exc)) from None
-    episodes = node["episodes"].integer(lo=1) if node.has("episodes") else 1
+    episodes = node["episodes"].integer(1, MAX_EPISODES) if node.has("episodes") else 1
     score = node["score"].string(("mean", "worst")) if node.has("score") else "mean"
-    ramp = node["ramp_generations"].integer(lo=0) if node.has("ramp_generations") else 0
-    start = node["start_generation"].integer(lo=0) if node.has("start_generation") else 0
+    ramp = node["ramp_generations"].integer(0, MAX_GENERATIONS) if node.has("ramp_generations") else 0
+    start = node["start_generation"].integer(0, MAX_GENERATIONS) if node.has("start_generation") else 0
     strength = node["strength"].number(hi=1.0, positive=True) if node.has("strength") else 1.0
     validation = ValidationConfig()
     if node.has("validation"):
         v = node["validation"].mapping(required=("draws",), optional=("every", "candidates", "consistency"))
         validation = ValidationConfig(
-            draws=v["draws"].integer(lo=1),
-            every=v["every"].integer(lo=1) if v.has("every") else ValidationConfig.every,
-            candidates=v["candidates"].integer(lo=1) if v.has("candidates") else ValidationConfig.candidates,
+            draws=v["draws"].integer(1, MAX_VALIDATION_DRAWS),
+            every=v["every"].integer(1, MAX_GENERATIONS) if v.has("every") else ValidationConfig.every,
+            candidates=v["candidates"].integer(1, MAX_CANDIDATES) if v.has("candidates") else ValidationConfig.candidates,
             consistency=v["consistency"].number(hi=1.0, positive=True) if v.has("consistency") else 0.0)
         if reality == "nominal":
             raise v.error("validates on randomized draws: give randomize.reality (ranges to draw from)")
@@ -180,8 +209,8 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     push = None
     if node.has("push"):
         v = node["push"].mapping(required=("speed_m_s",), optional=("every_s",))
-        push = Pushes(v["speed_m_s"].number(positive=True, hi=2.0),
-                      v["every_s"].number(positive=True) if v.has("every_s") else Pushes.every_s)
+        push = Pushes(v["speed_m_s"].number(positive=True, hi=2.0, unit="m/s"),
+                      v["every_s"].number(*PUSH_EVERY_S, unit="s") if v.has("every_s") else Pushes.every_s)
         if reality == "nominal":
             raise v.error("pushes come with the randomization's ramp: give randomize.reality (ranges to draw from)")
     config = RandomizeConfig(reality, episodes, score, ramp, start, strength=strength, validation=validation,
@@ -226,7 +255,7 @@ def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
         raise ConfigError(source, "", "must be a mapping")
     for key in doc:
         if key not in TOP_KEYS:
-            raise ConfigError(source, str(key), f"unknown key {key!r} (allowed: {', '.join(TOP_KEYS)})")
+            raise ConfigError(source, show_key(key), f"unknown key {show(key)} (allowed: {', '.join(TOP_KEYS)})")
     root = Node(doc, source)
     values: dict[str, Any] = {}
     for key, (lo, hi) in INTEGER_KEYS.items():
@@ -239,15 +268,59 @@ def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
     except (FileNotFoundError, ConfigError) as exc:
         raise ConfigError(source, "robot", str(exc)) from None
     values["task"] = TaskConfig.from_mapping(doc.get("task"), source, "task.")
+    for key, (lo, hi) in TASK_RANGES.items():
+        value = getattr(values["task"], key)
+        if not lo <= value <= hi:
+            raise ConfigError(source, f"task.{key}", f"must be within [{lo:g}, {hi:g}], got {value:g}")
     control_set = values["task"].control_set
     if control_set not in robot.control_sets:
-        raise ConfigError(source, "task.control_set", f"robot {robot.name} has no control set {control_set!r} "
+        raise ConfigError(source, "task.control_set", f"robot {robot.name} has no control set {show(control_set)} "
                           f"(it has: {', '.join(robot.control_sets)})")
     values["neat"] = NeatConfig.from_mapping(doc.get("neat"), source, "neat.")
+    if values["neat"].population_size > MAX_POPULATION:
+        raise ConfigError(source, "neat.population_size", f"must be <= {MAX_POPULATION}, got "
+                          f"{values['neat'].population_size} (memory grows with it)")
     values["randomize"] = parse_randomize(doc.get("randomize"), source)
     values["stages"] = parse_stages(doc.get("stages"), source)
     check_stage_joints(values["stages"], robot.control_sets[control_set], source)
-    return EvolveConfig(**values)
+    _check_stages(values["stages"], source)
+    config = EvolveConfig(**values)
+    check_sizes(config, robot, source)
+    return config
+
+
+def _check_stages(stages: tuple[Stage, ...], source: str) -> None:
+    if len(stages) > MAX_STAGES:
+        raise ConfigError(source, "stages", f"at most {MAX_STAGES} stages (each a module and a folder), "
+                          f"got {len(stages)}")
+    lo, hi = JOINT_ANGLE_DEG
+    for i, stage in enumerate(stages):
+        if stage.generations > MAX_GENERATIONS:
+            raise ConfigError(source, f"stages[{i}].generations", f"must be <= {MAX_GENERATIONS}, got "
+                              f"{stage.generations}")
+        for joint, angle in stage.target_pose_deg.items():
+            if not lo <= angle <= hi:
+                raise ConfigError(source, f"stages[{i}].target_pose_deg.{show(joint)}",
+                                  f"must be within [{lo:g}, {hi:g}] deg, got {angle:g}")
+
+
+def check_sizes(config: EvolveConfig, robot: RobotSpec, source: str) -> None:
+    """Refuse a generation that would simulate more than ``MAX_GENERATION_TICKS`` control
+    ticks (population x episodes, or validation's candidates x draws, times an episode's
+    ticks): its memory (noise drawn per tick) and time grow with it.  The command line
+    calls it again after its flags change the config."""
+    ticks = int(round(config.task.episode_s / control_timing(robot).tick_s))
+    r = config.randomize
+    sims = [(config.neat.population_size * r.episodes, f"population {config.neat.population_size} x "
+             f"{r.episodes} episodes")]
+    if r.validation.active:
+        sims.append((r.validation.candidates * r.validation.draws, f"validation's {r.validation.candidates} "
+                     f"candidates x {r.validation.draws} draws"))
+    for n, what in sims:
+        if n * ticks > MAX_GENERATION_TICKS:
+            raise ConfigError(source, "", f"{what} x {ticks} ticks an episode (task.episode_s "
+                              f"{config.task.episode_s:g} s) is {n * ticks:,} control ticks a generation; at most "
+                              f"{MAX_GENERATION_TICKS:,} (memory and time grow with it)")
 
 
 def load_evolve_config(path: Path | str) -> EvolveConfig:

@@ -16,10 +16,10 @@ import argparse
 import json
 from pathlib import Path
 
+from evolve.limits import MAX_GENERATIONS, MAX_POPULATION
 from sim2real.cli.args import (
-    int_at_least,
+    int_within,
     output_dir,
-    positive_int,
     reality_name,
     require_module,
     run_failed,
@@ -32,8 +32,10 @@ def add_command(sub: argparse._SubParsersAction) -> None:
                        description=__doc__.split("\n\n")[1].replace("\n", " "))
     q.add_argument("--out", type=output_dir, default="runs/quickstart",
                    help="folder for everything (default: runs/quickstart)")
-    q.add_argument("--generations", type=positive_int, default=12, help="generations of the short evolution (default 12)")
-    q.add_argument("--population", type=int_at_least(2), default=48, help="population size (default 48)")
+    q.add_argument("--generations", type=int_within(1, MAX_GENERATIONS), default=12,
+                   help="generations of the short evolution (default 12)")
+    q.add_argument("--population", type=int_within(2, MAX_POPULATION, "memory grows with it"), default=48,
+                   help="population size (default 48)")
     q.add_argument("--reality", type=reality_name, default="default", help="reality profile of the dry run (default: default)")
     q.add_argument("--seed", type=seed, default=1)
     q.add_argument("--no-video", action="store_true", help="skip the video (no offscreen GL here)")

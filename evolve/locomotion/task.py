@@ -27,6 +27,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from evolve.limits import MAX_EPISODE_S
 from sim2real.controller.file import HEADING_SCALE_MAX_DEG, PHASE_RANGE_S
 from sim2real.controller.symmetry import HEADING_SCALE_DEG
 from sim2real.errors import ConfigError
@@ -34,7 +35,7 @@ from sim2real.robot.spec import DEFAULT_CONTACT_SHARE
 from sim2real.robot.validation import dataclass_from_mapping
 
 # (key, low, high): the value must lie in (low, high]
-BOUNDED = (("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")), ("harness_height", 0.0, 1.0),
+BOUNDED = (("episode_s", 0.0, MAX_EPISODE_S), ("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")), ("harness_height", 0.0, 1.0),
            ("heading_scale_deg", 0.0, HEADING_SCALE_MAX_DEG))
 LEGACY_CONTACT_THRESHOLD = "contact_threshold"  # the task's key for it until the robot owned it
 

@@ -33,6 +33,13 @@ if TYPE_CHECKING:
     from sim2real.robot import RobotSpec
 
 MAX_SEED = 2**32 - 1  # numpy seeds are non-negative; keys are stored as 64-bit integers
+# Replays of a controller (plot gait, render): at most evolution's longest episode
+# (evolve.limits.MAX_EPISODE_S; this package never imports evolve) [s].  A video holds every
+# frame in memory until it is written (~80 MB a simulated second at 1280 x 720), so a render's
+# own --seconds is shorter; a --strip films at most MAX_STRIP_FRAMES moments.
+MAX_REPLAY_S = 300.0
+MAX_VIDEO_S = 60.0
+MAX_STRIP_FRAMES = 50
 
 
 # -- numbers ---------------------------------------------------------------------------------
@@ -64,6 +71,40 @@ def int_at_least(low: int) -> Callable[[str], int]:
 
     convert.__name__ = f"int_at_least_{low}"
     return convert
+
+
+def int_within(low: int, high: int, why: str = "") -> Callable[[str], int]:
+    """A converter for whole numbers in [``low``, ``high``]; ``why`` says what the upper bound
+    protects (e.g. "memory grows with it"), in the message."""
+
+    def convert(text: str) -> int:
+        value = _whole(text)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be a whole number within [{low}, {high}]"
+                                             f"{f' ({why})' if why else ''}, got {_cut(text)}")
+        return value
+
+    convert.__name__ = f"int_within_{low}_{high}"
+    return convert
+
+
+def positive_float_at_most(high: float, why: str = "") -> Callable[[str], float]:
+    """A converter for finite numbers in (0, ``high``]."""
+
+    def convert(text: str) -> float:
+        value = _finite(text)
+        if not 0 < value <= high:
+            raise argparse.ArgumentTypeError(f"must be a number within (0, {high:g}]"
+                                             f"{f' ({why})' if why else ''}, got {_cut(text)}")
+        return value
+
+    convert.__name__ = f"positive_float_at_most_{high:g}"
+    return convert
+
+
+def _cut(text: str) -> str:
+    """A flag's text in a message, cut to a few dozen characters."""
+    return repr(text) if len(text) <= 40 else repr(text[:37] + "...")
 
 
 positive_int = int_at_least(1)

@@ -13,8 +13,9 @@ from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from sim2real.cli.args import (
+    MAX_REPLAY_S,
     check_output_file,
-    positive_finite_float,
+    positive_float_at_most,
     reality_name,
     require_module,
     robot_name,
@@ -40,7 +41,8 @@ def add_commands(sub: argparse._SubParsersAction,
     gait.add_argument("controller", nargs="?", type=Path, help="controller .json to simulate")
     gait.add_argument("--trace", type=Path, help="draw this trace CSV instead (its sidecar names the robot)")
     gait.add_argument("--robot", type=robot_name, help="robot (default: the controller's or the trace's)")
-    gait.add_argument("--seconds", type=positive_finite_float, help="episode length (default: the controller's task)")
+    gait.add_argument("--seconds", type=positive_float_at_most(MAX_REPLAY_S),
+                      help=f"episode length, at most {MAX_REPLAY_S:g} s (default: the controller's task)")
     gait.add_argument("--reality", type=reality_name, metavar="PROFILE",
                       help="simulate the robot of this reality file (fixed values) instead of the nominal one")
     gait.add_argument("--disable-module", action="append", default=[], metavar="NAME",

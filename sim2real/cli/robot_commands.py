@@ -16,10 +16,13 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 from sim2real.cli.args import (
+    MAX_STRIP_FRAMES,
+    MAX_VIDEO_S,
     check_output_file,
+    int_within,
     non_negative_finite_float,
     output_file,
-    positive_finite_float,
+    positive_float_at_most,
     positive_int,
     require_module,
 )
@@ -88,13 +91,14 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
     _robot_or_controller(render)
     render.add_argument("-o", "--output", type=Path, default=None,
                         help="output file (default: robot.png, or walk.mp4 for a controller)")
-    render.add_argument("--seconds", type=positive_finite_float,
-                        help="replay length for a controller (default: its episode)")
+    render.add_argument("--seconds", type=positive_float_at_most(MAX_VIDEO_S, "a video is held in memory"),
+                        help=f"replay length for a controller, at most {MAX_VIDEO_S:g} s (default: its episode)")
     render.add_argument("--strip", nargs="+", type=Path, metavar="CONTROLLER",
                         help="a picture of these controllers' replays side by side over time (seed 000's "
                         "figure 1): one row each, filmed from the right at --frames moments, all from the "
                         "same distance so that sizes compare (default output strip.png)")
-    render.add_argument("--frames", type=positive_int, help=f"moments of a --strip (default {STRIP_FRAMES})")
+    render.add_argument("--frames", type=int_within(1, MAX_STRIP_FRAMES),
+                        help=f"moments of a --strip (default {STRIP_FRAMES}, at most {MAX_STRIP_FRAMES})")
     render.add_argument("--width", type=positive_int, default=None,
                         help="pixels (default 960, a --strip frame 320; at most 1280)")
     render.add_argument("--height", type=positive_int, default=None,

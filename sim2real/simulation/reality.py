@@ -11,8 +11,12 @@ value (a fixed perturbation: a "reality profile" such as ``default.yaml``) or a
 
 Per joint values go under ``joints:`` (``biped sysid --per-joint`` writes them); ``centre:
 FILE`` puts the ranges around another robot than the nominal one (:func:`centred`: scales
-multiply, the rest adds), e.g. one ``biped sysid`` identified.  The keys of :data:`EFFECTS`
-are effects only the simulated bus simulates.
+multiply, the rest adds), e.g. one ``biped sysid`` identified; a chain of centres is at most
+``MAX_CENTRE_CHAIN`` files long and never comes back to a file (a cycle is refused, naming
+the chain).  The keys of :data:`EFFECTS` are effects only the simulated bus simulates.  Every
+value, given or centred, must lie within its key's :data:`PLAUSIBLE` range: a real robot
+that differs from its model by more is a different robot (and MuJoCo goes numerically
+unstable long before a 1e300 armature).
 
 Each simulation gets its own draws from its own seeded stream (:func:`sample`, keyed by
 run seed, generation, genome and episode), so results do not depend on how simulations are
@@ -34,7 +38,7 @@ import mujoco
 import numpy as np
 
 from sim2real.errors import ConfigError
-from sim2real.robot.validation import Node, load_yaml
+from sim2real.robot.validation import Node, load_yaml, show
 from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing
 from sim2real.simulation.model_builder import CLOSED_PLAY_RAD, JointAngles, build_model
@@ -71,6 +75,32 @@ EFFECTS: dict[str, tuple[float, str]] = {
     "load_friction": (0.0, "Coulomb friction added per N m the gears transmit [N m / N m]"),
     "supply_sag": (0.0, "share of every servo's torque limit lost when all servos draw their stall current"),
 }
+# key -> (low, high) of a plausible value [the key's unit]: wide enough for every range the
+# project ships and every value `biped sysid` can fit (identify.SERVO_PARAMETERS, LATENCY),
+# also when ranges are centred on such a fit (randomize.yaml around a sysid profile).
+PLAUSIBLE: dict[str, tuple[float, float]] = {
+    "mass_scale": (0.25, 4.0),
+    "com_offset_m": (0.0, 0.1),
+    "floor_friction_scale": (0.05, 10.0),
+    "kp_scale": (0.05, 10.0),
+    "torque_scale": (0.05, 10.0),
+    "damping_scale": (0.02, 20.0),
+    "friction_scale": (0.01, 20.0),
+    "armature_scale": (0.02, 20.0),
+    "derivative_ms": (0.0, 100.0),
+    "backlash_deg": (0.0, 10.0),
+    "latency_ticks": (0.0, 10.0),
+    "latency_ms": (0.0, 500.0),
+    "joint_noise_deg": (0.0, 10.0),
+    "up_noise": (0.0, 0.5),
+    "foot_flip": (0.0, 0.5),
+    "heading_drift_deg_s": (-10.0, 10.0),
+    "stribeck_nm": (0.0, 5.0),
+    "stribeck_rad_s": (0.001, 10.0),  # it divides: never 0
+    "load_friction": (0.0, 1.0),
+    "supply_sag": (0.0, 1.0),  # a share
+}
+MAX_CENTRE_CHAIN = 8  # reality files, each the centre of the one before
 SCALES = ("mass_scale", "floor_friction_scale", "kp_scale", "torque_scale", "damping_scale", "friction_scale",
           "armature_scale")
 SIGNED = ("heading_drift_deg_s",)  # may be negative: a drift either way
@@ -162,24 +192,51 @@ class Reality:
 NOMINAL = Reality()
 
 
+def _unit(key: str) -> str:
+    """The unit in a key's name, for messages ("deg" for ``backlash_deg``; "" for a scale)."""
+    for suffix, unit in (("_deg_s", "deg/s"), ("_deg", "deg"), ("_ms", "ms"), ("_nm", "N m"), ("_m", "m"),
+                         ("_rad_s", "rad/s"), ("_ticks", "ticks")):
+        if key.endswith(suffix):
+            return unit
+    return ""
+
+
 def _value_or_range(key: str, item: Node) -> tuple[float, float]:
     if isinstance(item.value, list):
         lo, hi = item.pair()
     else:
         lo = hi = item.number()
     if lo < 0 and key not in SIGNED:
-        raise item.error(f"must not be negative, got {item.value!r}")
+        raise item.error(f"must not be negative, got {show(item.value)}")
     if key in SCALES and lo == 0:
         raise item.error("a scale must be > 0")
     if key == "foot_flip" and hi > 1:
-        raise item.error(f"is a probability (0-1), got {item.value!r}")
+        raise item.error(f"is a probability (0-1), got {show(item.value)}")
+    lo_ok, hi_ok = PLAUSIBLE[key]
+    if lo < lo_ok or hi > hi_ok:
+        unit = f" {_unit(key)}" if _unit(key) else ""
+        raise item.error(f"must be within the plausible {lo_ok:g} to {hi_ok:g}{unit}, got {show(item.value)}")
     return float(lo), float(hi)
 
 
-def parse_reality(doc: Any, source: str, name: str = "inline") -> Reality:
+def _check_plausible(reality: "Reality", source: str) -> None:
+    """Every range of ``reality`` (ranges centred on another robot) within :data:`PLAUSIBLE`."""
+    rows = [(key, r) for key, r in reality.ranges.items()]
+    rows += [(f"joints.{show(j)}.{key}", r) for j, values in reality.joint_ranges.items() for key, r in values.items()]
+    for where, (lo, hi) in rows:
+        key = where.rsplit(".", 1)[-1]
+        lo_ok, hi_ok = PLAUSIBLE[key]
+        if lo < lo_ok or hi > hi_ok:
+            unit = f" {_unit(key)}" if _unit(key) else ""
+            raise ConfigError(source, where, f"around its centre {reality.centre.name if reality.centre else ''} "
+                              f"this is {lo:g} to {hi:g}{unit}, outside the plausible {lo_ok:g} to {hi_ok:g}{unit}")
+
+
+def parse_reality(doc: Any, source: str, name: str = "inline", *, chain: tuple[str, ...] = ()) -> Reality:
     """A reality file's contents: each key of :data:`PERTURBATIONS` a value or a range, and
     optionally ``joints:``, per joint name values of :data:`PER_SERVO` keys that override the
-    robot-wide ones (what ``biped sysid --per-joint`` writes)."""
+    robot-wide ones (what ``biped sysid --per-joint`` writes).  ``chain``: the files whose
+    ``centre:`` led here (a cycle through them is refused)."""
     node = Node(doc if doc is not None else {}, source)
     node.mapping(optional=("description", "joints", "centre", *PERTURBATIONS, *EFFECTS))
     ranges: dict[str, tuple[float, float]] = {}
@@ -200,10 +257,11 @@ def parse_reality(doc: Any, source: str, name: str = "inline") -> Reality:
         if not isinstance(item.value, (str, dict)):
             raise item.error("must be a reality file's name or path (fixed values), or its contents")
         try:
-            centre = load_reality(item.value)
+            centre = load_reality(item.value, chain=(*chain, source))
         except FileNotFoundError as exc:
             raise item.error(str(exc)) from None
         reality = centred(reality, centre)
+        _check_plausible(reality, source)
     return reality
 
 
@@ -213,23 +271,44 @@ def reality_dir() -> Path:
     return data_root() / "configs" / "reality"
 
 
-def load_reality(name_or_path: str | Path | dict | Reality | None) -> Reality:
+def load_reality(name_or_path: str | Path | dict | Reality | None, *, chain: tuple[str, ...] = ()) -> Reality:
     """A reality file by name (``configs/reality/<name>.yaml``) or path; a mapping is taken
-    as the file's contents; ``None`` or ``"nominal"`` is the nominal robot."""
+    as the file's contents; ``None`` or ``"nominal"`` is the nominal robot.  ``chain``: the
+    files whose ``centre:`` led here, outermost first (see :func:`parse_reality`)."""
     if isinstance(name_or_path, Reality):
         return name_or_path
     if name_or_path is None or name_or_path == "nominal":
         return NOMINAL
     if isinstance(name_or_path, dict):
-        return parse_reality(name_or_path, "<inline reality>")
-    path = Path(name_or_path)
-    if not path.exists():
-        candidate = reality_dir() / f"{name_or_path}.yaml"
-        if not candidate.exists():
-            known = ", ".join(sorted(p.stem for p in reality_dir().glob("*.yaml")))
-            raise FileNotFoundError(f"unknown reality profile {str(name_or_path)!r} (known: nominal, {known}; or a path)")
-        path = candidate
-    return parse_reality(load_yaml(path), str(path), path.stem)
+        source = "<inline reality>"
+    else:
+        path = Path(name_or_path)
+        if not path.exists():
+            candidate = reality_dir() / f"{name_or_path}.yaml"
+            if not candidate.exists():
+                known = ", ".join(sorted(p.stem for p in reality_dir().glob("*.yaml")))
+                raise FileNotFoundError(f"unknown reality profile {show(str(name_or_path))} (known: nominal, {known}; "
+                                        "or a path)")
+            path = candidate
+        source = str(path)
+    files = [c for c in chain if c != "<inline reality>"]
+    if chain and not isinstance(name_or_path, dict):
+        if any(_same_file(path, c) for c in files):
+            loop = " -> ".join((*files, source))
+            raise ConfigError(chain[-1], "centre", f"a cycle of centres: {loop}")
+    if len(chain) >= MAX_CENTRE_CHAIN:
+        raise ConfigError(chain[-1], "centre", f"more than {MAX_CENTRE_CHAIN} reality files each the centre of the "
+                          f"one before ({' -> '.join(chain[:3])} -> ...)")
+    if isinstance(name_or_path, dict):
+        return parse_reality(name_or_path, source, chain=chain)
+    return parse_reality(load_yaml(path), source, path.stem, chain=chain)
+
+
+def _same_file(path: Path, other: str) -> bool:
+    try:
+        return path.resolve() == Path(other).resolve() or path.samefile(other)
+    except OSError:
+        return False
 
 
 @dataclass(frozen=True)
