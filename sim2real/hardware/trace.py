@@ -21,6 +21,8 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
+import stat
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -253,15 +255,66 @@ class Trace:
                    meta, tuple(notes))
 
 
+MAX_SIDECAR_BYTES = 1024 * 1024  # a sidecar is a few KB (the controller's provenance is the most of it)
+
+
+class _DuplicateKey(Exception):
+    pass
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """``object_pairs_hook``: a key given twice in one object is refused, as controller JSON's."""
+    obj = dict(pairs)
+    if len(obj) != len(pairs):
+        seen: set[str] = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise _DuplicateKey(key)
+            seen.add(key)
+    return obj
+
+
 def _read_sidecar(path: Path, notes: list[str]) -> dict[str, Any]:
+    """The sidecar's JSON object, read as controller files are: a regular file of at most
+    ``MAX_SIDECAR_BYTES`` (opened without blocking, checked on the open file), brackets
+    nested at most as deep as a controller's, no key twice in one object."""
+    from sim2real.controller.file import MAX_DEPTH, nesting_depth  # no MuJoCo there either
+
     sidecar = sidecar_path(path)
     if not sidecar.exists():
         notes.append(f"{path}: no sidecar {sidecar.name} (the trace's metadata)")
         return {}
+    source = str(sidecar)
     try:
-        meta = json.loads(sidecar.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ConfigError(str(sidecar), "", f"not a trace sidecar (JSON): {exc}") from None
+        fd = os.open(sidecar, os.O_RDONLY | os.O_NONBLOCK)
+        with os.fdopen(fd, "rb") as f:
+            info = os.fstat(f.fileno())
+            if not stat.S_ISREG(info.st_mode):
+                raise ConfigError(source, "", "not a trace sidecar: not a regular file (a directory, FIFO or device)")
+            if info.st_size > MAX_SIDECAR_BYTES:
+                raise ConfigError(source, "", f"{info.st_size} bytes is too large for a trace sidecar (at most "
+                                  f"{MAX_SIDECAR_BYTES}; one is a few KB): refused unread")
+            raw = f.read(MAX_SIDECAR_BYTES + 1)
+    except OSError as exc:
+        raise ConfigError(source, "", f"cannot read the trace sidecar: {exc.strerror or exc}") from None
+    if len(raw) > MAX_SIDECAR_BYTES:
+        raise ConfigError(source, "", f"more than {MAX_SIDECAR_BYTES} bytes is too large for a trace sidecar")
+    depth, line = nesting_depth(raw)
+    if depth > MAX_DEPTH:
+        raise ConfigError(source, "", f"not a trace sidecar: JSON nested {depth} levels deep (line {line}); at most "
+                          f"{MAX_DEPTH}")
+    try:
+        meta = json.loads(raw.decode("utf-8"), object_pairs_hook=_unique_keys)
+    except _DuplicateKey as exc:
+        key = exc.args[0] if len(exc.args[0]) <= 40 else exc.args[0][:37] + "..."
+        raise ConfigError(source, "", f"key {key!r} appears twice in one object (JSON keys must be unique)") from None
+    except UnicodeDecodeError:
+        raise ConfigError(source, "", "not a trace sidecar (JSON): binary, not UTF-8 text") from None
+    except json.JSONDecodeError as exc:
+        raise ConfigError(source, "", f"not a trace sidecar (JSON): {exc.msg} (line {exc.lineno} column "
+                          f"{exc.colno})") from None
+    except (ValueError, RecursionError) as exc:  # an integer of more than 4,300 digits; depth is scanned first
+        raise ConfigError(source, "", f"not a trace sidecar (JSON): {str(exc).split(';')[0][:100]}") from None
     if not isinstance(meta, dict):
-        raise ConfigError(str(sidecar), "", "not a trace sidecar: must hold a JSON object")
+        raise ConfigError(source, "", "not a trace sidecar: must hold a JSON object")
     return meta
