@@ -20,6 +20,7 @@ from sim2real.controller.file import Controller
 from sim2real.controller.symmetry import turn_rad
 from sim2real.errors import ConfigError, UsageError
 from sim2real.figures.gait import Gait
+from sim2real.simulation.model_builder import SimulationUnstable
 from sim2real.simulation.reality import NOMINAL, Reality, load_reality
 
 
@@ -83,6 +84,7 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
     turn = TurnTracker(episodes)
     result = evaluator.evaluate([genome] * episodes, data.sigmoid_steepness, harness=0.0,
                                 disabled_modules=disabled_modules, perturbation=perturbation, on_tick=turn)
+    _refuse_unstable(result.unstable, reality)
     leg = spec.body.leg_length
     walked = result.walked(leg, evaluator.episode_s)
     return {
@@ -107,6 +109,16 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         **({"by_perturbation": walk_rate_by_draw(perturbation, walked)}
            if by_perturbation and perturbation is not None else {}),
     }
+
+
+def _refuse_unstable(unstable: np.ndarray, reality: Reality) -> None:
+    """A measure with an episode that went numerically unstable is no result (evolution scores
+    such an episode eps; a report must not pass it off as a distance or a fall)."""
+    if unstable.any():
+        which = ", ".join(map(str, np.flatnonzero(unstable)[:5])) + (", ..." if unstable.sum() > 5 else "")
+        raise SimulationUnstable(f"{int(unstable.sum())} of {len(unstable)} episodes went numerically unstable "
+                                 f"(episode {which}): their distance and falls are no result (check the robot's "
+                                 f"values and the reality {reality.name}'s)")
 
 
 # what one episode drew, as one number: the mean over links or servos (the weakest servo's torque)
@@ -177,6 +189,7 @@ def gait(path: Path | str, robot: str | None = None, seconds: float | None = Non
 
     result = evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=record,
                                 disabled_modules=disabled_modules, perturbation=perturbation)
+    _refuse_unstable(result.unstable, reality)
     fell = float(result.upright_s[0]) if result.fell[0] else None
     where = "" if reality.is_nominal else f", {reality.name}"
     title = (f"{Path(path).name} on {spec.name}{where}: {result.distance_m[0]:.2f} m in {times[-1]:.1f} s"

@@ -23,7 +23,7 @@ from sim2real.controller.policy import Policy
 from sim2real.errors import ConfigError
 from sim2real.hardware.trace import TIMING, Trace, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
-from sim2real.simulation.model_builder import JointAngles, heading_rad
+from sim2real.simulation.model_builder import JointAngles, SimulationUnstable, heading_rad, instability
 from sim2real.simulation.reality import Reality, load_reality, perturbed_model
 
 MAX_LAG_S = 0.5
@@ -57,6 +57,9 @@ def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray, policy: Po
         end = times[k + 1] - times[0] if k + 1 < len(times) else t - times[0] + (t - times[k - 1] if k else 0.0)
         while data.time < end - 1e-9:
             mujoco.mj_step(model, data)
+        if (why := instability(data)) is not None:  # MuJoCo reset it: the rest would be no result
+            raise SimulationUnstable(f"the simulation went {why} at {t - times[0]:.2f} s of the trace: no "
+                                     "comparison (check the reality profile's values)")
     return angles, feet
 
 

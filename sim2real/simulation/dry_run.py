@@ -190,6 +190,12 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     if "distance_m" not in truth:
         raise BipedError("the simulated bus ended without its report (it crashed?)")
     summary = report.summary()
+    if truth.get("unstable"):  # the loop ran and stopped; what the robot did is no result
+        from sim2real.simulation.model_builder import SimulationUnstable  # MuJoCo: the simulated bus had it
+
+        raise SimulationUnstable(f"the dry run ended ({report.stop_reason}; torque off: {summary['torque_off']}), but "
+                                 f"its simulated robot went {truth['unstable']}: its distance and falls are no result "
+                                 f"(check the reality profile {profile.name}'s values)")
     return {"distance_m": truth["distance_m"], "fell": truth["fell"], "heading_deg": truth["heading_deg"],
             "ticks": report.ticks,
             "overruns": report.overruns, "bus_errors": report.bus_errors, "retries": report.retries,

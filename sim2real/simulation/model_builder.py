@@ -41,6 +41,7 @@ from typing import Sequence
 import mujoco
 import numpy as np
 
+from sim2real.errors import BipedError
 from sim2real.robot import Joint, RobotSpec
 from sim2real.robot.servo_model import ServoPhysics, servo_physics
 from sim2real.robot.timing import control_timing
@@ -237,6 +238,31 @@ def heading_rad(forward: np.ndarray) -> np.ndarray:
     """The heading an IMU reports from the ``torso_forward`` sensor's values (..., 3): the
     yaw of the torso's forward axis about world up, counter-clockwise seen from above [rad]."""
     return np.arctan2(forward[..., 1], forward[..., 0])
+
+
+# MuJoCo's warnings of a simulation gone numerically unstable.  On a bad acceleration it resets
+# the state to the model's qpos0 and carries on from there (time 0, the robot upright at the
+# origin), so whatever is measured afterwards - distance, falls - is no result.
+UNSTABLE_WARNINGS = {mujoco.mjtWarning.mjWARN_BADQACC: "NaN, Inf or huge value in the accelerations",
+                     mujoco.mjtWarning.mjWARN_BADQVEL: "NaN, Inf or huge value in the velocities",
+                     mujoco.mjtWarning.mjWARN_BADQPOS: "NaN, Inf or huge value in the positions"}
+
+
+def instability(data: mujoco.MjData) -> str | None:
+    """Why the simulation in ``data`` went numerically unstable (MuJoCo's warning since its
+    last reset, or a position that is not finite), or None if it did not."""
+    for warning, what in UNSTABLE_WARNINGS.items():
+        if data.warning[warning].number > 0:
+            return f"numerically unstable: {what} (MuJoCo reset the simulation)"
+    if not np.all(np.isfinite(data.qpos)):
+        return "numerically unstable: NaN or Inf in the positions"
+    return None
+
+
+class SimulationUnstable(BipedError):
+    """A simulation went numerically unstable: what it measured is no result.  The message
+    says where; the cause is almost always a value of the robot or reality far off (each
+    is bounded to a plausible range, but combinations can still blow up)."""
 
 
 def _add_actuator(spec: mujoco.MjSpec, joint: Joint) -> None:

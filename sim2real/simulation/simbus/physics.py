@@ -35,7 +35,7 @@ from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
-from sim2real.simulation.model_builder import JointAngles, heading_rad
+from sim2real.simulation.model_builder import JointAngles, heading_rad, instability
 from sim2real.simulation.reality import EFFECTS, NOMINAL, Reality, perturbed_model
 
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
@@ -227,4 +227,5 @@ class PhysicsChain:
                     or self.upright() < math.cos(math.radians(FALL_TILT_DEG)))
             turn = math.degrees(turn_rad(self.heading(), self._start_heading))
             return {"distance_m": float(np.min(self.sole_x() - self._start_soles)), "fell": bool(fell),
-                    "heading_deg": turn, "simulated_s": float(self.data.time)}
+                    "heading_deg": turn, "simulated_s": float(self.data.time),
+                    "unstable": instability(self.data)}  # then the rest is no result (MuJoCo reset it)
