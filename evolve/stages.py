@@ -25,7 +25,7 @@ from typing import Any
 
 from evolve.locomotion.objectives import OBJECTIVES, Objective, ObjectiveType, PoseWeights
 from sim2real.errors import ConfigError
-from sim2real.robot.validation import Node, dataclass_from_mapping
+from sim2real.robot.validation import Node, dataclass_from_mapping, show, show_key
 
 
 @dataclass(frozen=True)
@@ -73,9 +73,9 @@ def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
                      optional=("threshold", "weights", "target_pose_deg"))
         name = item["name"].string()
         if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_-]*", name):
-            raise item["name"].error(f"must be letters, digits, _ or - (it names a module and a folder), got {name!r}")
+            raise item["name"].error(f"must be letters, digits, _ or - (it names a module and a folder), got {show(name)}")
         if name in names:
-            raise item["name"].error(f"stage name {name!r} is used twice")
+            raise item["name"].error(f"stage name {show(name)} is used twice")
         names.add(name)
         objective = item["objective"].string(tuple(OBJECTIVES))
         generations = item["generations"].integer(lo=1)
@@ -102,5 +102,5 @@ def check_stage_joints(stages: tuple[Stage, ...], driven: tuple[str, ...], sourc
     for i, stage in enumerate(stages):
         for joint in stage.target_pose_deg:
             if joint not in driven:
-                raise ConfigError(source, f"stages[{i}].target_pose_deg.{joint}",
+                raise ConfigError(source, f"stages[{i}].target_pose_deg.{show_key(joint)}",
                                   f"not a driven joint (driven: {', '.join(driven)})")

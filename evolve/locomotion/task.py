@@ -32,7 +32,7 @@ from sim2real.controller.file import HEADING_SCALE_MAX_DEG, PHASE_RANGE_S
 from sim2real.controller.symmetry import HEADING_SCALE_DEG
 from sim2real.errors import ConfigError
 from sim2real.robot.spec import DEFAULT_CONTACT_SHARE
-from sim2real.robot.validation import dataclass_from_mapping
+from sim2real.robot.validation import dataclass_from_mapping, show
 
 # (key, low, high): the value must lie in (low, high]
 BOUNDED = (("episode_s", 0.0, MAX_EPISODE_S), ("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")), ("harness_height", 0.0, 1.0),
@@ -75,7 +75,7 @@ class TaskConfig:
             values = dict(values)
             legacy = values.pop(LEGACY_CONTACT_THRESHOLD)
             if legacy != DEFAULT_CONTACT_SHARE:
-                raise ConfigError(source, prefix + LEGACY_CONTACT_THRESHOLD, f"{legacy!r}: when a foot touches is "
+                raise ConfigError(source, prefix + LEGACY_CONTACT_THRESHOLD, f"{show(legacy)}: when a foot touches is "
                                   "the robot's now (sensor_board.contact_share in its config, default "
                                   f"{DEFAULT_CONTACT_SHARE}), read alike by evolution, the simulated bus and "
                                   "compare; remove this key")

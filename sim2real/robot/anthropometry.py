@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 
 from sim2real.robot.spec import Body, Box, Foot
-from sim2real.robot.validation import Node
+from sim2real.robot.validation import Node, show
 
 SEGMENTS = ("trunk", "waist", "thigh", "shank", "foot")
 SHAPE_KEYS = (
@@ -26,8 +26,8 @@ def _measures(root: Node, preset: str | None) -> dict[str, float | str]:
     presets = anth["presets"]
     name = preset or anth["default_preset"].string()
     if name not in presets.free_mapping():
-        known = ", ".join(presets.value)
-        raise anth.error(f"unknown preset {name!r} (known: {known})", key="presets")
+        known = ", ".join(map(show, list(presets.value)[:20]))
+        raise anth.error(f"unknown preset {show(name)} (known: {known})", key="presets")
     node = presets[name].mapping(required=("stature_m", "mass_kg", "bib_m"))
     return dict(
         preset=name,

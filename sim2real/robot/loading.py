@@ -45,7 +45,8 @@ SIZE = dict(lo=SEGMENT_SIZE_M[0], hi=SEGMENT_SIZE_M[1], unit="m",
             why=f"a plausible segment: {SEGMENT_SIZE_M[0]:g}-{SEGMENT_SIZE_M[1]:g} m")
 MASS = dict(lo=SEGMENT_MASS_KG[0], hi=SEGMENT_MASS_KG[1], unit="kg",
             why=f"a plausible segment: {SEGMENT_MASS_KG[0]:g}-{SEGMENT_MASS_KG[1]:g} kg")
-MAX_NAME = 64  # characters of a joint's name
+MAX_NAME = 64  # characters of a joint's or a control set's name
+MAX_JOINTS = 64  # a biped's joints (the shipped robots have 11 and 15; a bus has IDs 0-252)
 ANGLE = dict(lo=JOINT_ANGLE_DEG[0], hi=JOINT_ANGLE_DEG[1], unit="deg")
 
 _ROBOT_KEYS = dict(
@@ -105,7 +106,7 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
 
     default_model = root["servo_model"].string() if root.has("servo_model") else None
     joints = tuple(
-        _read_joint(node, actuation == "servo", default_model) for node in root["joints"].list(1)
+        _read_joint(node, actuation == "servo", default_model) for node in root["joints"].list(1, MAX_JOINTS)
     )
     _check_joints(root, joints)
     board = _read_sensor_board(root["sensor_board"]) if root.has("sensor_board") else None
@@ -124,6 +125,8 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
     names = {j.name for j in joints}
     control_sets = {}
     for set_name, node in root["control_sets"].items():
+        if len(set_name) > MAX_NAME or not set_name.isprintable():
+            raise node.error(f"a control set's name is at most {MAX_NAME} printable characters")
         members = tuple(n.string() for n in node.list(1))
         for i, member in enumerate(members):
             if member not in names:
