@@ -58,19 +58,28 @@ _ROBOT_KEYS = dict(
 )
 
 
+def exists(path: Path) -> bool:
+    """``path.exists()``, False for a name the system refuses (too long, a NUL byte) rather
+    than an OSError: a name typed by hand or read from a file may be anything."""
+    try:
+        return path.exists()
+    except (OSError, ValueError):
+        return False
+
+
 def resolve_robot_path(name_or_path: str | Path) -> tuple[Path, str | None]:
     """A robot name (``xl430_biped``, ``human:male_95``) or a path -> (file, preset)."""
     text = str(name_or_path)
     preset = None
-    if ":" in text and not Path(text).exists():
+    if ":" in text and not exists(Path(text)):
         text, preset = text.split(":", 1)
     path = Path(text)
-    if path.suffix in (".yaml", ".yml") or path.exists():
-        if not path.exists():
-            raise FileNotFoundError(f"robot config {path} does not exist")
+    if path.suffix in (".yaml", ".yml") or exists(path):
+        if not exists(path):
+            raise FileNotFoundError(f"robot config {show(str(path))} does not exist")
         return path, preset
     candidate = robots_dir() / f"{text}.yaml"
-    if not candidate.exists():
+    if not exists(candidate):
         known = ", ".join(available_robots())
         raise FileNotFoundError(f"unknown robot {show(text)} (known: {known}; or give a path)")
     return candidate, preset

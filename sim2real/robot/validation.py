@@ -93,7 +93,7 @@ def _as_yaml_number(text: str) -> str | None:
 def _not_a_number(value: Any, kind: str) -> str:
     """The problem with ``value`` where ``kind`` ("a number", "an integer") was expected,
     saying so when YAML read a number as text (``1.0e308``, ``1e6``)."""
-    if isinstance(value, str) and (written := _as_yaml_number(value)) is not None:
+    if isinstance(value, str) and len(value) <= 40 and (written := _as_yaml_number(value)) is not None:
         if kind == "an integer":
             whole = float(value.replace("_", ""))
             if not (whole.is_integer() and abs(whole) < 1e15):
@@ -220,8 +220,8 @@ def _read_text(path: Path) -> str:
         raise ConfigError(source, "", "is a directory, not a YAML file") from None
     except OSError as exc:
         raise ConfigError(source, "", f"cannot read file: {exc.strerror or exc}") from None
-    with os.fdopen(fd, "rb") as f:
-        info = os.fstat(f.fileno())
+    try:
+        info = os.fstat(fd)  # the open file's: nothing can be swapped in after the check
         if stat.S_ISDIR(info.st_mode):
             raise ConfigError(source, "", "is a directory, not a YAML file")
         if not stat.S_ISREG(info.st_mode):
@@ -229,10 +229,13 @@ def _read_text(path: Path) -> str:
         if info.st_size > MAX_YAML_BYTES:
             raise ConfigError(source, "", f"{info.st_size} bytes is too large for a configuration (at most "
                               f"{MAX_YAML_BYTES} bytes; the largest shipped one is 10 KB): refused unread")
-        try:
-            raw = f.read(MAX_YAML_BYTES + 1)  # a file that grew since fstat still stops here
-        except OSError as exc:
-            raise ConfigError(source, "", f"cannot read file: {exc.strerror or exc}") from None
+        raw = os.read(fd, MAX_YAML_BYTES + 1)  # one read: a regular file this small comes whole
+        while len(raw) <= MAX_YAML_BYTES and (more := os.read(fd, MAX_YAML_BYTES + 1 - len(raw))):
+            raw += more  # (a file that grew since fstat still stops past the bound)
+    except OSError as exc:
+        raise ConfigError(source, "", f"cannot read file: {exc.strerror or exc}") from None
+    finally:
+        os.close(fd)
     if len(raw) > MAX_YAML_BYTES:
         raise ConfigError(source, "", f"more than {MAX_YAML_BYTES} bytes is too large for a configuration")
     try:

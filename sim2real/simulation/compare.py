@@ -57,9 +57,11 @@ def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray, policy: Po
         end = times[k + 1] - times[0] if k + 1 < len(times) else t - times[0] + (t - times[k - 1] if k else 0.0)
         while data.time < end - 1e-9:
             mujoco.mj_step(model, data)
-        if (why := instability(data)) is not None:  # MuJoCo reset it: the rest would be no result
-            raise SimulationUnstable(f"the simulation went {why} at {t - times[0]:.2f} s of the trace: no "
-                                     "comparison (check the reality profile's values)")
+            # MuJoCo resets an unstable simulation to time 0 and carries on: this loop would never
+            # end, and nothing after it would be a result
+            if (why := instability(data)) is not None:
+                raise SimulationUnstable(f"the simulation went {why} at {t - times[0]:.2f} s of the trace: no "
+                                         "comparison (check the reality profile's values)")
     return angles, feet
 
 

@@ -38,6 +38,7 @@ import mujoco
 import numpy as np
 
 from sim2real.errors import ConfigError
+from sim2real.robot.loading import exists
 from sim2real.robot.validation import Node, load_yaml, show
 from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing
@@ -283,9 +284,9 @@ def load_reality(name_or_path: str | Path | dict | Reality | None, *, chain: tup
         source = "<inline reality>"
     else:
         path = Path(name_or_path)
-        if not path.exists():
+        if not exists(path):
             candidate = reality_dir() / f"{name_or_path}.yaml"
-            if not candidate.exists():
+            if not exists(candidate):
                 known = ", ".join(sorted(p.stem for p in reality_dir().glob("*.yaml")))
                 raise FileNotFoundError(f"unknown reality profile {show(str(name_or_path))} (known: nominal, {known}; "
                                         "or a path)")
