@@ -1,5 +1,9 @@
 """Reading robot configs (``configs/robots/*.yaml``) into a :class:`~sim2real.robot.spec.RobotSpec`:
-every key checked, with the file, the key and the problem in each error.
+every key checked, with the file, the key and the problem in each error.  Physical quantities
+must lie in the plausible ranges of :mod:`sim2real.robot.spec` (each box side, foot dimension
+and hip spacing 0.002-1.5 m, each segment 0.005-200 kg, joint angles within a turn either way,
+PD gains and torque caps, the control tick 1 ms-1 s); a human character's body scaled from its
+anthropometry is held to the same ranges.  At most 64 joints, names at most 64 characters.
 
     robot = load_robot("xl430_biped")          # or a path, or "human:female_50"
 """

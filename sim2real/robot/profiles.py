@@ -4,7 +4,9 @@ A profile is what the e-manual says about one Dynamixel model (or our foot-senso
 board): its model number and protocol, the control-table entries the project uses,
 its position resolution, its motor's stall torque and no-load speed, and its default
 gains with their conversion to physical units.  This module only reads and checks
-the data; :mod:`sim2real.robot.servo_model` turns it into physics.
+the data (every physical quantity within a plausible range, :data:`MOTOR_RANGES` and the
+bounds beside it; divisors > 0; register defaults that fit their bytes);
+:mod:`sim2real.robot.servo_model` turns it into physics.
 
     profile = load_profile("XL430-W250-T")
     profile.register("goal_position").address      # 116
