@@ -108,6 +108,8 @@ GENERIC = [
     ("alias bomb through merge keys", "a: &a {x: 1, y: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]}\n"
      + "".join(f"m{i}: &m{i} {{<<: [*{'a' if i == 0 else f'm{i - 1}'}], k{i}: [" + ", ".join(
          [f"*{'a' if i == 0 else f'm{i - 1}'}"] * 8) + "]}\n" for i in range(8)), ["expands"]),
+    ("an alias of a long text, many times", "t: &t " + "x" * 10_000 + "\nl: [" + ", ".join(["*t"] * 300) + "]\n",
+     ["alias *t", "expands"]),
     ("alias inside its own anchor", "a: &a [1, 2, *a]\n", ["alias *a", "inside its own anchor"]),
     ("undefined alias", "a: *nowhere\n", ["invalid YAML", "undefined alias"]),
     ("5,000 nested [", "[" * 5000 + "]" * 5000 + "\n", ["nested more than 64 levels", "line 1"]),

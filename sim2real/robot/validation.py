@@ -13,8 +13,9 @@ refuses, naming the file, before building any value:
   not UTF-8 or holds NUL bytes;
 * collections nested more than ``MAX_YAML_DEPTH`` (64) deep, and a document of more than
   ``MAX_YAML_NODES`` (20,000) values counted with every alias expanded (``*a`` counts all that
-  ``&a`` holds, each time): a "billion laughs" alias bomb stops at the first alias past the
-  bound, and so does an alias inside its own anchor;
+  ``&a`` holds, each time; a text counts one more per 100 characters): a "billion laughs"
+  alias bomb stops at the first alias past the bound; an alias inside its own anchor is
+  refused too;
 * a key given twice in one mapping (YAML would keep the last silently), naming the key path
   and both lines; merge keys (``<<: *base``) may still be overridden;
 * an empty document (nothing, or only comments): every reader needs settings.
@@ -155,7 +156,8 @@ class _BoundedLoader(yaml.SafeLoader):
                 raise _Refused("", f"nested more than {MAX_YAML_DEPTH} levels deep (line "
                                f"{event.start_mark.line + 1}); a configuration nests a few")
         before = self._nodes
-        self._count(1, event.start_mark, None)
+        # a text counts one more per 100 characters: an alias of a long text repeats all of it
+        self._count(1 + (len(event.value) // 100 if isinstance(event, yaml.ScalarEvent) else 0), event.start_mark, None)
         node = super().compose_node(parent, index)
         self._depth -= collection
         self._sizes[id(node)] = self._nodes - before
