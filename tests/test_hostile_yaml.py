@@ -567,7 +567,14 @@ def test_a_hostile_trace_sidecar_is_refused(spoil, problem, tmp_path):
 BLOWN_UP = Reality("blown-up", "", {"kp_scale": (math.inf, math.inf)})  # no file can say this: built in code
 
 
-def test_instability_is_seen_in_mujocos_warnings():
+@pytest.fixture
+def mujoco_log(tmp_path, monkeypatch):
+    """MuJoCo appends each warning to MUJOCO_LOG.TXT in the working directory: keep them
+    out of the project's folder."""
+    monkeypatch.chdir(tmp_path)
+
+
+def test_instability_is_seen_in_mujocos_warnings(mujoco_log):
     import mujoco
 
     from sim2real.simulation.model_builder import build_model, instability
@@ -585,7 +592,7 @@ def test_instability_is_seen_in_mujocos_warnings():
 
 
 @pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")  # inf gains times 0
-def test_eval_and_gait_of_an_unstable_simulation_are_no_result():
+def test_eval_and_gait_of_an_unstable_simulation_are_no_result(mujoco_log):
     from evolve.replay import evaluate_controller, gait
     from sim2real.simulation.model_builder import SimulationUnstable
 
@@ -595,7 +602,7 @@ def test_eval_and_gait_of_an_unstable_simulation_are_no_result():
         gait(CONTROLLER, seconds=0.5, reality=BLOWN_UP)
 
 
-def test_compare_of_an_unstable_simulation_is_no_result():
+def test_compare_of_an_unstable_simulation_is_no_result(mujoco_log):
     from sim2real.simulation.compare import _simulate
     from sim2real.simulation.model_builder import SimulationUnstable
     from sim2real.simulation.reality import perturbed_model
@@ -608,7 +615,7 @@ def test_compare_of_an_unstable_simulation_is_no_result():
         _simulate(robot, times, goals, None, model)
 
 
-def test_the_simulated_bus_reports_instability_with_its_ground_truth():
+def test_the_simulated_bus_reports_instability_with_its_ground_truth(mujoco_log):
     """The issue's ``armature_scale: 1e300`` (now refused in a file) behind the simulated bus:
     MuJoCo resets the robot, which then "walks" and reports ``fell: false`` - unless the
     ground truth says it went unstable."""
@@ -624,7 +631,7 @@ def test_the_simulated_bus_reports_instability_with_its_ground_truth():
     assert "numerically unstable" in chain.ground_truth()["unstable"]
 
 
-def test_a_dry_run_whose_simulated_robot_went_unstable_is_no_result(monkeypatch):
+def test_a_dry_run_whose_simulated_robot_went_unstable_is_no_result(monkeypatch, mujoco_log):
     from sim2real.simulation import dry_run as module
     from sim2real.simulation.model_builder import SimulationUnstable
 
