@@ -199,7 +199,7 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
                      realtime=realtime_request(args),
                      simbus_realtime=realtime_flags(args))
     print_result(result, args.json)
-    return run_exit_code(result["stop_reason"], result["torque_off"], log)
+    return run_exit_code(result, log)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -229,16 +229,17 @@ def cmd_run(args: argparse.Namespace) -> int:
                          args.trace, log=log, disabled_modules=tuple(args.disable_module), realtime=realtime,
                          simbus_realtime=realtime_flags(args))
     print_result(result, args.json)
-    return run_exit_code(result["stop_reason"], result["torque_off"], log)
+    return run_exit_code(result, log)
 
 
-ENDED_AS_ASKED = ("duration reached", "interrupted (Ctrl-C)", "terminated (SIGTERM)")
 EXIT_TORQUE_UNCONFIRMED = 3
 
 
-def run_exit_code(stop_reason: str, torque_off: dict | None, log) -> int:
-    """0: the run ended as asked; 1: it stopped on a fault; 3: torque off was not confirmed on
-    every servo (the most important message, so it wins)."""
+def run_exit_code(result: dict, log) -> int:
+    """0: the run ended as asked (its duration, or a signal such as Ctrl-C); 1: it stopped on
+    a fault; 3: torque off was not confirmed on every servo (the most important message, so
+    it wins)."""
+    torque_off = result["torque_off"]
     if torque_off is None:
         log("biped: error: torque off was never read back: cut the power to the robot")
         return EXIT_TORQUE_UNCONFIRMED
@@ -246,6 +247,6 @@ def run_exit_code(stop_reason: str, torque_off: dict | None, log) -> int:
         log(f"biped: error: torque off NOT confirmed on servo {', '.join(map(str, torque_off['unconfirmed']))}: "
             "cut the power to the robot")
         return EXIT_TORQUE_UNCONFIRMED
-    if stop_reason not in ENDED_AS_ASKED:
-        return run_failed(f"the run stopped early: {stop_reason}")
+    if result["stop_reason"] != "duration reached" and not result.get("stop_signal"):
+        return run_failed(f"the run stopped early: {result['stop_reason']}")
     return 0

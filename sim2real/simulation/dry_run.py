@@ -120,9 +120,13 @@ class SimulatedBusProcess:
 
     def __enter__(self) -> "SimulatedBusProcess":
         self._stderr = tempfile.TemporaryFile(mode="w+")
+        # Its own session: a terminal's Ctrl-C (SIGINT to the whole foreground process group) or
+        # hang-up must reach only this process, which stops the run safely and then the bus by
+        # closing its standard input - a bus killed first leaves nothing to turn torque off on.
         self.proc = subprocess.Popen([sys.executable, "-m", "sim2real.simulation.simbus", *self.args,
                                       "--exit-on-stdin-eof", "--report"],
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._stderr, text=True)
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._stderr, text=True,
+                                     start_new_session=True)
         self.port = self.proc.stdout.readline().strip()
         if not self.port:
             self.proc.wait(timeout=30)
@@ -194,7 +198,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
             "ticks": report.ticks,
             "overruns": report.overruns, "bus_errors": report.bus_errors, "retries": report.retries,
             "missed_ticks": report.missed_ticks, "corrupt_replies": report.corrupt_replies,
-            "stop_reason": report.stop_reason, "stop_notes": report.stop_notes, "torque_off": summary["torque_off"],
+            "stop_reason": report.stop_reason, "stop_signal": report.stop_signal, "stop_notes": report.stop_notes, "torque_off": summary["torque_off"],
             "reality": profile.name, "trace": str(trace_path) if trace_path and Path(trace_path).exists() else None,
             "simulated_s": truth["simulated_s"], "fell_after_stop": truth.get("fell_after_stop"),
             "simulated_s_after_stop": truth.get("simulated_s_after_stop"),

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 import threading
@@ -119,9 +120,15 @@ def arm_faults(spec: str | None, chain: "EmulatedChain", physics: "PhysicsChain"
 
 
 def _set_on_eof(done: threading.Event, physics: "PhysicsChain") -> None:
+    # Raw reads of the descriptor, not sys.stdin: a daemon thread blocked inside the buffered
+    # reader holds its lock, and the interpreter's exit (after a SIGTERM) then aborted with
+    # "Fatal Python error: _enter_buffered_busy".
+    pending = b""
     try:
-        while line := sys.stdin.buffer.readline():
-            if line.decode(errors="replace").strip() == END_OF_RUN:
+        while chunk := os.read(sys.stdin.fileno(), 4096):
+            pending += chunk
+            *lines, pending = pending.split(b"\n")
+            if any(line.decode(errors="replace").strip() == END_OF_RUN for line in lines):
                 physics.mark_end_of_run()
     except (OSError, ValueError):
         pass
