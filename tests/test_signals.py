@@ -291,3 +291,33 @@ def test_dry_run_signalled_as_a_terminal_does_stops_safely(controller_file, tmp_
     assert result["stop_signal"] == signame
     assert result["torque_off"] == {"confirmed": SERVOS, "unconfirmed": []}
     assert "torque off, read back from all 11 servos" in err
+
+
+# -- a simulated bus held up by its computer (issue 31, section 5) -------------------------------
+
+
+def test_a_held_up_simulated_bus_says_so(monkeypatch, capsys):
+    """Beside a process first-touching 11 GiB, this machine held the simulated bus up for 79 ms
+    and the runtime reported lost communication: the bus now records and reports such stalls."""
+    from sim2real.simulation.simbus.server import STALL_S
+    from sim2real.simulation.simbus.service import _warn_of_stalls, stall_summary
+
+    chain = EmulatedChain(MockBus(ROBOT).devices)
+    real_tick, held = chain.tick, {"n": 0}
+
+    def tick():
+        held["n"] += 1
+        if held["n"] == 20:
+            time.sleep(3 * STALL_S)  # as a busy computer would hold the serving thread
+        real_tick()
+
+    monkeypatch.setattr(chain, "tick", tick)
+    with PtyServer(chain, baud=1_000_000) as server:
+        give_up = time.monotonic() + 10
+        while not server.stalls and time.monotonic() < give_up:
+            time.sleep(0.05)
+    assert len(server.stalls) >= 1 and server.stalls[0][1] >= 3 * STALL_S
+    summary = stall_summary(server.stalls)
+    assert summary["count"] == len(server.stalls) and summary["longest_ms"] >= 3e3 * STALL_S
+    assert _warn_of_stalls(server.stalls, 0) == len(server.stalls)
+    assert "the simulated bus was held up" in capsys.readouterr().err

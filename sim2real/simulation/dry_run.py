@@ -193,6 +193,12 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     truth = simbus.ground_truth
     if "distance_m" not in truth:
         raise BipedError("the simulated bus ended without its report (it crashed?)")
+    stalls = truth.get("stalls") or {"count": 0}
+    if stalls["count"] and report.stop_reason.startswith("lost communication"):
+        note = (f"the simulated bus, not the loop, fell behind: this computer held it up {stalls['count']} time(s), "
+                f"up to {stalls['longest_ms']:.0f} ms (first at {stalls['first_at_s']:.1f} s after it started)")
+        report.stop_notes.append(note)
+        log(f"note: {note}")
     summary = report.summary()
     return {"distance_m": truth["distance_m"], "fell": truth["fell"], "heading_deg": truth["heading_deg"],
             "ticks": report.ticks,
@@ -203,4 +209,4 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
             "simulated_s": truth["simulated_s"], "fell_after_stop": truth.get("fell_after_stop"),
             "simulated_s_after_stop": truth.get("simulated_s_after_stop"),
             **{k: v for k, v in summary.items() if k.startswith(("compute", "jitter"))},
-            "realtime": summary["realtime"], "simbus_realtime": truth.get("realtime")}
+            "realtime": summary["realtime"], "simbus_realtime": truth.get("realtime"), "simbus_stalls": stalls}
