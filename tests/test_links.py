@@ -30,7 +30,9 @@ def tracked() -> set[str]:
     try:
         out = subprocess.run(["git", "-C", str(ROOT), "ls-files", "-z"], capture_output=True, check=True, timeout=60)
     except (OSError, subprocess.SubprocessError):
-        return {p.relative_to(ROOT).as_posix() for p in ROOT.rglob("*") if p.is_file() and ".git" not in p.parts}
+        skip = {"runs", "build", "dist", "__pycache__"}
+        return {p.relative_to(ROOT).as_posix() for p in ROOT.rglob("*") if p.is_file()
+                and not any(part.startswith(".") or part in skip for part in p.relative_to(ROOT).parts)}
     return set(filter(None, out.stdout.decode().split("\0")))
 
 
