@@ -46,6 +46,7 @@ class EmulatedChain:
         self.registered: dict[int, tuple[int, bytes]] = {}  # REG_WRITE held for ACTION
         self.clock = clock
         self._last = clock()
+        self.heard_at = clock()  # the last instruction packet, for the servos' Bus Watchdog
         self.lock = threading.Lock()
 
     def _advance(self) -> None:
@@ -58,8 +59,13 @@ class EmulatedChain:
 
     def tick(self) -> None:
         """Move the devices on while no instruction arrives (the simulated bus keeps its
-        physics in step with the wall clock this way, on the serving thread)."""
+        physics in step with the wall clock this way, on the serving thread).  A servo whose
+        Bus Watchdog expires stops first (:meth:`MockDevice.watch`): checked here only, when
+        the wire has been idle, so that the simulator's own stall never trips it."""
         with self.lock:
+            silent_s = self.clock() - self.heard_at
+            for device in self.devices.values():
+                device.watch(silent_s)
             self._advance()
 
     def parser(self):
@@ -77,6 +83,9 @@ class EmulatedChain:
     def handle(self, dxl_id: int, inst: int, params: bytes) -> bytes:
         """Replies (status packets, concatenated) to one instruction packet."""
         with self.lock:
+            # every servo on the wire hears every packet; the e-manual's watchdog counts "all the
+            # Instruction Packet" and does not say whether another ID's feed it: here they do
+            self.heard_at = self.clock()
             self._advance()
             if self.protocol == 1.0:
                 return self._handle_p1(dxl_id, inst, params)
