@@ -322,3 +322,27 @@ def test_biped_run_killed_mid_walk_leaves_servos_stopped_with_torque_on(tmp_path
             run_.kill()
         simbus.stdin.close()
         simbus.wait(timeout=30)
+
+
+def test_a_run_whose_wire_fell_silent_says_the_watchdog_tripped(grown_controller):
+    """A host held up longer than the watchdog allows: the servos stopped and refused goals;
+    the stop's report names them (and torque still goes off, read back)."""
+    from sim2real.hardware.deploy import RAMP_TICK_S, drive
+    from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
+
+    chain = EmulatedChain(MockBus(ROBOT).devices)
+    sleeps = {"n": 0}
+
+    def sleep(seconds: float) -> None:
+        if seconds != RAMP_TICK_S:  # the loop's sleeps
+            sleeps["n"] += 1
+            if sleeps["n"] == 3:
+                time.sleep(3 * WATCHDOG_MS / 1000)  # the host stalls with torque on
+        time.sleep(seconds)
+
+    with PtyServer(chain, baud=1_000_000) as server:
+        report = drive(DynamixelBus(server.port, 1_000_000, ROBOT), ROBOT, grown_controller, duration_s=0.5,
+                       ramp_s=0.1, lost_after_s=2.0, log=lambda s: None, sleep=sleep)
+    assert any(note.startswith(f"the Bus Watchdog of servo {', '.join(map(str, SERVOS))} tripped")
+               for note in report.stop_notes), report.stop_notes
+    assert report.torque_off.confirmed == SERVOS

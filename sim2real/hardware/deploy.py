@@ -390,13 +390,16 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
                 trace = TraceWriter(trace_path, robot.joint_names, {
                     "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"},
                     extra=(*heading, *(motion.channels if motion else ())))
-            present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION, None, PATIENT_ATTEMPTS, PATIENCE_S))
-            signals.check()
-            chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)
-            ramp(chain, mapping, present, policy.reset(), ramp_s, sleep, lambda: bool(signals.received))
             loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s,
                                 motion if trace is not None else None, check_stop=signals.check)
+            # The collector's last pass before torque goes on: between the start ramp and the
+            # loop it took 130-170 ms on a large heap, the wire fell silent longer than the
+            # servos' 100 ms Bus Watchdog, and they refused every goal of the run.
             with no_garbage_collection():
+                present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION, None, PATIENT_ATTEMPTS, PATIENCE_S))
+                signals.check()
+                chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)
+                ramp(chain, mapping, present, policy.reset(), ramp_s, sleep, lambda: bool(signals.received))
                 loop.run(duration_s, report)
             report.stop_reason = "duration reached"
         except BaseException as exc:  # noqa: BLE001 - every way out leads to the same safe stop
@@ -470,11 +473,33 @@ def _stop_safely(chain: ServoChain, mapping: ServoMapping, policy: GoalSource, r
         except Exception as exc:  # noqa: BLE001 - whatever failed, torque goes off next
             log(f"warning: could not ramp to the rest pose ({exc}); turning torque off")
     report.torque_off = torque_off(chain)
+    tripped = watchdog_tripped(chain)
+    if tripped:
+        report.stop_notes.append(f"the Bus Watchdog of servo {', '.join(map(str, tripped))} tripped during the run: the "
+                                 "wire was silent longer than it allows, and from then on those servos held their "
+                                 "pose and refused goals")
+        log(f"warning: {report.stop_notes[-1]}")
     if not report.torque_off.unconfirmed:
         log(f"torque off, read back from all {len(report.torque_off.confirmed)} servos")
     else:
         log(f"DANGER: torque off not confirmed on servo(s) {', '.join(map(str, report.torque_off.unconfirmed))}: "
             "cut the power to the robot")
+
+
+def watchdog_tripped(chain: ServoChain) -> list[int]:
+    """Servos whose Bus Watchdog reads -1 (it expired: they stopped and refuse goals until it
+    is cleared, which the next start-up does); servos without one, or that do not answer, are
+    not listed."""
+    tripped = []
+    for dxl_id in chain.servo_ids:
+        if Reg.BUS_WATCHDOG not in chain.devices[dxl_id].control_table:
+            continue
+        try:
+            if chain.read(dxl_id, Reg.BUS_WATCHDOG, attempts=1) < 0:
+                tripped.append(dxl_id)
+        except Exception:  # noqa: BLE001 - a report, after torque off: never an obstacle
+            pass
+    return tripped
 
 
 def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS, patience_s: float = PATIENCE_S) -> TorqueOff:
