@@ -130,6 +130,9 @@ def check_run(args: argparse.Namespace) -> None:
     from sim2real.controller.activation import check_disabled_modules
 
     data, robot = _servo_robot(args.robot, args.controller)
+    if args.port is not None and not args.port.strip():
+        raise UsageError("--port: empty; give the serial port of the real bus, e.g. /dev/ttyUSB0 (without --port "
+                         "the run uses the simulated bus)")
     if args.baud is not None:
         if not args.port:
             raise UsageError("--baud applies to a real bus (--port); the mock and simulated buses take the "
@@ -210,8 +213,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     data, robot = Controller.load_for_robot(args.controller, args.robot)
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
     realtime = realtime_request(args)
-    if args.port or args.bus == "mock":
-        if args.port:
+    if args.port is not None or args.bus == "mock":
+        if args.port is not None:
             from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 
             bus = DynamixelBus(args.port, args.baud or robot.bus.baud, robot)
