@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Callable
 
 from sim2real.errors import BipedError, UsageError
 from sim2real.hardware.realtime import DEFAULT_PRIORITY, RealtimeRequest
+from sim2real.input_files import kind_problem, regular_file_problem
 
 if TYPE_CHECKING:
     from sim2real.robot import RobotSpec
@@ -172,8 +173,23 @@ def realtime_flags(args: argparse.Namespace) -> list[str]:
 
 
 # -- names of data files ---------------------------------------------------------------------
+def input_file_problem(text: str) -> str | None:
+    """Why the file a name-or-path argument names cannot be read, or None: checked before
+    any loader opens it, so that a FIFO does not block and a device is not read forever
+    (:mod:`sim2real.input_files`).  A bare name (``xl430_biped``, ``human:male_95``) that is
+    no path is left to the loader; so is the file part of ``FILE.yaml:preset``."""
+    for candidate in dict.fromkeys((text, text.split(":", 1)[0])):
+        if candidate and os.path.lexists(candidate):
+            problem = regular_file_problem(candidate)
+            return None if problem is None else f"{candidate}: {problem}"
+    return None
+
+
 def _loads(load: Callable[[str], object], text: str) -> str:
     """``text`` if ``load(text)`` reads and validates it, else the loader's error as the flag's."""
+    problem = input_file_problem(text)
+    if problem is not None:
+        raise argparse.ArgumentTypeError(problem)
     try:
         load(text)
     except (BipedError, FileNotFoundError, KeyError) as exc:
@@ -220,6 +236,10 @@ def output_file_problem(path: Path, suffixes: tuple[str, ...] = (), exclude: tup
         return f"{path}: the name must not end in {suffix}"
     if path.is_dir():
         return f"{path} is a directory"
+    if os.path.exists(path):
+        kind = kind_problem(os.stat(path).st_mode)
+        if kind is not None:  # outputs go to a new file renamed over the old: never into a FIFO or a device
+            return f"{path} {kind}"
     folder = path.parent
     if not folder.exists():
         return f"directory {folder} does not exist"

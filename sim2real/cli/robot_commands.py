@@ -209,7 +209,9 @@ def cmd_robot_mjcf(args: argparse.Namespace) -> int:
     if args.output is None:
         sys.stdout.write(xml)
     else:
-        args.output.write_text(xml)
+        from sim2real.atomic_json import write_text_atomic
+
+        write_text_atomic(args.output, xml)  # a full disk leaves no 0-byte file
         print(f"wrote {args.output}", file=sys.stderr)
     return 0
 

@@ -22,3 +22,19 @@ def pyplot() -> Any:
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def save_figure(fig: Any, path: Any, **savefig: Any) -> None:
+    """``fig.savefig(path, **savefig)`` atomically (a temporary file beside, renamed when
+    whole: a full disk leaves no half picture, and the error names ``path``), then closed.
+    The format is the name's suffix (.png, .svg, .pdf)."""
+    from pathlib import Path
+
+    from sim2real.atomic_json import atomic_output
+
+    path = Path(path)
+    try:
+        with atomic_output(path) as tmp:
+            fig.savefig(tmp, format=path.suffix.lstrip(".").lower() or None, **savefig)
+    finally:
+        pyplot().close(fig)

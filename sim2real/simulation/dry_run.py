@@ -21,6 +21,7 @@ from sim2real.errors import BipedError, ConfigError
 from sim2real.hardware.deploy import drive
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.hardware.realtime import RealtimeRequest
+from sim2real.input_files import check_regular_file
 from sim2real.robot import RobotSpec
 from sim2real.robot.validation import Node, load_yaml
 
@@ -87,6 +88,7 @@ def _check_device(dxl_id: int, kind: str, robot: RobotSpec | None, source: str, 
 
 
 def _faults_file(path: Path, robot: RobotSpec | None = None) -> list[tuple[str, int, float]]:
+    check_regular_file(path)  # before load_yaml opens it: a FIFO would block, a device never end
     node = Node(load_yaml(path) or {}, str(path)).mapping(optional=FAULT_KINDS)
     faults = []
     for kind in ("silent", "overload"):

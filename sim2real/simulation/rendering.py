@@ -18,6 +18,7 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
 
 import mujoco  # noqa: E402
 
+from sim2real.atomic_json import atomic_output, write_bytes_atomic  # noqa: E402
 from sim2real.errors import BipedError  # noqa: E402
 
 
@@ -51,11 +52,11 @@ def save_video(path: Path, frames: list[np.ndarray], frame_s: float) -> None:
     except ImportError as exc:
         raise BipedError("writing videos needs imageio: pip install 'servo-biped-evolve[plot]'") from exc
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.suffix.lower() == ".gif":
-        iio.imwrite(path, np.stack(frames), duration=frame_s * 1000, loop=0)
-    else:
-        iio.imwrite(path, np.stack(frames), fps=round(1.0 / frame_s), codec="libx264", macro_block_size=8)
+    with atomic_output(path) as tmp:  # ffmpeg writes to a path: a temporary one beside, renamed when whole
+        if path.suffix.lower() == ".gif":
+            iio.imwrite(tmp, np.stack(frames), duration=frame_s * 1000, loop=0)
+        else:
+            iio.imwrite(tmp, np.stack(frames), fps=round(1.0 / frame_s), codec="libx264", macro_block_size=8)
 
 
 def save_image(path: Path, image: np.ndarray) -> None:
@@ -63,5 +64,5 @@ def save_image(path: Path, image: np.ndarray) -> None:
         import imageio.v3 as iio
     except ImportError as exc:
         raise BipedError("writing images needs imageio: pip install 'servo-biped-evolve[plot]'") from exc
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    iio.imwrite(path, image)
+    path = Path(path)
+    write_bytes_atomic(path, iio.imwrite("<bytes>", image, extension=path.suffix.lower()))
