@@ -57,17 +57,10 @@ from evolve.locomotion.objectives import DEFAULT_OBJECTIVE, OBJECTIVES, Objectiv
 from evolve.neat import Genome, Population
 from evolve.run_lock import RunLock
 from evolve.stages import Stage, check_stage_joints
-from sim2real.atomic_json import (
-    OutputError,
-    atomic_output,
-    copy_file_atomic,
-    read_json,
-    write_json_atomic,
-    write_text_atomic,
-)
+from sim2real.atomic_json import OutputError, copy_file_atomic, read_json, write_json_atomic, write_text_atomic
 from sim2real.controller.file import Controller
 from sim2real.errors import BipedError, UsageError
-from sim2real.figures import pyplot
+from sim2real.figures import pyplot, save_figure
 from sim2real.input_files import check_regular_file
 from sim2real.robot import load_robot
 from sim2real.robot.validation import load_yaml
@@ -504,9 +497,5 @@ def plot_stats(stats_csv: Path, png: Path) -> bool:
     lines2 = ax2.get_legend_handles_labels()
     ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], loc="upper left", fontsize=8)
     fig.tight_layout()
-    try:
-        with atomic_output(png) as tmp:
-            fig.savefig(tmp, dpi=100, format="png")
-    finally:
-        plt.close(fig)
+    save_figure(fig, png, dpi=100)
     return True

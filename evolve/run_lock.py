@@ -22,6 +22,7 @@ from __future__ import annotations
 import errno
 import fcntl
 import os
+import stat
 from pathlib import Path
 
 from sim2real.errors import UsageError
@@ -45,8 +46,14 @@ class RunLock:
         :class:`RunFolderBusy` naming the holder's id when it is taken."""
         folder = Path(folder)
         path = folder / LOCK_NAME
-        # O_NOFOLLOW: a symlink planted as the lock file is refused, not followed
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW, 0o644)
+        try:  # O_NOFOLLOW: a symlink planted as the lock file is refused, not followed
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW | os.O_NONBLOCK, 0o644)
+        except OSError as exc:
+            why = "is a symbolic link" if exc.errno == errno.ELOOP else f"cannot be opened: {exc.strerror or exc}"
+            raise UsageError(f"{folder}: cannot lock the run folder: {path} {why}") from None
+        if not stat.S_ISREG(os.fstat(fd).st_mode):  # a FIFO or a device planted there: no lock file
+            os.close(fd)
+            raise UsageError(f"{folder}: cannot lock the run folder: {path} is not a regular file")
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:
@@ -57,8 +64,11 @@ class RunLock:
             raise RunFolderBusy(f"{folder}: another run is working in this folder ({holder}); two runs in one "
                                 "folder would mix their generations. Wait for it to end (or stop it), or give "
                                 "another --out") from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        except OSError:  # a full disk: the lock holds all the same, only the id is not shown
+            pass
         return cls(folder, fd)
 
     @property

@@ -185,6 +185,14 @@ def input_file_problem(text: str) -> str | None:
     return None
 
 
+def check_input_file(text: str) -> None:
+    """:func:`input_file_problem` as a :class:`UsageError`, for a name-or-path argument that
+    has no checked type (a positional ROBOT that may be a controller instead)."""
+    problem = input_file_problem(text)
+    if problem is not None:
+        raise UsageError(problem)
+
+
 def _loads(load: Callable[[str], object], text: str) -> str:
     """``text`` if ``load(text)`` reads and validates it, else the loader's error as the flag's."""
     problem = input_file_problem(text)

@@ -25,16 +25,18 @@ def pyplot() -> Any:
 
 
 def save_figure(fig: Any, path: Any, **savefig: Any) -> None:
-    """``fig.savefig(path, **savefig)`` atomically (a temporary file beside, renamed when
-    whole: a full disk leaves no half picture, and the error names ``path``), then closed.
-    The format is the name's suffix (.png, .svg, .pdf)."""
+    """``fig.savefig(path, **savefig)``, closed, and written atomically (a temporary file
+    beside, renamed when whole: a full disk leaves no half picture, and the error names
+    ``path``).  The format is the name's suffix (.png, .svg, .pdf)."""
+    import io
     from pathlib import Path
 
-    from sim2real.atomic_json import atomic_output
+    from sim2real.atomic_json import write_bytes_atomic
 
     path = Path(path)
+    buffer = io.BytesIO()  # drawn in memory: a backend meeting a full disk mid-file fails obscurely (PDF: zlib)
     try:
-        with atomic_output(path) as tmp:
-            fig.savefig(tmp, format=path.suffix.lstrip(".").lower() or None, **savefig)
+        fig.savefig(buffer, format=path.suffix.lstrip(".").lower() or None, **savefig)
     finally:
         pyplot().close(fig)
+    write_bytes_atomic(path, buffer.getvalue())

@@ -29,7 +29,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from sim2real.atomic_json import OutputError, write_text_atomic
+from sim2real.atomic_json import write_text_atomic
 from sim2real.errors import ConfigError
 from sim2real.input_files import read_regular_bytes
 
@@ -79,67 +79,48 @@ class TraceWriter:
     """Streams the loop's trace to ``path`` (and its sidecar: ``metadata`` plus the columns
     and the wall-clock start time), one row a :meth:`write`; ``extra`` channels (e.g.
     servo velocities, :mod:`sim2real.hardware.readings`) follow the loop's, their units in
-    the sidecar.
-
-    A trace is streamed, so it cannot be written atomically: when the disk refuses a row (full,
-    gone), :meth:`write` raises :class:`~sim2real.atomic_json.OutputError` naming the file
-    once, and the rows written before stay readable (``Trace.read`` drops a row cut short).
-    :meth:`close` never raises - it runs in the stop path, which must go on to torque off - and
-    keeps what went wrong in ``error`` for the caller to report."""
+    the sidecar."""
 
     def __init__(self, path: Path | str, joints: Sequence[str], metadata: Mapping[str, Any],
                  extra: Sequence[Channel] = ()):
         self.path = Path(path)
-        self.error: OutputError | None = None
+        self.path.parent.mkdir(parents=True, exist_ok=True)
         self.columns = [TIME] + [c.name for c in loop_channels(joints)] + [c.name for c in extra]
         units = {"units": {c.name: c.unit for c in extra}} if extra else {}
         write_text_atomic(sidecar_path(self.path), json.dumps(
             {**metadata, "columns": self.columns, **units, "start_time": time.time()}, indent=1))
-        try:
-            self._file = open(self.path, "w", newline="")
-            self._csv = csv.writer(self._file)
-            self._csv.writerow(self.columns)
-        except OSError as exc:
-            raise OutputError(self.path, exc) from exc
+        self._file = open(self.path, "w", newline="")
+        self._csv = csv.writer(self._file)
+        self._csv.writerow(self.columns)
         self._last_flush = time.monotonic()
 
     def write(self, t: float, tick: int, goal: np.ndarray, present: np.ndarray, feet: np.ndarray,
               up: np.ndarray, compute_s: float, bus_s: float, overrun: bool, extra: Sequence[float] = ()) -> None:
         """One tick: ``t`` [s] since the loop began, goals and present angles (joints,) [rad],
         feet (2,) touching, up (3,), compute and bus time [s], the deadline missed, and the
-        ``extra`` channels' values.  After a failed write, further rows are dropped."""
-        if self._file.closed:
-            return
+        ``extra`` channels' values."""
         row = [f"{t:.6f}", tick, *(f"{v:.6f}" for v in goal), *(f"{v:.6f}" for v in present),
                int(feet[0]), int(feet[1]), *(f"{v:.5f}" for v in up),
                f"{compute_s * 1e3:.4f}", f"{bus_s * 1e3:.4f}", int(overrun), *(f"{v:.6g}" for v in extra)]
-        try:
-            self._csv.writerow(row)
-            now = time.monotonic()
-            if now - self._last_flush >= FLUSH_EVERY_S:
-                self._file.flush()
-                self._last_flush = now
-        except OSError as exc:
-            self.error = OutputError(self.path, exc, f"the rows before {TIME} {t:.3f} s are kept")
-            self._abandon()
-            raise self.error from exc
+        self._csv.writerow(row)
+        now = time.monotonic()
+        if now - self._last_flush >= FLUSH_EVERY_S:
+            self._file.flush()
+            self._last_flush = now
 
     def close(self) -> None:
-        """Flush and close; never raises (see the class), ``error`` says what failed."""
+        """Flush and close.  A flush the disk refuses raises its ``OSError`` (the caller says
+        what was lost), and the file is closed all the same: never left open to fail again
+        when it is collected."""
         if self._file.closed:
             return
         try:
             self._file.flush()
-        except OSError as exc:
-            self.error = self.error or OutputError(self.path, exc, "the rows of the last second may be lost")
-        self._abandon()
-
-    def _abandon(self) -> None:
-        """Close the file whatever is left in its buffer (a full disk refuses it again)."""
-        try:
-            self._file.close()
-        except OSError:
-            pass
+        finally:
+            try:
+                self._file.close()
+            except OSError:  # its own flush of the same rows, refused again
+                pass
 
 
 @dataclass(frozen=True, eq=False)
