@@ -74,6 +74,9 @@ def _check_video(path: Path, frames: int) -> None:
     except (RuntimeError, OSError):
         found = 0
     if found != frames:
+        free = os.statvfs(path.parent)
+        if free.f_bavail * free.f_frsize < 1 << 20:  # under 1 MiB left: what ffmpeg met, most likely
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         raise OSError(errno.EIO, f"ffmpeg wrote {found} of {frames} frames (its messages above say why)")
 
 
