@@ -350,6 +350,41 @@ def test_a_trace_into_a_fifo_or_a_device_is_refused_before_anything_runs(flag, t
         assert_usage_error(biped([a.format(c=controller) for a in flag] + [target], capsys), "--trace", str(target))
 
 
+class FullStream:
+    """A standard output whose disk is full."""
+
+    def write(self, text):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    def flush(self):
+        pass
+
+
+@pytest.mark.parametrize("argv", [["robot", "mjcf"], ["robot", "show", "--json"], ["compare", "{trace}", "--json"]],
+                         ids=["robot mjcf", "robot show", "compare"])
+def test_standard_output_on_a_full_disk_is_named(argv, trace, monkeypatch, capsys):
+    monkeypatch.setattr(sys, "stdout", FullStream())
+    result = biped([a.format(trace=trace) for a in argv], capsys)
+    assert result.code == 1
+    assert result.err.strip().splitlines()[-1] == ("biped: error: cannot write the standard output: No space left on "
+                                                   "device (is the disk full?); the output is cut short")
+
+
+def test_standard_output_redirected_into_a_full_disk_names_the_file(tmp_path):
+    where = tmp_path / "full"
+    if not _mount_full(where):
+        pytest.skip("cannot mount a tmpfs here (needs root)")
+    try:
+        with open(where / "robot.xml", "w") as out:  # `biped robot mjcf > robot.xml`: the shell makes the file
+            done = subprocess.run([sys.executable, "-m", "evolve.cli", "robot", "mjcf"], stdout=out,
+                                  stderr=subprocess.PIPE, text=True, timeout=120)
+        assert done.returncode == 1 and "Traceback" not in done.stderr and "Exception ignored" not in done.stderr
+        assert done.stderr.strip().splitlines()[-1].startswith(f"biped: error: cannot write {where / 'robot.xml'}: "
+                                                               "No space left on device")
+    finally:
+        subprocess.run(["umount", "-l", str(where)], check=True)
+
+
 def test_evolve_into_a_full_disk_names_the_file_and_starts_nothing(full_disk, tmp_path, capsys):
     config = tmp_path / "small.yaml"
     config.write_text(yaml.safe_dump({**SMALL_RUN, "generations": 2}))

@@ -18,14 +18,16 @@ Used by :mod:`sim2real.cli.robot_commands`, :mod:`sim2real.cli.deploy_commands`,
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import math
 import os
 import sys
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
+from sim2real.atomic_json import OutputError
 from sim2real.errors import BipedError, UsageError
 from sim2real.hardware.realtime import DEFAULT_PRIORITY, RealtimeRequest
 from sim2real.input_files import kind_problem, regular_file_problem
@@ -318,6 +320,41 @@ def print_result(result: dict, as_json: bool) -> None:
         width = max(map(len, result), default=0)
         for key, value in result.items():
             print(f"{key:>{width}}: {value}")
+
+
+class NamedStdout:
+    """``sys.stdout`` whose write errors name where it goes: ``biped robot mjcf > robot.xml``
+    on a full disk says ``cannot write robot.xml: No space left on device`` (through
+    :class:`~sim2real.atomic_json.OutputError`), not a bare ``[Errno 28]``.  A closed pipe
+    (``| head``) stays a ``BrokenPipeError``."""
+
+    def __init__(self, stream: Any):
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        return self._named(self._stream.write, text)
+
+    def flush(self) -> None:
+        return self._named(self._stream.flush)
+
+    def _named(self, call: Callable[..., Any], *args: Any) -> Any:
+        try:
+            return call(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise OutputError(self.name_of_target(), exc, "the output is cut short") from exc
+
+    def name_of_target(self) -> str:
+        """The file standard output is redirected to, or "the standard output"."""
+        try:
+            target = os.readlink(f"/proc/self/fd/{self._stream.fileno()}")
+        except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
+            return "the standard output"
+        return target if target.startswith("/") else "the standard output"
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
 
 
 def run_failed(problem: str) -> int:
