@@ -208,6 +208,14 @@ def test_a_file_argument_that_is_not_a_readable_regular_file_is_refused_at_once(
         assert not (tmp_path / "run").exists()
 
 
+@pytest.mark.parametrize("kind", ["fifo", "device", "directory", "missing", "binary"])
+@pytest.mark.parametrize("name", ["c.json", "r.yaml"], ids=["view CONTROLLER", "view ROBOT"])
+def test_view_refuses_the_file_before_it_opens_a_window(name, kind, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("DISPLAY", ":99")  # past the display check: the file is refused before any window
+    path = make(kind, tmp_path / name, None)
+    assert_usage_error(biped(["view", path], capsys), str(path))
+
+
 def test_a_trace_whose_sidecar_is_a_fifo_is_refused(tmp_path, capsys):
     path = write_trace(tmp_path / "t.csv")
     make("fifo", path.with_suffix(".json"), None)
@@ -562,6 +570,9 @@ def test_the_lock_in_one_process_and_its_lock_file(tmp_path):
     assert (tmp_path / ".lock").read_text() == f"{os.getpid()}\n"
     with pytest.raises(RunFolderBusy, match=f"process id {os.getpid()}, this process"):
         RunLock.acquire(tmp_path)  # flock belongs to the open file: a second Run here is refused too
+    (tmp_path.parent / f"{tmp_path.name}-link").symlink_to(tmp_path)  # the same folder by another name
+    with pytest.raises(RunFolderBusy):
+        RunLock.acquire(tmp_path.parent / f"{tmp_path.name}-link")
     lock.release()
     lock.release()
     with RunLock.acquire(tmp_path):
