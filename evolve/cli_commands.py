@@ -139,9 +139,8 @@ REPLAY = {"view": cmd_view_controller, "render": cmd_render_controller, "strip":
 
 
 def resolve_config(name: str) -> Path:
-    from sim2real.robot.paths import data_root
-
     from sim2real.input_files import check_regular_file
+    from sim2real.robot.paths import data_root
 
     path = Path(name)
     if os.path.lexists(path):

@@ -403,7 +403,7 @@ class Run:
         back off, so that a resume never reads a truncated generation number."""
         path = self.out / "stats.csv"
         line = _csv_text([[_fmt(row[c]) for c in self.columns]]).encode()
-        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CLOEXEC)
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o666)
         try:
             size = os.fstat(fd).st_size
             try:

@@ -5,9 +5,10 @@ appending every generation to the same ``stats.csv`` and overwriting the other's
 checkpoints.  :class:`RunLock` takes ``fcntl.flock(LOCK_EX | LOCK_NB)`` on ``runs/x/.lock``
 and writes its process id there; a second process is refused at once with the folder and
 that id (:class:`RunFolderBusy`).  The kernel drops the lock with the last descriptor of the
-file, so a process that dies any way - SIGKILL, a power cut of a network file system aside -
-frees the folder: there is no stale lock to remove by hand.  The lock file itself stays
-(removing it would race a process that has just opened it).
+file, so a process that dies in any way, SIGKILL included, frees the folder: there is no
+stale lock to remove by hand.  The lock file itself stays (removing it would race a process
+that has just opened it).  The lock is on the file, so another name for the same folder (a
+symbolic link, a relative path) meets it too.
 
     lock = RunLock.acquire(Path("runs/x"))   # RunFolderBusy if another process holds it
     ...                                       # every write into runs/x

@@ -19,12 +19,15 @@ Names ending in ``.gz`` are gzip-compressed by the text/JSON writers.  Data only
 from __future__ import annotations
 
 import contextlib
+import errno
 import gzip
 import json
 import os
 import tempfile
 from pathlib import Path
 from typing import Any, Iterator
+
+from sim2real.input_files import read_regular_bytes
 
 
 class OutputError(OSError):
@@ -36,7 +39,7 @@ class OutputError(OSError):
         self.kept = kept
 
     def __str__(self) -> str:
-        hint = " (is the disk full?)" if self.errno in (28, 122) else ""  # ENOSPC, EDQUOT
+        hint = " (is the disk full?)" if self.errno in (errno.ENOSPC, errno.EDQUOT) else ""
         return f"cannot write {self.filename}: {self.strerror}{hint}; {self.kept}"
 
 
@@ -120,8 +123,7 @@ def _fsync(path: Path) -> None:
 
 
 def read_json(path: Path | str) -> Any:
-    from sim2real.input_files import read_regular_bytes
-
+    """JSON (gzip-compressed for a name ending in ``.gz``) from a regular file."""
     path = Path(path)
     raw = read_regular_bytes(path)
     if path.suffix == ".gz":
