@@ -387,9 +387,12 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
                 log(f"note: the trace leaves out servo {' and '.join(motion.left_out)}: not at one address on every servo")
             if trace_path is not None:
                 heading = (Channel(HEADING_CHANNEL, "rad"),) if board_reports_heading(robot) else ()
-                trace = TraceWriter(trace_path, robot.joint_names, {
-                    "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"},
-                    extra=(*heading, *(motion.channels if motion else ())))
+                try:
+                    trace = TraceWriter(trace_path, robot.joint_names, {
+                        "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"},
+                        extra=(*heading, *(motion.channels if motion else ())))
+                except OSError as exc:  # before torque goes on: nothing has moved
+                    raise TraceWriteError(f"cannot start the trace: {exc}") from exc
             loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s,
                                 motion if trace is not None else None, check_stop=signals.check)
             # The collector's last pass before torque goes on: between the start ramp and the
