@@ -13,6 +13,10 @@ It loads the machine on purpose: run nothing else meanwhile.  Parts:
 * ``dry``: the same dry run (``biped dry-run``) idle and with the hogs: the verdict (stop
   reason, fell) must not depend on the load.
 
+``--memory-gb N`` adds a row to ``sim`` and ``dry``: beside a process that holds N GiB and keeps
+touching it.  Each row reports how often the simulated bus itself was held up
+(``simbus_stalls``).
+
 Goals: with the hogs, jitter p99 <= 1 ms and overruns <= 0.1 % on the mock bus; no stop in
 60 s on the simulated bus; the same dry-run verdict.  ``compute_us`` is the policy alone;
 ``jitter_ms`` is each tick's start against its deadline.
@@ -90,6 +94,37 @@ def hogs(enabled: bool) -> Iterator[int]:
             proc.wait()
 
 
+MEMORY_HOG = """
+import sys, time
+import numpy as np
+gb = float(sys.argv[1])
+blocks = []
+while sum(b.nbytes for b in blocks) < gb * 2**30:  # touch every page as it comes: real memory, not a promise
+    blocks.append(np.ones(2**27, dtype=np.uint8))
+print("allocated", flush=True)
+while True:  # keep the pages in use
+    for b in blocks:
+        b[::4096] += 1
+    time.sleep(0.1)
+"""
+
+
+@contextlib.contextmanager
+def memory_hog(gb: float) -> Iterator[float]:
+    """A process that takes ``gb`` GiB of memory, page by page, and keeps touching it while the
+    block runs (issue 31: a dry run lost its bus while another process allocated 11 GB)."""
+    if gb <= 0:
+        yield 0.0
+        return
+    proc = subprocess.Popen([sys.executable, "-c", MEMORY_HOG, str(gb)], stdout=subprocess.PIPE, text=True,
+                            preexec_fn=_ordinary_scheduling)
+    try:
+        yield gb
+    finally:
+        proc.kill()
+        proc.wait()
+
+
 def mock_part(robot, ticks: int, tick_ms: float, connections: int, realtime: bool, busy: bool) -> dict:
     controller = dataclasses.replace(random_controller(robot, connections, hidden=40, seed=0), tick_s=tick_ms / 1000.0)
     request = RealtimeRequest() if realtime else None
@@ -104,25 +139,27 @@ def mock_part(robot, ticks: int, tick_ms: float, connections: int, realtime: boo
             "granted": s["realtime"]}
 
 
-def sim_part(controller_path: Path, seconds: float, busy: bool) -> dict:
+def sim_part(controller_path: Path, seconds: float, busy: bool, memory_gb: float = 0.0) -> dict:
     """``biped run --port`` against ``biped simbus``, two processes, as a user would."""
-    with SimulatedBusProcess([]) as simbus, hogs(busy) as n_hogs:
+    with SimulatedBusProcess([]) as simbus, hogs(busy) as n_hogs, memory_hog(memory_gb):
         out = subprocess.run([sys.executable, "-m", "evolve.cli", "run", str(controller_path), "--port", simbus.port,
                               "--duration", str(seconds), "--json"], capture_output=True, text=True,
                              timeout=seconds + 120)
     s = json.loads(out.stdout.splitlines()[-1])
-    return {"hogs": n_hogs, "seconds": seconds, "exit_code": out.returncode, "ticks": s["ticks"],
+    return {"hogs": n_hogs, "memory_hog_gb": memory_gb, "seconds": seconds, "exit_code": out.returncode,
+            "simbus_stalls": simbus.ground_truth.get("stalls"), "ticks": s["ticks"],
             "stop_reason": s["stop_reason"], "overruns": s["overruns"], "jitter_ms_p99": s["jitter_ms_p99"],
             "retries": s["retries"], "missed_ticks": s["missed_ticks"], "corrupt_replies": s["corrupt_replies"],
             "torque_off": s["torque_off"], "granted": s["realtime"]}
 
 
-def dry_part(controller_path: Path, seconds: float, busy: bool) -> dict:
-    with hogs(busy) as n_hogs:
+def dry_part(controller_path: Path, seconds: float, busy: bool, memory_gb: float = 0.0) -> dict:
+    with hogs(busy) as n_hogs, memory_hog(memory_gb):
         out = subprocess.run([sys.executable, "-m", "evolve.cli", "dry-run", str(controller_path), "--duration",
                               str(seconds), "--json"], capture_output=True, text=True, timeout=seconds + 120)
     s = json.loads(out.stdout.splitlines()[-1])
-    return {"hogs": n_hogs, "exit_code": out.returncode, "stop_reason": s["stop_reason"], "fell": s["fell"],
+    return {"hogs": n_hogs, "memory_hog_gb": memory_gb, "exit_code": out.returncode,
+            "simbus_stalls": s["simbus_stalls"], "stop_reason": s["stop_reason"], "fell": s["fell"],
             "distance_m": s["distance_m"], "overruns": s["overruns"], "retries": s["retries"],
             "missed_ticks": s["missed_ticks"], "jitter_ms_p99": s["jitter_ms_p99"]}
 
@@ -136,6 +173,8 @@ def main(argv=None) -> None:
     p.add_argument("--sim-seconds", type=float, default=60.0, help="length of the simulated-bus runs (default 60)")
     p.add_argument("--dry-seconds", type=float, default=10.0)
     p.add_argument("--controller", type=Path, help="controller for the sim and dry parts (default: a standing one)")
+    p.add_argument("--memory-gb", type=float, default=0.0,
+                   help="also run the sim and dry parts beside a process holding this many GiB (default: not)")
     args = p.parse_args(argv)
     parts = set(args.parts.split(","))
     robot = load_robot()
@@ -161,10 +200,11 @@ def main(argv=None) -> None:
             if part not in parts:
                 continue
             rows = {}
-            for busy in (False, True):
-                name = "hogs" if busy else "idle"
+            loads = [("idle", False, 0.0), ("hogs", True, 0.0)] + ([("memory", False, args.memory_gb)]
+                                                                  if args.memory_gb > 0 else [])
+            for name, busy, memory_gb in loads:
                 progress(f"{what} for {seconds:.0f} s, {name}...", args.json)
-                rows[name] = run_part(controller, seconds, busy)
+                rows[name] = run_part(controller, seconds, busy, memory_gb)
             result[part] = rows
         if "dry" in parts:
             idle, busy = result["dry"]["idle"], result["dry"]["hogs"]

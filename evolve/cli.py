@@ -17,6 +17,7 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
 
 from evolve import cli_commands, quickstart  # noqa: E402
 from sim2real.cli import deploy_commands, plot_commands, robot_commands, sysid_commands  # noqa: E402
+from sim2real.cli.args import NamedStdout  # noqa: E402
 from sim2real.errors import BipedError  # noqa: E402
 
 
@@ -41,10 +42,15 @@ def main(argv: list[str] | None = None) -> int:
     ``biped: error: ...`` on stderr; argparse's usage errors exit 2 too), 1 a run that
     started but did not end as asked, 130 Ctrl-C."""
     args = build_parser().parse_args(argv)
+    stdout = sys.stdout
+    named = sys.stdout = NamedStdout(stdout) if stdout is not None else None
     try:
         if getattr(args, "check", None) is not None:
             args.check(args)  # the checks that need more than one flag, before anything runs
-        return int(args.func(args) or 0)
+        code = int(args.func(args) or 0)
+        if sys.stdout is not None:
+            sys.stdout.flush()  # a full disk behind `> FILE` is reported here, not ignored at exit
+        return code
     except (BipedError, FileNotFoundError, FileExistsError, KeyError) as exc:
         message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"biped: error: {message}", file=sys.stderr)
@@ -74,6 +80,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"biped: error: unexpected {type(exc).__name__}: {exc} "
               "(a bug; BIPED_TRACEBACK=1 shows where)", file=sys.stderr)
         return 1
+    finally:
+        if named is not None and sys.stdout is named:  # (a closed pipe sets it to None: leave that)
+            sys.stdout = stdout
 
 
 def _opengl_failed(exc: BaseException) -> bool:

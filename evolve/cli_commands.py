@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -142,11 +143,12 @@ REPLAY = {"view": cmd_view_controller, "render": cmd_render_controller, "strip":
 
 
 def resolve_config(name: str) -> Path:
+    from sim2real.input_files import check_regular_file
     from sim2real.robot.paths import data_root
 
     path = Path(name)
-    if path.exists():
-        return path
+    if os.path.lexists(path):
+        return check_regular_file(path)  # a FIFO would block the read, a device never end
     candidate = data_root() / "configs" / "evolve" / f"{name}.yaml"
     if candidate.exists():
         return candidate

@@ -10,6 +10,13 @@
       best.json            its genome and scores (what --resume needs to keep it)
       stages.json          a staged run's finished stages (evolve.stages)
       stages/<name>/       each finished stage's controller.json and best.json
+      .lock                the id of the process working in the folder, locked while it does
+
+One process works in a folder at a time: :meth:`Run.create` and :meth:`Run.resume` lock it
+(:mod:`evolve.run_lock`; a second process is refused naming the first's id), :meth:`Run.evolve`
+keeps it locked until it returns, and a process that dies frees it.  Every file but
+``stats.csv`` is replaced whole (written beside, then renamed: a full disk leaves the previous
+file); a row of ``stats.csv`` that the disk refuses is taken back out.
 
 The best controller is the one with the highest fitness measured without the harness;
 harness-era champions stand in only until a generation runs without it.  In a staged run,
@@ -26,8 +33,9 @@ import csv
 import dataclasses
 import functools
 import hashlib
+import io
 import math
-import shutil
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,11 +55,13 @@ from evolve.evaluation import (
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.objectives import DEFAULT_OBJECTIVE, OBJECTIVES, ObjectiveType
 from evolve.neat import Genome, Population
+from evolve.run_lock import RunLock
 from evolve.stages import Stage, check_stage_joints
-from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.atomic_json import OutputError, copy_file_atomic, read_json, write_json_atomic, write_text_atomic
 from sim2real.controller.file import Controller
 from sim2real.errors import BipedError, UsageError
-from sim2real.figures import pyplot
+from sim2real.figures import pyplot, save_figure
+from sim2real.input_files import check_regular_file
 from sim2real.robot import load_robot
 from sim2real.robot.validation import load_yaml
 
@@ -119,6 +129,7 @@ class Run:
         self.best: Best | None = None
         self.champion: Best | None = None
         self.wall_s = 0.0
+        self.lock: RunLock | None = None  # the folder's, while this run works in it
 
     @property
     def stage(self) -> Stage | None:
@@ -147,23 +158,43 @@ class Run:
     # -- folder -------------------------------------------------------------------------------
     @classmethod
     def create(cls, config: EvolveConfig, out: Path, log: Callable[[str], None] = print, **backend) -> "Run":
+        """A new run in ``out`` (created), locked for this process (:class:`RunFolderBusy`
+        if another works there)."""
         out = Path(out)
-        if (out / "checkpoint.json.gz").exists():
-            raise FileExistsError(f"{out} already holds a run; use --resume to continue it or another --out")
         out.mkdir(parents=True, exist_ok=True)
-        (out / "config.yaml").write_text(config.to_yaml())
-        run = cls(config, out, log=log, **backend)
-        with open(out / "stats.csv", "w", newline="") as f:
-            csv.writer(f).writerow(run.columns)
+        lock = RunLock.acquire(out)
+        try:
+            if (out / "checkpoint.json.gz").exists():
+                raise FileExistsError(f"{out} already holds a run; use --resume to continue it or another --out")
+            write_text_atomic(out / "config.yaml", config.to_yaml())
+            run = cls(config, out, log=log, **backend)
+            write_text_atomic(out / "stats.csv", _csv_text([run.columns]))
+        except BaseException:
+            lock.release()
+            raise
+        run.lock = lock
         return run
 
     @classmethod
     def resume(cls, out: Path, generations: int | None = None, threads: int | None = None,
                log: Callable[[str], None] = print, **backend) -> "Run":
+        """The run in ``out``, from its checkpoint, locked for this process."""
         out = Path(out)
         if not (out / "checkpoint.json.gz").exists():
             raise FileNotFoundError(f"{out} has no checkpoint.json.gz to resume")
-        config = parse_evolve_config(load_yaml(out / "config.yaml"), str(out / "config.yaml"))
+        lock = RunLock.acquire(out)
+        try:
+            run = cls._resume(out, generations, threads, log, **backend)
+        except BaseException:
+            lock.release()
+            raise
+        run.lock = lock
+        return run
+
+    @classmethod
+    def _resume(cls, out: Path, generations: int | None, threads: int | None, log: Callable[[str], None],
+                **backend) -> "Run":
+        config = parse_evolve_config(load_yaml(check_regular_file(out / "config.yaml")), str(out / "config.yaml"))
         population = Population.load(out / "checkpoint.json.gz")
         if generations is not None and config.stages:
             raise UsageError(f"--generations: {out} is a staged run; each stage has its own budget "
@@ -173,7 +204,7 @@ class Run:
         changes = {k: v for k, v in (("generations", generations), ("threads", threads)) if v is not None}
         if changes:
             config = config.replace(**changes)
-            (out / "config.yaml").write_text(config.to_yaml())
+            write_text_atomic(out / "config.yaml", config.to_yaml())
         run = cls(config, out, population=population, log=log, **backend)
         if (out / "best.json").exists():
             data = read_json(out / "best.json")
@@ -182,27 +213,38 @@ class Run:
                             data.get("validation"))
         rows = read_stats(out / "stats.csv")
         kept = [r for r in rows if int(r["generation"]) < run.generation_offset + population.generation]
-        with open(out / "stats.csv", "w", newline="") as f:  # a run from before the term columns gets them
-            writer = csv.writer(f)
-            writer.writerow(run.columns)
-            writer.writerows([[r.get(c) or "" for c in run.columns] for r in kept])
+        # a run from before the term columns gets them; written whole: a full disk keeps the old file
+        write_text_atomic(out / "stats.csv", _csv_text([run.columns] + [[r.get(c) or "" for c in run.columns]
+                                                                        for r in kept]))
         run.wall_s = float(kept[-1]["wall_s"]) if kept else 0.0
         return run
+
+    def close(self) -> None:
+        """Unlock the folder (idempotent); :meth:`evolve` does it when it returns."""
+        if self.lock is not None:
+            self.lock.release()
+            self.lock = None
 
     # -- the loop ------------------------------------------------------------------------------
     def evolve(self, stop: Callable[["Run", dict], bool] | None = None) -> Best | None:
         """Run every stage to its end (or the configured generation count), or until
-        ``stop(run, stats_row)`` says so."""
-        stages = self.config.stages
-        while not stages or len(self.finished) < len(stages):
-            if self._evolve_stage(stop) or not stages:
-                break
-            self._file_stage()
-            if len(self.finished) < len(stages):
-                self._next_stage()
-        self._checkpoint()
-        self.plot()
-        return self.best
+        ``stop(run, stats_row)`` says so; the folder stays locked until it returns (locked
+        again here if this run was closed, or made without :meth:`create`/:meth:`resume`)."""
+        if self.lock is None:
+            self.lock = RunLock.acquire(self.out)
+        try:
+            stages = self.config.stages
+            while not stages or len(self.finished) < len(stages):
+                if self._evolve_stage(stop) or not stages:
+                    break
+                self._file_stage()
+                if len(self.finished) < len(stages):
+                    self._next_stage()
+            self._checkpoint()
+            self.plot()
+            return self.best
+        finally:
+            self.close()
 
     def _evolve_stage(self, stop) -> bool:
         pop, config, stage = self.population, self.config, self.stage
@@ -310,8 +352,8 @@ class Run:
         stage, best = self.stage, self.best
         folder = self.out / "stages" / stage.name
         folder.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(self.out / "best.json", folder / "best.json")
-        shutil.copyfile(self.out / "controller.json", folder / "controller.json")
+        copy_file_atomic(self.out / "best.json", folder / "best.json")
+        copy_file_atomic(self.out / "controller.json", folder / "controller.json")
         self.finished.append({"name": stage.name, "objective": stage.objective,
                               "generations": self.population.generation, "solved": stage.solved(best.fitness),
                               "best_fitness": best.fitness, "max_fitness": stage.max_fitness, "wall_s": self.wall_s})
@@ -332,8 +374,8 @@ class Run:
         every = self.config.checkpoint_every
         if every and pop.generation % every == 0:
             (self.out / "checkpoints").mkdir(exist_ok=True)
-            shutil.copyfile(self.out / "checkpoint.json.gz",
-                            self.out / "checkpoints" / f"gen_{pop.generation:05d}.json.gz")
+            copy_file_atomic(self.out / "checkpoint.json.gz",
+                             self.out / "checkpoints" / f"gen_{pop.generation:05d}.json.gz")
 
     def _save_best(self) -> None:
         b = self.best
@@ -357,9 +399,22 @@ class Run:
                                       self.config.neat.sigmoid_steepness, provenance)
 
     def _append_stats(self, row: dict) -> None:
-        with open(self.out / "stats.csv", "a", newline="") as f:
-            csv.writer(f).writerow([_fmt(row[c]) for c in self.columns])
-            f.flush()
+        """One row, appended whole or not at all: a row the disk refuses half-way is cut
+        back off, so that a resume never reads a truncated generation number."""
+        path = self.out / "stats.csv"
+        line = _csv_text([[_fmt(row[c]) for c in self.columns]]).encode()
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC, 0o666)
+        try:
+            size = os.fstat(fd).st_size
+            try:
+                view = memoryview(line)
+                while view:
+                    view = view[os.write(fd, view):]
+            except OSError as exc:
+                os.ftruncate(fd, size)  # frees what was written: succeeds on a full disk
+                raise OutputError(path, exc, f"generation {row['generation']} was not recorded") from exc
+        finally:
+            os.close(fd)
 
     def plot(self) -> None:
         plot_stats(self.out / "stats.csv", self.out / "fitness.png")
@@ -378,6 +433,13 @@ def code_version() -> str:
         return version("servo-biped-evolve")
     except PackageNotFoundError:
         return "unknown"
+
+
+def _csv_text(rows: list[list]) -> str:
+    """Rows as CSV text (``csv``'s dialect: comma-separated, CRLF line ends)."""
+    buffer = io.StringIO(newline="")
+    csv.writer(buffer).writerows(rows)
+    return buffer.getvalue()
 
 
 def _fmt(value) -> str:
@@ -435,8 +497,5 @@ def plot_stats(stats_csv: Path, png: Path) -> bool:
     lines2 = ax2.get_legend_handles_labels()
     ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], loc="upper left", fontsize=8)
     fig.tight_layout()
-    tmp = png.with_name(png.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=100)
-    plt.close(fig)
-    tmp.replace(png)
+    save_figure(fig, png, dpi=100)
     return True

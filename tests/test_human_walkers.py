@@ -67,5 +67,17 @@ def test_ship_writes_each_presets_farthest_walker_that_walks_here(tmp_path, monk
     assert provenance["exp_fingerprint"] == exp_fingerprint()
 
 
-def test_walks_here_replays_a_walker_by_seed_000s_test():
+def test_walks_here_replays_a_walker_by_seed_000s_test(monkeypatch):
     assert not human_walk.walks_here(CONTROLLERS / "xl430_biped.json")  # upright 10 s, but 1.2 m: too short
+    # and the judgement on the replay's numbers, both ways (a walks_here that said no to
+    # everything passed the line above alone)
+    replays = []
+
+    def replay(path, **walk):
+        replays.append(path)
+        return {"fell": False, "upright_s": 10.0, "distance_m": 2.5, "seconds": 10.0, **walk}
+
+    for walk, walks in [({}, True), ({"fell": True}, False), ({"upright_s": 9.9}, False), ({"distance_m": 2.0}, False)]:
+        monkeypatch.setattr(human_walk, "evaluate_controller", lambda path, walk=walk: replay(path, **walk))
+        assert human_walk.walks_here(CONTROLLERS / "human_male_50.json") is walks, walk
+    assert replays == [CONTROLLERS / "human_male_50.json"] * 4  # each judged on its own replay

@@ -48,8 +48,20 @@ def test_protocol2_parser_survives_garbage_truncation_and_oversize(chunks, split
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.binary(max_size=300), st.integers(1, 9))
-def test_protocol1_parser_survives_garbage(stream, split):
+@given(st.lists(st.one_of(st.binary(max_size=80),
+                          st.binary(max_size=6).map(lambda tail: p1.HEADER + tail),  # a header, then junk
+                          st.builds(lambda i, inst, p: p1.packet(i, inst, p), st.integers(0, 253),
+                                    st.integers(0, 255), st.binary(max_size=40))), max_size=8),
+       st.integers(1, 9))
+def test_protocol1_parser_survives_garbage(chunks, split):
+    stream = b"".join(chunks) + b"\xff\xff\x01\xff"  # a length longer than what follows, at the end
     parser = p1.Parser()
+    packets = []
     for k in range(0, len(stream), split):
-        parser.feed(stream[k:k + split])
+        packets += parser.feed(stream[k:k + split])
+    assert all(0 <= i <= 255 and 0 <= inst <= 255 and isinstance(params, bytes) for i, inst, params in packets)
+    assert len(parser.buffer) <= len(stream)
+    good = p1.packet(9, p1.PING)
+    # never stuck behind garbage: a pending partial packet is at most 4 + 255 bytes (LEN is one byte)
+    received = [packet for _ in range((4 + 255) // len(good) + 2) for packet in parser.feed(good)]
+    assert (9, p1.PING, b"") in received

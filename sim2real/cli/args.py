@@ -18,16 +18,19 @@ Used by :mod:`sim2real.cli.robot_commands`, :mod:`sim2real.cli.deploy_commands`,
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import math
 import os
 import sys
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
+from sim2real.atomic_json import OutputError
 from sim2real.errors import BipedError, UsageError
 from sim2real.hardware.realtime import DEFAULT_PRIORITY, RealtimeRequest
+from sim2real.input_files import kind_problem, regular_file_problem
 
 if TYPE_CHECKING:
     from sim2real.robot import RobotSpec
@@ -213,8 +216,31 @@ def realtime_flags(args: argparse.Namespace) -> list[str]:
 
 
 # -- names of data files ---------------------------------------------------------------------
+def input_file_problem(text: str) -> str | None:
+    """Why the file a name-or-path argument names cannot be read, or None: checked before
+    any loader opens it, so that a FIFO does not block and a device is not read forever
+    (:mod:`sim2real.input_files`).  A bare name (``xl430_biped``, ``human:male_95``) that is
+    no path is left to the loader; so is the file part of ``FILE.yaml:preset``."""
+    for candidate in dict.fromkeys((text, text.split(":", 1)[0])):
+        if candidate and os.path.lexists(candidate):
+            problem = regular_file_problem(candidate)
+            return None if problem is None else f"{candidate}: {problem}"
+    return None
+
+
+def check_input_file(text: str) -> None:
+    """:func:`input_file_problem` as a :class:`UsageError`, for a name-or-path argument that
+    has no checked type (a positional ROBOT that may be a controller instead)."""
+    problem = input_file_problem(text)
+    if problem is not None:
+        raise UsageError(problem)
+
+
 def _loads(load: Callable[[str], object], text: str) -> str:
     """``text`` if ``load(text)`` reads and validates it, else the loader's error as the flag's."""
+    problem = input_file_problem(text)
+    if problem is not None:
+        raise argparse.ArgumentTypeError(problem)
     try:
         load(text)
     except (BipedError, FileNotFoundError, KeyError) as exc:
@@ -261,6 +287,10 @@ def output_file_problem(path: Path, suffixes: tuple[str, ...] = (), exclude: tup
         return f"{path}: the name must not end in {suffix}"
     if path.is_dir():
         return f"{path} is a directory"
+    if os.path.exists(path):
+        kind = kind_problem(os.stat(path).st_mode)
+        if kind is not None:  # outputs go to a new file renamed over the old: never into a FIFO or a device
+            return f"{path} {kind}"
     folder = path.parent
     if not folder.exists():
         return f"directory {folder} does not exist"
@@ -331,6 +361,41 @@ def print_result(result: dict, as_json: bool) -> None:
         width = max(map(len, result), default=0)
         for key, value in result.items():
             print(f"{key:>{width}}: {value}")
+
+
+class NamedStdout:
+    """``sys.stdout`` whose write errors name where it goes: ``biped robot mjcf > robot.xml``
+    on a full disk says ``cannot write robot.xml: No space left on device`` (through
+    :class:`~sim2real.atomic_json.OutputError`), not a bare ``[Errno 28]``.  A closed pipe
+    (``| head``) stays a ``BrokenPipeError``."""
+
+    def __init__(self, stream: Any):
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        return self._named(self._stream.write, text)
+
+    def flush(self) -> None:
+        return self._named(self._stream.flush)
+
+    def _named(self, call: Callable[..., Any], *args: Any) -> Any:
+        try:
+            return call(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise OutputError(self.name_of_target(), exc, "the output is cut short") from exc
+
+    def name_of_target(self) -> str:
+        """The file standard output is redirected to, or "the standard output"."""
+        try:
+            target = os.readlink(f"/proc/self/fd/{self._stream.fileno()}")
+        except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
+            return "the standard output"
+        return target if target.startswith("/") else "the standard output"
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
 
 
 def run_failed(problem: str) -> int:

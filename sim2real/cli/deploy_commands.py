@@ -130,6 +130,9 @@ def check_run(args: argparse.Namespace) -> None:
     from sim2real.controller.activation import check_disabled_modules
 
     data, robot = _servo_robot(args.robot, args.controller)
+    if args.port is not None and not args.port.strip():
+        raise UsageError("--port: empty; give the serial port of the real bus, e.g. /dev/ttyUSB0 (without --port "
+                         "the run uses the simulated bus)")
     if args.baud is not None:
         if not args.port:
             raise UsageError("--baud applies to a real bus (--port); the mock and simulated buses take the "
@@ -199,7 +202,7 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
                      realtime=realtime_request(args),
                      simbus_realtime=realtime_flags(args))
     print_result(result, args.json)
-    return run_exit_code(result["stop_reason"], result["torque_off"], log)
+    return run_exit_code(result, log)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -210,8 +213,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     data, robot = Controller.load_for_robot(args.controller, args.robot)
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
     realtime = realtime_request(args)
-    if args.port or args.bus == "mock":
-        if args.port:
+    if args.port is not None or args.bus == "mock":
+        if args.port is not None:
             from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 
             bus = DynamixelBus(args.port, args.baud or robot.bus.baud, robot)
@@ -229,16 +232,17 @@ def cmd_run(args: argparse.Namespace) -> int:
                          args.trace, log=log, disabled_modules=tuple(args.disable_module), realtime=realtime,
                          simbus_realtime=realtime_flags(args))
     print_result(result, args.json)
-    return run_exit_code(result["stop_reason"], result["torque_off"], log)
+    return run_exit_code(result, log)
 
 
-ENDED_AS_ASKED = ("duration reached", "interrupted (Ctrl-C)", "terminated (SIGTERM)")
 EXIT_TORQUE_UNCONFIRMED = 3
 
 
-def run_exit_code(stop_reason: str, torque_off: dict | None, log) -> int:
-    """0: the run ended as asked; 1: it stopped on a fault; 3: torque off was not confirmed on
-    every servo (the most important message, so it wins)."""
+def run_exit_code(result: dict, log) -> int:
+    """0: the run ended as asked (its duration, or a signal such as Ctrl-C); 1: it stopped on
+    a fault; 3: torque off was not confirmed on every servo (the most important message, so
+    it wins)."""
+    torque_off = result["torque_off"]
     if torque_off is None:
         log("biped: error: torque off was never read back: cut the power to the robot")
         return EXIT_TORQUE_UNCONFIRMED
@@ -246,6 +250,6 @@ def run_exit_code(stop_reason: str, torque_off: dict | None, log) -> int:
         log(f"biped: error: torque off NOT confirmed on servo {', '.join(map(str, torque_off['unconfirmed']))}: "
             "cut the power to the robot")
         return EXIT_TORQUE_UNCONFIRMED
-    if stop_reason not in ENDED_AS_ASKED:
-        return run_failed(f"the run stopped early: {stop_reason}")
+    if result["stop_reason"] != "duration reached" and not result.get("stop_signal"):
+        return run_failed(f"the run stopped early: {result['stop_reason']}")
     return 0

@@ -18,6 +18,7 @@ from typing import Callable, Mapping
 from sim2real.cli.args import (
     MAX_STRIP_FRAMES,
     MAX_VIDEO_S,
+    check_input_file,
     check_output_file,
     int_within,
     non_negative_finite_float,
@@ -110,6 +111,12 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
 
 
 
+def _robot(name: str) -> RobotSpec:
+    """The robot a positional ROBOT names, its file checked first (a FIFO would block the read)."""
+    check_input_file(name)
+    return load_robot(name)
+
+
 # -- robot show -------------------------------------------------------------------------------
 def describe(robot: RobotSpec) -> dict:
     """Everything ``biped robot show --json`` prints (SI units)."""
@@ -198,7 +205,7 @@ def _print_description(d: dict) -> None:
 
 
 def cmd_robot_show(args: argparse.Namespace) -> int:
-    d = describe(load_robot(args.robot))
+    d = describe(_robot(args.robot))
     if args.json:
         print(json.dumps(d, indent=2))
     else:
@@ -209,11 +216,13 @@ def cmd_robot_show(args: argparse.Namespace) -> int:
 def cmd_robot_mjcf(args: argparse.Namespace) -> int:
     from sim2real.simulation.model_builder import to_mjcf
 
-    xml = to_mjcf(load_robot(args.robot))
+    xml = to_mjcf(_robot(args.robot))
     if args.output is None:
         sys.stdout.write(xml)
     else:
-        args.output.write_text(xml)
+        from sim2real.atomic_json import write_text_atomic
+
+        write_text_atomic(args.output, xml)  # a full disk leaves no 0-byte file
         print(f"wrote {args.output}", file=sys.stderr)
     return 0
 
@@ -241,7 +250,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         return _replay(args, "view")
     import mujoco.viewer
 
-    model, data = _standing(load_robot(args.robot))
+    model, data = _standing(_robot(args.robot))
     mujoco.viewer.launch(model, data)
     return 0
 
@@ -310,7 +319,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         return _replay(args, "render")
     from sim2real.simulation.rendering import render_image, save_image
 
-    model, data = _standing(load_robot(args.robot), 1.0 if args.settle is None else args.settle)
+    model, data = _standing(_robot(args.robot), 1.0 if args.settle is None else args.settle)
     save_image(args.output, render_image(model, data, args.width, args.height))
     print(f"wrote {args.output}")
     return 0

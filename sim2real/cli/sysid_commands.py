@@ -135,7 +135,7 @@ def cmd_excite(args: argparse.Namespace) -> int:
     result = {**report.summary(), "trace": str(args.trace), "duration_s": program.duration_s,
               "pose": program.pose, "tick_ms": program.tick_s * 1e3}
     print_result(result, args.json)
-    return run_exit_code(result["stop_reason"], result["torque_off"], log)
+    return run_exit_code(result, log)
 
 
 def _sysid_robot(args: argparse.Namespace):

@@ -29,7 +29,11 @@ problem is one :class:`ConfigError` line, ``FILE: FIELD: problem``.  In order:
   module enabled (switching one off is ``--disable-module``'s job); no unknown keys
   outside the free-form ``task`` and ``provenance``.
 * with a robot: its joint-map hash, and inputs, outputs, symmetry and joint ranges
-  exactly those the robot gives for the driven joints (its control set).
+  exactly those the robot gives for the driven joints (its control set); every hold angle
+  inside its joint's range; and ``tick_s`` within :func:`tick_bounds` - no shorter than one
+  bus cycle (the loop could not read and write every servo in it), no longer than half the
+  Bus Watchdog start-up sets (one late tick would trip it and the servos would stop taking
+  goals).  A tick other than the robot's own is allowed within these bounds.
 """
 
 from __future__ import annotations
@@ -65,6 +69,7 @@ from sim2real.controller.symmetry import (
     wired_layout,
 )
 from sim2real.errors import ConfigError
+from sim2real.input_files import open_regular
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.robot.timing import control_timing
 
@@ -322,16 +327,17 @@ class Controller:
 
 # -- bytes to JSON ------------------------------------------------------------------------------
 def read_bounded(path: Path | str, source: str) -> bytes:
-    """The file's bytes, refused unread when larger than ``MAX_BYTES``."""
-    try:
-        with open(path, "rb") as f:
+    """The file's bytes, refused unread when larger than ``MAX_BYTES`` or not a regular file
+    (a FIFO would block the open, a device never end: :mod:`sim2real.input_files`)."""
+    with open_regular(path, source) as f:
+        try:
             size = os.fstat(f.fileno()).st_size
             if size > MAX_BYTES:
                 raise ConfigError(source, "", f"{size} bytes is too large for a controller "
                                   f"(at most {MAX_BYTES} bytes; a 300-connection controller is about 20 KB)")
-            raw = f.read(MAX_BYTES + 1)  # the size a FIFO or a growing file reports means nothing
-    except OSError as exc:
-        raise ConfigError(source, "", f"cannot read: {exc.strerror or exc}") from exc
+            raw = f.read(MAX_BYTES + 1)  # a file growing while it is read stops at the limit
+        except OSError as exc:
+            raise ConfigError(source, "", f"cannot read: {exc.strerror or exc}") from exc
     if len(raw) > MAX_BYTES:
         raise ConfigError(source, "", f"more than {MAX_BYTES} bytes is too large for a controller")
     return raw
@@ -716,8 +722,49 @@ def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
         for name, value in data["joints"].get(block, {}).items():
             if name not in names:
                 raise c.error(_join(f"joints.{block}", name), f"robot {robot.name} has no such joint")
+            actual = robot.joint(name).range_rad
             if block == "range_rad":
-                actual = robot.joint(name).range_rad
                 if any(abs(a - b) > RANGE_TOLERANCE_RAD for a, b in zip(value, actual)):
                     raise c.error(_join("joints.range_rad", name), f"{_show(value)} differs from robot "
                                   f"{robot.name}'s {list(actual)}")
+            elif not actual[0] - RANGE_TOLERANCE_RAD <= value <= actual[1] + RANGE_TOLERANCE_RAD:
+                raise c.error(_join("joints.hold_rad", name), f"{_show(value)} rad ({math.degrees(value):.1f} deg) "
+                              f"is outside the joint's range [{actual[0]:.6g}, {actual[1]:.6g}] rad "
+                              f"([{math.degrees(actual[0]):.1f}, {math.degrees(actual[1]):.1f}] deg, robot "
+                              f"{robot.name}'s range_deg): a held joint must hold an angle it can reach")
+    low, high, why = tick_bounds(robot)
+    tick = data["tick_s"]
+    if not low - 1e-12 <= tick <= high + 1e-12:
+        raise c.error("tick_s", f"{_show(tick)} s is outside the ticks robot {robot.name} can run at, "
+                      f"[{low * 1e3:.3g}, {high * 1e3:.3g}] ms: {why}; its own tick is "
+                      f"{control_timing(robot).tick_s * 1e3:.3g} ms")
+
+
+def tick_bounds(robot: RobotSpec) -> tuple[float, float, str]:
+    """The control ticks a controller may run at on ``robot``: (shortest, longest [s], where
+    both come from, in words).  Shortest: one bus cycle - the sync write of every goal, the
+    sync read of every position and the sensor board's read at the robot's baud
+    (:func:`sim2real.robot.timing.bus_cycle_s`) - or one physics step for a robot without a
+    bus.  Longest: half the Bus Watchdog that start-up sets on servos that have one (goals
+    must keep coming though one tick runs late), else the format's bound."""
+    from sim2real.hardware.dynamixel.registers import Reg
+    from sim2real.hardware.dynamixel.startup import WATCHDOG_MS
+    from sim2real.robot.timing import PHYSICS_DT_S, bus_cycle_bytes, bus_cycle_s
+
+    cycle, step = bus_cycle_s(robot), robot.physics_dt_s or PHYSICS_DT_S
+    if robot.bus is not None and cycle >= step:
+        low = cycle
+        why = (f"the shortest is one bus cycle ({bus_cycle_bytes(robot)} bytes at {robot.bus.baud} baud, "
+               "sim2real/robot/timing.py)")
+    else:
+        low, why = step, f"the shortest is one physics step ({step * 1e3:g} ms, longer than a bus cycle)"
+    watched = robot.bus is not None and any(
+        j.servo is not None and Reg.BUS_WATCHDOG in j.servo.profile.control_table for j in robot.joints)
+    if watched:
+        high = WATCHDOG_MS / 2e3
+        why += (f"; the longest half the {WATCHDOG_MS} ms Bus Watchdog that start-up sets on its servos "
+                "(one late tick must not trip it)")
+    else:
+        high = TICK_RANGE_S[1]
+        why += "; the longest the format's"
+    return low, high, why

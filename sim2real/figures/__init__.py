@@ -22,3 +22,21 @@ def pyplot() -> Any:
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def save_figure(fig: Any, path: Any, **savefig: Any) -> None:
+    """``fig.savefig(path, **savefig)``, closed, and written atomically (a temporary file
+    beside, renamed when whole: a full disk leaves no half picture, and the error names
+    ``path``).  The format is the name's suffix (.png, .svg, .pdf)."""
+    import io
+    from pathlib import Path
+
+    from sim2real.atomic_json import write_bytes_atomic
+
+    path = Path(path)
+    buffer = io.BytesIO()  # drawn in memory: a backend meeting a full disk mid-file fails obscurely (PDF: zlib)
+    try:
+        fig.savefig(buffer, format=path.suffix.lstrip(".").lower() or None, **savefig)
+    finally:
+        pyplot().close(fig)
+    write_bytes_atomic(path, buffer.getvalue())

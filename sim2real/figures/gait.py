@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim2real.figures import pyplot
+from sim2real.figures import pyplot, save_figure
 from sim2real.hardware.trace import PRESENT, Trace
 from sim2real.robot.spec import RobotSpec
 
@@ -112,8 +112,7 @@ def plot_gait(gait: Gait, path: Path | str, dpi: int = 110) -> None:
         portrait.legend(fontsize=8)
     else:
         portrait.axis("off")
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
+    save_figure(fig, path, dpi=dpi)
 
 
 def _mark_fall(ax, gait: Gait) -> None:

@@ -14,7 +14,7 @@ from typing import Any
 
 from sim2real.controller.file import Controller
 from sim2real.errors import BipedError
-from sim2real.figures import pyplot
+from sim2real.figures import pyplot, save_figure
 
 EXCITATORY, INHIBITORY, OFF = "tab:red", "tab:blue", "0.8"
 MODULE_COLOURS = ("tab:green", "tab:purple", "tab:orange", "tab:brown", "tab:pink", "tab:olive", "tab:cyan")
@@ -129,5 +129,4 @@ def plot_network(controller: Controller, path: Path | str, disabled_modules: tup
                  "(one network, run as the right and the left copy)", fontsize=9)
     ax.margins(x=0.25, y=0.04)
     ax.axis("off")
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    save_figure(fig, path, dpi=130)

@@ -8,7 +8,7 @@ from typing import Sequence
 
 import numpy as np
 
-from sim2real.figures import pyplot
+from sim2real.figures import pyplot, save_figure
 
 
 def save_strip(path: Path | str, rows: Sequence[Sequence[np.ndarray]], times_s: Sequence[float],
@@ -31,5 +31,4 @@ def save_strip(path: Path | str, rows: Sequence[Sequence[np.ndarray]], times_s: 
                 ax.set_title(f"{times_s[c]:.1f} s", fontsize=9)
             if c == 0:
                 ax.set_ylabel(labels[r], fontsize=8)
-    fig.savefig(path, dpi=dpi, bbox_inches="tight")
-    plt.close(fig)
+    save_figure(fig, path, dpi=dpi, bbox_inches="tight")

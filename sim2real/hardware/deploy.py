@@ -13,11 +13,14 @@ a tick without a good read holds the last goals (and is counted), and communicat
 as lost only after ``lost_after_s`` without one good read.  The servos' Bus Watchdog stops
 them on its own if the host itself goes silent.
 
-Whatever ends the run - its duration, Ctrl-C, SIGTERM, an exception, ``SystemExit``, lost
-communication, a hardware error, a non-finite output - the robot ramps to its rest pose if
-the bus still answers, torque goes off, and every servo's Torque Enable is read back: the
-report lists the servos confirmed off and those that are not.  Signals that arrive during
-the stop cut the ramp short; nothing skips the torque-off.  No MuJoCo here.
+Whatever ends the run - its duration, a signal (Ctrl-C, SIGTERM, a closed terminal's SIGHUP,
+SIGQUIT, Ctrl-Z and every other signal whose default would end or stop the process; see
+:class:`StopSignals`), an exception, ``SystemExit``, lost communication, a hardware error, a
+non-finite output, a trace that cannot be written - the robot ramps to its rest pose if the
+bus still answers, torque goes off, and every servo's Torque Enable is read back: the report
+lists the servos confirmed off and those that are not.  Signals never interrupt a bus
+exchange or a trace write: they are taken between ticks.  Signals that arrive during the stop
+cut the ramp short; nothing skips the torque-off.  No MuJoCo here.
 """
 
 from __future__ import annotations
@@ -68,8 +71,17 @@ class UnsafeOutput(BipedError):
     """The controller produced a non-finite goal: the last goals were held."""
 
 
-class Shutdown(BaseException):
-    """SIGTERM, raised in the main thread like KeyboardInterrupt."""
+class StopRequested(BaseException):
+    """A signal asked the run to stop; raised by the loop itself between two ticks (never
+    from inside a bus exchange), so it is a ``BaseException`` like ``KeyboardInterrupt``."""
+
+    def __init__(self, signal_name: str):
+        super().__init__(signal_name)
+        self.signal_name = signal_name
+
+
+class TraceWriteError(BipedError):
+    """The trace could not be written (disk full, file system gone): the run stops safely."""
 
 
 @dataclass
@@ -90,6 +102,7 @@ class RunReport:
     missed_ticks: int = 0  # ticks without a good read: the last goals were held
     corrupt_replies: int = 0  # failed reads whose reply came but was corrupt
     stop_reason: str = ""
+    stop_signal: str | None = None  # the signal that stopped the run (e.g. "SIGINT"), if one did
     stop_notes: list[str] = field(default_factory=list)
     torque_off: TorqueOff | None = None
     realtime: dict[str, Any] | None = None
@@ -104,7 +117,8 @@ class RunReport:
                                                        "unconfirmed": self.torque_off.unconfirmed}
         return {"ticks": self.ticks, "overruns": self.overruns, "bus_errors": self.bus_errors,
                 "retries": self.retries, "missed_ticks": self.missed_ticks, "corrupt_replies": self.corrupt_replies,
-                "stop_reason": self.stop_reason, "stop_notes": self.stop_notes, "torque_off": torque,
+                "stop_reason": self.stop_reason, "stop_signal": self.stop_signal, "stop_notes": self.stop_notes,
+                "torque_off": torque,
                 "compute_us_p50": pct(self.compute_s, 50, 1e6), "compute_us_p99": pct(self.compute_s, 99, 1e6),
                 "jitter_ms_p99": pct(self.jitter_s, 99, 1e3), "realtime": self.realtime}
 
@@ -145,10 +159,11 @@ class RealTimeLoop:
     def __init__(self, chain: ServoChain, mapping: ServoMapping, policy: GoalSource, tick_s: float,
                  trace: TraceWriter | None = None, clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep, lost_after_s: float = LOST_AFTER_S,
-                 motion: MotionReadings | None = None):
+                 motion: MotionReadings | None = None, check_stop: Callable[[], None] = lambda: None):
         self.chain, self.mapping, self.policy, self.tick_s = chain, mapping, policy, tick_s
         self.trace, self.clock, self.sleep, self.motion = trace, clock, sleep, motion
         self.lost_after_s = lost_after_s
+        self.check_stop = check_stop  # raises StopRequested once a signal came: called between ticks
         self.goal = policy.hold.copy()
         self.goal_ticks = mapping.ticks(self.goal)
 
@@ -157,6 +172,7 @@ class RealTimeLoop:
         self.failing_since: float | None = None
         n_ticks = None if duration_s is None else int(round(duration_s / self.tick_s))
         while n_ticks is None or report.ticks < n_ticks:
+            self.check_stop()
             began = self.clock()
             report.jitter_s.append(max(0.0, began - deadline))
             readings = self._read(began + READ_BUDGET * self.tick_s, report)
@@ -188,8 +204,11 @@ class RealTimeLoop:
                     motion = self._attempt(lambda: self.motion.read(attempts=1), began + self.tick_s, report)
                     extra = None if motion is None else (*extra, *motion)
                 if extra is not None:
-                    self.trace.write(began - start, report.ticks, self.goal, angles, feet, up, compute_s, bus_s,
-                                     overrun, extra)
+                    try:
+                        self.trace.write(began - start, report.ticks, self.goal, angles, feet, up, compute_s,
+                                         bus_s, overrun, extra)
+                    except (OSError, ValueError) as exc:  # ValueError: a closed file
+                        raise TraceWriteError(f"cannot write the trace {self.trace.path}: {exc}") from exc
             report.ticks += 1
             if not overrun:
                 self._wait_until(deadline)
@@ -239,40 +258,87 @@ class RealTimeLoop:
             pass
 
 
-class StopSignals:
-    """SIGINT and SIGTERM for the whole of a run, from start-up to the read-back of torque.
+# Every asynchronous signal whose default action ends or stops the process: with torque on,
+# any of them would leave the robot powered.  (SIGKILL and SIGSTOP cannot be caught: the
+# servos' Bus Watchdog is the only guard then.  SIGTTOU is ignored instead - see below.)
+STOP_SIGNALS = tuple(getattr(signal, name) for name in (
+    "SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT", "SIGTSTP", "SIGUSR1", "SIGUSR2", "SIGALRM", "SIGVTALRM",
+    "SIGPROF", "SIGXCPU", "SIGXFSZ", "SIGIO", "SIGPWR") if hasattr(signal, name))
+SIGNAL_STOP_REASONS = {  # the report's stop reason for each signal; every other reads "stopped by SIGxxx"
+    "SIGINT": "interrupted (Ctrl-C)",
+    "SIGTERM": "terminated (SIGTERM)",
+    "SIGHUP": "hung up (SIGHUP: the terminal or SSH session closed)",
+    "SIGQUIT": "quit (SIGQUIT)",
+    "SIGTSTP": "suspended (Ctrl-Z, SIGTSTP): a robot is not paused with torque on",
+}
 
-    The first signal ends the run (``KeyboardInterrupt`` or :class:`Shutdown`, raised in the
-    main thread); from then on - and once the stop has begun for any reason - signals only
-    set ``cut_short``, which ends the ramp to rest early.  So no signal can skip the
-    torque-off, and at most one exception ever comes from here.  (The default handlers were
-    back in place during the stop before, and a SIGTERM in the final ramp killed the process
-    with every servo powered.)
+
+def signal_stop_reason(signal_name: str) -> str:
+    return SIGNAL_STOP_REASONS.get(signal_name, f"stopped by {signal_name}")
+
+
+class StopSignals:
+    """The stop signals (:data:`STOP_SIGNALS`) for the whole of a run, from start-up to the
+    read-back of torque.
+
+    A handler never raises: it records the signal, and the run takes it at its next safe
+    point (:meth:`check`, between two ticks or two ramp steps) by raising
+    :class:`StopRequested`.  An exception raised from a handler lands wherever the main
+    thread happens to be - inside the SDK between sending a packet and reading its reply, it
+    left the port marked busy and every later packet, the torque-off included, was refused
+    (measured: 2 SIGINTs in 6 during a traced run left all 11 servos powered).  Once the
+    stop has begun, or a signal is already pending, further signals only set ``cut_short``,
+    which ends the ramp to rest early; nothing skips the torque-off.  SIGTTOU is ignored
+    meanwhile so that a run sent to the background keeps writing to its terminal instead of
+    being stopped by it.
     """
 
     def __init__(self) -> None:
-        self.stopping = False
+        self.stopping = False  # the stop has begun
         self.cut_short = False
         self.received: list[str] = []
         self._previous: dict[int, Any] = {}
 
     def __enter__(self) -> "StopSignals":
         if threading.current_thread() is threading.main_thread():
-            for signum in (signal.SIGINT, signal.SIGTERM):
+            for signum in STOP_SIGNALS:
                 self._previous[signum] = signal.signal(signum, self._handle)
+            if hasattr(signal, "SIGTTOU"):
+                self._previous[signal.SIGTTOU] = signal.signal(signal.SIGTTOU, signal.SIG_IGN)
         return self
 
     def __exit__(self, *exc) -> None:
         for signum, handler in self._previous.items():
             signal.signal(signum, handler)
 
+    @property
+    def requested(self) -> str | None:
+        """The name of the first signal received, if any."""
+        return self.received[0] if self.received else None
+
+    def check(self) -> None:
+        """Raise :class:`StopRequested` if a signal has come (call only at safe points)."""
+        if self.received and not self.stopping:
+            raise StopRequested(self.received[0])
+
     def _handle(self, signum: int, frame) -> None:
-        self.received.append(signal.Signals(signum).name)
-        if self.stopping:
+        if self.stopping or self.received:
             self.cut_short = True
-            return
-        self.stopping = True
-        raise KeyboardInterrupt if signum == signal.SIGINT else Shutdown()
+        self.received.append(signal.Signals(signum).name)
+
+
+class _SafeLog:
+    """The run's log, which never raises: after a SIGHUP the terminal is gone and writing to
+    it fails (EIO), and no message may keep the stop from turning torque off."""
+
+    def __init__(self, log: Callable[[str], None]):
+        self.log = log
+
+    def __call__(self, line: str) -> None:
+        try:
+            self.log(line)
+        except Exception:  # noqa: BLE001 - a lost terminal must not keep torque on
+            pass
 
 
 def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, duration_s: float | None = None,
@@ -301,6 +367,7 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
         raise UsageError(f"the controller reads the torso's heading (heading_input), but robot {robot.name}'s sensor "
                          "board reports none (no heading register in its profile)")  # before any servo moves
     report = RunReport()
+    log = _SafeLog(log)
     chain = ServoChain(bus, robot)
     mapping = ServoMapping(robot)
     trace = None
@@ -314,20 +381,28 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
     with StopSignals() as signals:
         try:
             start_up(chain, mapping, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S, warn=log)
+            signals.check()
             motion = MotionReadings(chain, robot) if getattr(policy, "trace_motion", False) else None
             if motion is not None and motion.left_out:
                 log(f"note: the trace leaves out servo {' and '.join(motion.left_out)}: not at one address on every servo")
             if trace_path is not None:
                 heading = (Channel(HEADING_CHANNEL, "rad"),) if board_reports_heading(robot) else ()
-                trace = TraceWriter(trace_path, robot.joint_names, {
-                    "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"},
-                    extra=(*heading, *(motion.channels if motion else ())))
-            present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION, None, PATIENT_ATTEMPTS, PATIENCE_S))
-            chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)
-            ramp(chain, mapping, present, policy.reset(), ramp_s, sleep)
+                try:
+                    trace = TraceWriter(trace_path, robot.joint_names, {
+                        "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"},
+                        extra=(*heading, *(motion.channels if motion else ())))
+                except OSError as exc:  # before torque goes on: nothing has moved
+                    raise TraceWriteError(f"cannot start the trace: {exc}") from exc
             loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s,
-                                motion if trace is not None else None)
+                                motion if trace is not None else None, check_stop=signals.check)
+            # The collector's last pass before torque goes on: between the start ramp and the
+            # loop it took 130-170 ms on a large heap, the wire fell silent longer than the
+            # servos' 100 ms Bus Watchdog, and they refused every goal of the run.
             with no_garbage_collection():
+                present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION, None, PATIENT_ATTEMPTS, PATIENCE_S))
+                signals.check()
+                chain.torque(True, attempts=PATIENT_ATTEMPTS, patience_s=PATIENCE_S)
+                ramp(chain, mapping, present, policy.reset(), ramp_s, sleep, lambda: bool(signals.received))
                 loop.run(duration_s, report)
             report.stop_reason = "duration reached"
         except BaseException as exc:  # noqa: BLE001 - every way out leads to the same safe stop
@@ -336,29 +411,29 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
                 startup_error = exc
             report.stop_reason = _stop_reason(exc, chain, report)
         finally:
-            # A signal may still raise once (see StopSignals); the stop then simply starts again.
-            hook = on_loop_end
-            for _ in range(2):
+            signals.stopping = True  # from here on a signal only cuts the ramp short
+            if on_loop_end is not None:
                 try:
-                    signals.stopping = True
-                    if hook is not None:
-                        hook, call = None, hook
-                        try:
-                            call()
-                        except Exception:  # noqa: BLE001 - a report's hook must not keep torque on
-                            report.stop_notes.append("the end-of-loop hook failed")
-                    _stop_safely(chain, mapping, policy, report, signals, sleep, ramp_s, log,
-                                 ramp_to_rest=startup_error is None)
-                    break
-                except (KeyboardInterrupt, Shutdown):
-                    report.stop_notes.append("a signal arrived as the stop began; the stop started again")
+                    on_loop_end()
+                except Exception:  # noqa: BLE001 - a report's hook must not keep torque on
+                    report.stop_notes.append("the end-of-loop hook failed")
+            _stop_safely(chain, mapping, policy, report, signals, sleep, ramp_s, log,
+                         ramp_to_rest=startup_error is None)
             report.retries += chain.retries_used
             if trace is not None:
-                trace.close()
-            bus.close()
+                try:
+                    trace.close()
+                except OSError as exc:  # the robot is already safe; say what was lost
+                    report.stop_notes.append(f"the trace's last rows were not written: {exc}")
+            try:
+                bus.close()
+            except Exception as exc:  # noqa: BLE001 - torque is already off and read back
+                report.stop_notes.append(f"the bus did not close cleanly: {exc}")
             if grant is not None:
                 release_realtime(grant)
-    if signals.received and signals.cut_short:
+    if len(signals.received) > 1 or (signals.received and report.stop_reason == "duration reached"):
+        report.stop_notes.append(f"signals received: {', '.join(signals.received)}")
+    if signals.cut_short:
         report.stop_notes.append(f"ramp to rest cut short by {signals.received[-1]}")
     if startup_error is not None:
         raise startup_error
@@ -366,10 +441,9 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
 
 
 def _stop_reason(exc: BaseException, chain: ServoChain, report: RunReport) -> str:
-    if isinstance(exc, KeyboardInterrupt):
-        return "interrupted (Ctrl-C)"
-    if isinstance(exc, Shutdown):
-        return "terminated (SIGTERM)"
+    if isinstance(exc, (StopRequested, KeyboardInterrupt)):  # outside the main thread, Python's own SIGINT
+        report.stop_signal = exc.signal_name if isinstance(exc, StopRequested) else "SIGINT"
+        return signal_stop_reason(report.stop_signal)
     if isinstance(exc, ServoError):
         report.bus_errors += 1
         detail = ""
@@ -381,7 +455,7 @@ def _stop_reason(exc: BaseException, chain: ServoChain, report: RunReport) -> st
     if isinstance(exc, CommunicationError):
         report.bus_errors += 1
         return f"lost communication: {exc}" + (" (corrupt replies: noise on the wire?)" if exc.corrupt else "")
-    if isinstance(exc, (UnsafeOutput, StartupError)):
+    if isinstance(exc, (UnsafeOutput, StartupError, TraceWriteError)):
         return str(exc)
     if isinstance(exc, SystemExit):
         return f"exit requested inside the loop (SystemExit {exc.code!r})"
@@ -399,14 +473,36 @@ def _stop_safely(chain: ServoChain, mapping: ServoMapping, policy: GoalSource, r
             present = mapping.angles(chain.sync_read(Reg.PRESENT_POSITION))
             if not ramp(chain, mapping, present, policy.hold, ramp_s, sleep, lambda: signals.cut_short):
                 log("warning: ramp to rest cut short by a signal; turning torque off")
-        except (BipedError, ValueError):
-            log("warning: could not ramp to the rest pose; turning torque off")
+        except Exception as exc:  # noqa: BLE001 - whatever failed, torque goes off next
+            log(f"warning: could not ramp to the rest pose ({exc}); turning torque off")
     report.torque_off = torque_off(chain)
+    tripped = watchdog_tripped(chain)
+    if tripped:
+        report.stop_notes.append(f"the Bus Watchdog of servo {', '.join(map(str, tripped))} tripped during the run: the "
+                                 "wire was silent longer than it allows, and from then on those servos held their "
+                                 "pose and refused goals")
+        log(f"warning: {report.stop_notes[-1]}")
     if not report.torque_off.unconfirmed:
         log(f"torque off, read back from all {len(report.torque_off.confirmed)} servos")
     else:
         log(f"DANGER: torque off not confirmed on servo(s) {', '.join(map(str, report.torque_off.unconfirmed))}: "
             "cut the power to the robot")
+
+
+def watchdog_tripped(chain: ServoChain) -> list[int]:
+    """Servos whose Bus Watchdog reads -1 (it expired: they stopped and refuse goals until it
+    is cleared, which the next start-up does); servos without one, or that do not answer, are
+    not listed."""
+    tripped = []
+    for dxl_id in chain.servo_ids:
+        if Reg.BUS_WATCHDOG not in chain.devices[dxl_id].control_table:
+            continue
+        try:
+            if chain.read(dxl_id, Reg.BUS_WATCHDOG, attempts=1) < 0:
+                tripped.append(dxl_id)
+        except Exception:  # noqa: BLE001 - a report, after torque off: never an obstacle
+            pass
+    return tripped
 
 
 def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS, patience_s: float = PATIENCE_S) -> TorqueOff:
@@ -416,9 +512,10 @@ def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS, patience_s: 
     then per servo: read back, and write again while it still reads 1 - for at least
     ``attempts`` tries and ``patience_s`` seconds.
     """
+    # Exception, not only BipedError: on the way to torque off, no failure may skip a servo.
     try:
         chain.sync_write(Reg.TORQUE_ENABLE, np.zeros(len(chain.servo_ids), dtype=np.int64))
-    except (BipedError, ValueError):  # a port gone, or servos of different tables: per servo below
+    except Exception:  # noqa: BLE001 - a port gone, or servos of different tables: per servo below
         pass
     result = TorqueOff()
     for dxl_id in chain.servo_ids:
@@ -434,11 +531,11 @@ def torque_off(chain: ServoChain, attempts: int = PATIENT_ATTEMPTS, patience_s: 
                 if exc.value == 0:
                     result.confirmed.append(dxl_id)
                     break
-            except (BipedError, ValueError):
+            except Exception:  # noqa: BLE001
                 continue
             try:
                 chain.write(dxl_id, Reg.TORQUE_ENABLE, 0, attempts=1)
-            except (BipedError, ValueError):
+            except Exception:  # noqa: BLE001
                 pass
         else:
             result.unconfirmed.append(dxl_id)

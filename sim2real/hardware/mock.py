@@ -7,6 +7,9 @@ locked while torque is on, the e-manual's ranges, goals within the position limi
     bus.faults.silent.add(4)               # servo 4 stops answering
     bus.faults.alert[7] = 0b100000         # servo 7 overloads: alert bit, torque off
     bus.faults.timeouts[3] = 2             # servo 3 misses its next two replies
+
+Servos with a Bus Watchdog (X series, address 98) stop when the host falls silent longer than it
+is set to, as the firmware does (:meth:`MockDevice.watch`).
 """
 
 from __future__ import annotations
@@ -30,6 +33,11 @@ from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.dynamixel.chain import decode
 from sim2real.robot import RobotSpec
 from sim2real.robot.profiles import DeviceProfile
+
+WATCHDOG_UNIT_S = 0.020  # Bus Watchdog (98) counts in 20 ms
+WATCHDOG_EXPIRED = -1  # what Bus Watchdog (98) reads once it has stopped the servo
+# The goal entries an expired Bus Watchdog makes read-only (those a profile has).
+WATCHDOG_GOALS = ("goal_pwm", "goal_current", "goal_velocity", Reg.GOAL_POSITION)
 
 
 @dataclass
@@ -99,6 +107,10 @@ class MockDevice:
                 return DATA_RANGE_ERROR | self.alert()
         if reg.name == Reg.TORQUE_ENABLE and value and self.alert():
             return self.alert()  # refused until REBOOT, and the alert bit says why
+        if self.watchdog_expired() and (reg.name in WATCHDOG_GOALS or (reg.name == Reg.BUS_WATCHDOG and value)):
+            # goals are read-only until 0 is written to Bus Watchdog (the only way the e-manual
+            # gives to clear the error): a Data Range Error, nothing applied
+            return DATA_RANGE_ERROR | self.alert()
         if reg.name == Reg.GOAL_POSITION and Reg.MIN_POSITION_LIMIT in self.profile.control_table:
             if not self.get_named(Reg.MIN_POSITION_LIMIT) <= decode(reg, value) <= self.get_named(Reg.MAX_POSITION_LIMIT):
                 return DATA_LIMIT_ERROR | self.alert()  # outside the position limits: not applied
@@ -119,6 +131,49 @@ class MockDevice:
         self.set_named(Reg.HARDWARE_ERROR_STATUS, 0)
         if self.profile.is_servo:
             self.set_named(Reg.TORQUE_ENABLE, 0)
+        if Reg.BUS_WATCHDOG in self.profile.control_table:  # RAM, reset as at power-on: off, no error
+            self.set_named(Reg.BUS_WATCHDOG, 0)
+
+    # -- the Bus Watchdog (X series, address 98) ----------------------------------------------
+    # Source: ROBOTIS e-manual, X series control table, "Bus Watchdog(98)"
+    # (emanual.robotis.com/docs/en/dxl/x/xl430-w250/#bus-watchdog98; the text is
+    # _includes/en/dxl/control_table_buswatchdog.md in github.com/ROBOTIS-GIT/emanual).  It watches
+    # only while Torque Enable is 1; when no instruction packet has come for longer than its value
+    # (20 ms units) the servo stops and the entry reads -1; the goal entries are then read-only (a
+    # write gets a Data Range Error) until 0 is written to it.  Torque is not dropped: the
+    # e-manual's example resumes motion after writing 0, without enabling torque again, and
+    # stopping in position mode means holding the present position (ROBOTIS-GIT/DynamixelSDK
+    # issue 584: the firmware rewrites Goal Position when the watchdog expires).  Nothing sets
+    # Hardware Error Status or the alert bit.
+    def watchdog_s(self) -> float | None:
+        """How long the host may stay silent before this servo stops [s]; None while its
+        watchdog is not watching (no such entry, set to 0, already expired, or torque off)."""
+        table = self.profile.control_table
+        if not self.profile.is_servo or Reg.BUS_WATCHDOG not in table or not self.get_named(Reg.TORQUE_ENABLE):
+            return None
+        reg = table[Reg.BUS_WATCHDOG]
+        setting = decode(reg, self.get(reg.address, reg.size))
+        return setting * WATCHDOG_UNIT_S if setting > 0 else None
+
+    def watchdog_expired(self) -> bool:
+        """Bus Watchdog reads -1: this servo stopped for a silent host and takes no goal."""
+        table = self.profile.control_table
+        if Reg.BUS_WATCHDOG not in table:
+            return False
+        reg = table[Reg.BUS_WATCHDOG]
+        return decode(reg, self.get(reg.address, reg.size)) == WATCHDOG_EXPIRED
+
+    def watch(self, silent_s: float) -> bool:
+        """The host has sent no instruction packet for ``silent_s`` [s]: if that is longer
+        than the watchdog allows, stop (the goal becomes the present position, torque stays
+        on) and read -1 in Bus Watchdog.  True if it expired now."""
+        limit = self.watchdog_s()
+        if limit is None or silent_s <= limit:
+            return False
+        self.set_named(Reg.BUS_WATCHDOG, WATCHDOG_EXPIRED)
+        self.set_named(Reg.GOAL_POSITION, self.get_named(Reg.PRESENT_POSITION))
+        self.position = float(self.get_named(Reg.PRESENT_POSITION))
+        return True
 
     def raise_hardware_error(self, bits: int) -> None:
         self.set_named(Reg.HARDWARE_ERROR_STATUS, bits)
@@ -150,7 +205,7 @@ class MockBus(Bus):
             self.devices[robot.sensor_board.id] = MockDevice(robot.sensor_board.id, robot.sensor_board.profile)
         self.faults = Faults()
         self.clock = clock
-        self._last = clock()
+        self._last = clock()  # the last instruction, whatever it was (the watchdogs count from it)
         self.is_open = False
         # (id, address, value) of every write and sync-write item a device received, applied or
         # refused: what went over the wire, for tests
@@ -164,10 +219,18 @@ class MockBus(Bus):
 
     # -- device behaviour -------------------------------------------------------------------------
     def _advance(self) -> None:
+        """Called with every instruction: the devices move on, and a servo whose watchdog
+        expired during the host's silence stops where it was then (it still answers this one)."""
         now = self.clock()
         dt, self._last = now - self._last, now
         for device in self.devices.values():
-            device.advance(dt)
+            limit = device.watchdog_s()
+            if limit is not None and dt > limit:
+                device.advance(limit)
+                device.watch(dt)
+                device.advance(dt - limit)  # stopped: holds its goal
+            else:
+                device.advance(dt)
 
     def _device(self, dxl_id: int) -> MockDevice:
         if not self.is_open:

@@ -21,8 +21,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
-import stat
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,11 +31,19 @@ import numpy as np
 
 from sim2real.atomic_json import write_text_atomic
 from sim2real.errors import ConfigError
+from sim2real.input_files import read_regular_bytes
 
 FLUSH_EVERY_S = 1.0
 TIME = "time_s"  # the column of times: seconds since the loop began
 TIMING = ("compute_ms", "bus_ms", "overrun")  # how the loop kept time, not what the robot did
 GOAL, PRESENT = "_goal_rad", "_present_rad"  # after a joint's name: its commanded and reported angle [rad]
+# What a trace may hold and still mean something (Trace.read refuses the rest, naming the row):
+MAX_ANGLE_RAD = 2 * math.pi  # |a channel in rad| beyond a full turn is no joint angle or heading (degrees?)
+MAX_TIME_S = 7 * 24 * 3600.0  # time_s past a week since the loop began: a clock in another unit, or epoch seconds
+GAP_TICKS = 3  # more than this many ticks without a row is a gap, reported in notes (the loop writes no row
+# for a tick whose reads failed, and holds its goals: a short gap is normal on a busy bus, a long one is news)
+JOINT_RANGE_MARGIN_RAD = math.radians(10.0)  # a joint angle this far past its joint's range is not this robot's
+MAX_SIDECAR_BYTES = 16 * 1024 * 1024  # a sidecar is metadata: a few KB, a controller's provenance included
 
 
 @dataclass(frozen=True)
@@ -103,9 +109,18 @@ class TraceWriter:
             self._last_flush = now
 
     def close(self) -> None:
-        if not self._file.closed:
+        """Flush and close.  A flush the disk refuses raises its ``OSError`` (the caller says
+        what was lost), and the file is closed all the same: never left open to fail again
+        when it is collected."""
+        if self._file.closed:
+            return
+        try:
             self._file.flush()
-            self._file.close()
+        finally:
+            try:
+                self._file.close()
+            except OSError:  # its own flush of the same rows, refused again
+                pass
 
 
 @dataclass(frozen=True, eq=False)
@@ -184,22 +199,23 @@ class Trace:
     def read(cls, path: Path | str) -> "Trace":
         """A trace CSV and its sidecar.
 
-        Refused with :class:`ConfigError` naming the file: a file that cannot be read, is
-        binary or empty, has no rows, a header unlike its sidecar's ``columns`` or without
+        Refused with :class:`ConfigError` naming the file: a file that is not a regular
+        file (a FIFO, a device, a directory: :mod:`sim2real.input_files`) or cannot be read,
+        is binary or empty, has no rows, a header unlike its sidecar's ``columns`` or without
         ``time_s``, a row of the wrong length or with something other than a finite number,
-        ``time_s`` not increasing.  A last row cut short - no end of line, or too few fields:
-        what a run killed mid-write leaves - is dropped and said in ``notes``; so is a
-        missing sidecar (metadata ``{}``).  Channels the loop writes get their units from
-        :func:`loop_channels`; others have the unit "".
+        ``time_s`` negative, past ``MAX_TIME_S`` or not increasing, an angle (a channel in
+        rad) beyond +-``MAX_ANGLE_RAD``.  A last row cut short - no end of line, or too few
+        fields: what a run killed mid-write leaves - is dropped and said in ``notes``; so is
+        a missing sidecar (metadata ``{}``), and so are gaps of more than ``GAP_TICKS``
+        ticks without a row (the tick: the sidecar's ``tick_s``, else the median step).
+        Channels the loop writes get their units from :func:`loop_channels`; others have the
+        unit "".  Joint angles against a robot's ranges: :func:`check_joint_angles`.
         """
         path = Path(path)
         source = str(path)
         if path.suffix.lower() == ".json":
             raise ConfigError(source, "", "a trace is the CSV file; a .json beside it is its sidecar")
-        try:
-            raw = path.read_bytes()
-        except OSError as exc:
-            raise ConfigError(source, "", f"cannot read the trace: {exc.strerror or exc}") from None
+        raw = read_regular_bytes(path, source)  # a FIFO or a device refused unopened
         try:
             text = raw.decode("utf-8")
         except UnicodeDecodeError:
@@ -243,19 +259,67 @@ class Trace:
                 if not math.isfinite(values[k, j]):
                     raise ConfigError(source, f"row {k + 2}", f"{header[j]}: {cell!r} is not a finite number")
         t = header.index(TIME)
-        if np.any(np.diff(values[:, t]) <= 0):
-            k = int(np.argmax(np.diff(values[:, t]) <= 0)) + 1
-            raise ConfigError(source, f"row {k + 2}", f"{TIME} does not increase")
+        _check_times(values[:, t], meta, source, notes)
         joints = [name.removesuffix(GOAL) for name in header if name.endswith(GOAL)]
         units = {c.name: c.unit for c in loop_channels(joints)}
+        units[HEADING_CHANNEL] = "rad"
         if isinstance(meta.get("units"), dict):
             units.update({str(k): str(v) for k, v in meta["units"].items() if k not in units})
+        for j, name in enumerate(header):
+            if units.get(name) == "rad" and np.any(np.abs(values[:, j]) > MAX_ANGLE_RAD):
+                k = int(np.argmax(np.abs(values[:, j]) > MAX_ANGLE_RAD))
+                raise ConfigError(source, f"row {k + 2}", f"{name}: {values[k, j]:.6g} rad is more than a full turn "
+                                  f"(|angle| <= 2 pi): not an angle in radians (degrees?)")
         others = [j for j in range(len(header)) if j != t]
         return cls(values[:, t], values[:, others], tuple(Channel(header[j], units.get(header[j], "")) for j in others),
                    meta, tuple(notes))
 
 
-MAX_SIDECAR_BYTES = 1024 * 1024  # a sidecar is a few KB (the controller's provenance is the most of it)
+def _check_times(times: np.ndarray, meta: Mapping[str, Any], source: str, notes: list[str]) -> None:
+    """Refuse times that cannot be a loop's (negative, beyond ``MAX_TIME_S``, not
+    increasing); note gaps of more than ``GAP_TICKS`` ticks."""
+    if times[0] < 0:
+        raise ConfigError(source, "row 2", f"{TIME} {times[0]:g}: negative; it counts seconds since the loop began")
+    if times[-1] > MAX_TIME_S:
+        k = int(np.argmax(times > MAX_TIME_S))
+        raise ConfigError(source, f"row {k + 2}", f"{TIME} {times[k]:g}: more than a week since the loop began "
+                          "(a clock in another unit?)")
+    steps = np.diff(times)
+    if np.any(steps <= 0):
+        k = int(np.argmax(steps <= 0)) + 1
+        raise ConfigError(source, f"row {k + 2}", f"{TIME} does not increase")
+    if not len(steps):
+        return
+    tick = meta.get("tick_s")
+    if isinstance(tick, bool) or not isinstance(tick, (int, float)) or not 0 < tick < MAX_TIME_S:
+        tick = float(np.median(steps))
+    gaps = np.flatnonzero(steps > (GAP_TICKS + 0.5) * tick)
+    if len(gaps):
+        k = int(gaps[np.argmax(steps[gaps])])
+        notes.append(f"{source}: {len(gaps)} gap(s) of more than {GAP_TICKS} ticks without a row, "
+                     f"{float(np.sum(steps[gaps])):.3f} s in all; the longest {steps[k]:.3f} s after "
+                     f"{TIME} {times[k]:g} (row {k + 2}; the tick is {tick * 1e3:g} ms): the goals are taken "
+                     "as held across them, as the loop holds them")
+
+
+def check_joint_angles(trace: "Trace", joints: Sequence[tuple[str, tuple[float, float]]], source: str) -> None:
+    """Refuse a trace whose goal or present angle of a joint lies more than
+    ``JOINT_RANGE_MARGIN_RAD`` outside that joint's range ``(name, (low, high))`` [rad]:
+    not an angle this robot can take (another robot's trace, another calibration, degrees)."""
+    for name, (low, high) in joints:
+        for suffix in (GOAL, PRESENT):
+            channel = f"{name}{suffix}"
+            if channel not in trace:
+                continue
+            values = trace[channel]
+            outside = (values < low - JOINT_RANGE_MARGIN_RAD) | (values > high + JOINT_RANGE_MARGIN_RAD)
+            if np.any(outside):
+                k = int(np.argmax(outside))
+                raise ConfigError(source, f"row {k + 2}", f"{channel}: {values[k]:.6g} rad "
+                                  f"({math.degrees(values[k]):.1f} deg) is more than "
+                                  f"{math.degrees(JOINT_RANGE_MARGIN_RAD):g} deg outside the joint's range "
+                                  f"[{math.degrees(low):.1f}, {math.degrees(high):.1f}] deg (the robot config's "
+                                  "range_deg): not an angle this robot takes")
 
 
 class _DuplicateKey(Exception):
@@ -276,8 +340,8 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
 
 def _read_sidecar(path: Path, notes: list[str]) -> dict[str, Any]:
     """The sidecar's JSON object, read as controller files are: a regular file of at most
-    ``MAX_SIDECAR_BYTES`` (opened without blocking, checked on the open file), brackets
-    nested at most as deep as a controller's, no key twice in one object."""
+    ``MAX_SIDECAR_BYTES`` (:mod:`sim2real.input_files`), brackets nested at most as deep as a
+    controller's (scanned before decoding), no key twice in one object."""
     from sim2real.controller.file import MAX_DEPTH, nesting_depth  # no MuJoCo there either
 
     sidecar = sidecar_path(path)
@@ -285,21 +349,8 @@ def _read_sidecar(path: Path, notes: list[str]) -> dict[str, Any]:
         notes.append(f"{path}: no sidecar {sidecar.name} (the trace's metadata)")
         return {}
     source = str(sidecar)
-    try:
-        fd = os.open(sidecar, os.O_RDONLY | os.O_NONBLOCK)
-        with os.fdopen(fd, "rb") as f:
-            info = os.fstat(f.fileno())
-            if not stat.S_ISREG(info.st_mode):
-                raise ConfigError(source, "", "not a trace sidecar: not a regular file (a directory, FIFO or device)")
-            if info.st_size > MAX_SIDECAR_BYTES:
-                raise ConfigError(source, "", f"{info.st_size} bytes is too large for a trace sidecar (at most "
-                                  f"{MAX_SIDECAR_BYTES}; one is a few KB): refused unread")
-            raw = f.read(MAX_SIDECAR_BYTES + 1)
-    except OSError as exc:
-        raise ConfigError(source, "", f"cannot read the trace sidecar: {exc.strerror or exc}") from None
-    if len(raw) > MAX_SIDECAR_BYTES:
-        raise ConfigError(source, "", f"more than {MAX_SIDECAR_BYTES} bytes is too large for a trace sidecar")
-    depth, line = nesting_depth(raw)
+    raw = read_regular_bytes(sidecar, limit=MAX_SIDECAR_BYTES, what="trace sidecar")  # a FIFO refused unopened
+    depth, line = nesting_depth(raw)  # scanned before decoding, so that decoding cannot recurse
     if depth > MAX_DEPTH:
         raise ConfigError(source, "", f"not a trace sidecar: JSON nested {depth} levels deep (line {line}); at most "
                           f"{MAX_DEPTH}")
@@ -308,13 +359,10 @@ def _read_sidecar(path: Path, notes: list[str]) -> dict[str, Any]:
     except _DuplicateKey as exc:
         key = exc.args[0] if len(exc.args[0]) <= 40 else exc.args[0][:37] + "..."
         raise ConfigError(source, "", f"key {key!r} appears twice in one object (JSON keys must be unique)") from None
-    except UnicodeDecodeError:
-        raise ConfigError(source, "", "not a trace sidecar (JSON): binary, not UTF-8 text") from None
-    except json.JSONDecodeError as exc:
-        raise ConfigError(source, "", f"not a trace sidecar (JSON): {exc.msg} (line {exc.lineno} column "
-                          f"{exc.colno})") from None
-    except (ValueError, RecursionError) as exc:  # an integer of more than 4,300 digits; depth is scanned first
-        raise ConfigError(source, "", f"not a trace sidecar (JSON): {str(exc).split(';')[0][:100]}") from None
+    except ValueError as exc:  # not UTF-8, not JSON, an integer of thousands of digits
+        raise ConfigError(source, "", f"not a trace sidecar (JSON): {str(exc).split(';')[0][:120]}") from None
+    except RecursionError:  # not reached after the depth scan; the last guard
+        raise ConfigError(source, "", "not a trace sidecar: JSON nested too deep") from None
     if not isinstance(meta, dict):
         raise ConfigError(source, "", "not a trace sidecar: must hold a JSON object")
     return meta

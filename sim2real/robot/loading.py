@@ -43,7 +43,7 @@ from sim2real.robot.spec import (
     ServoMap,
     common_baud_rates,
 )
-from sim2real.robot.validation import Node, load_yaml, show
+from sim2real.robot.validation import Node, load_yaml, show, show_name
 
 SIZE = dict(lo=SEGMENT_SIZE_M[0], hi=SEGMENT_SIZE_M[1], unit="m",
             why=f"a plausible segment: {SEGMENT_SIZE_M[0]:g}-{SEGMENT_SIZE_M[1]:g} m")
@@ -80,12 +80,13 @@ def resolve_robot_path(name_or_path: str | Path) -> tuple[Path, str | None]:
     path = Path(text)
     if path.suffix in (".yaml", ".yml") or exists(path):
         if not exists(path):
-            raise FileNotFoundError(f"robot config {show(str(path))} does not exist")
+            shown = str(path) if len(str(path)) <= 255 else show(str(path))  # a sane path whole
+            raise FileNotFoundError(f"robot config {shown} does not exist")
         return path, preset
     candidate = robots_dir() / f"{text}.yaml"
     if not exists(candidate):
         known = ", ".join(available_robots())
-        raise FileNotFoundError(f"unknown robot {show(text)} (known: {known}; or give a path)")
+        raise FileNotFoundError(f"unknown robot {show_name(text)} (known: {known}; or give a path)")
     return candidate, preset
 
 

@@ -8,9 +8,9 @@ dotted key path, so a problem deep in a file is reported as
 and reality configs, firmware profiles, fault files, a run folder's ``config.yaml``).  It
 refuses, naming the file, before building any value:
 
-* what is not a regular file (a directory, a FIFO or a device: never opened for reading),
-  more than ``MAX_YAML_BYTES`` (256 KiB; the largest shipped file is 10 KB), text that is
-  not UTF-8 or holds NUL bytes;
+* what is not a regular file (a directory, a FIFO or a device: never opened for reading,
+  :mod:`sim2real.input_files`), more than ``MAX_YAML_BYTES`` (256 KiB, refused unread; the
+  largest shipped file is 10 KB), text that is not UTF-8 or holds NUL bytes;
 * collections nested more than ``MAX_YAML_DEPTH`` (64) deep, and a document of more than
   ``MAX_YAML_NODES`` (20,000) values counted with every alias expanded (``*a`` counts all that
   ``&a`` holds, each time; a text counts one more per 100 characters): a "billion laughs"
@@ -27,10 +27,8 @@ hold a value whole: :func:`show` cuts it to a few dozen characters.
 from __future__ import annotations
 
 import math
-import os
 import re
 import reprlib
-import stat
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -38,6 +36,7 @@ import yaml
 from yaml.nodes import MappingNode, Node as YamlNode, ScalarNode, SequenceNode
 
 from sim2real.errors import ConfigError
+from sim2real.input_files import read_regular_bytes
 
 MAX_YAML_BYTES = 256 * 1024  # the largest shipped YAML (a firmware profile) is 10 KB
 MAX_YAML_DEPTH = 64  # as controller JSON; the project's formats nest at most 6 deep
@@ -60,6 +59,12 @@ def show(value: Any) -> str:
     except (ValueError, RecursionError):  # e.g. an int of more digits than str() allows
         text = f"<{type(value).__name__}>"
     return text if len(text) <= 80 else text[:77] + "..."
+
+
+def show_name(text: str) -> str:
+    """A name or path given by the user, quoted: whole up to 255 characters (a file name's
+    limit), cut like :func:`show` beyond (a "path" read from a file may be anything)."""
+    return repr(text) if len(text) <= 255 else show(text)
 
 
 def show_key(key: Any) -> str:
@@ -212,34 +217,11 @@ def _path_to(root: YamlNode | None, target: YamlNode) -> str:
 
 
 def _read_text(path: Path) -> str:
-    """The file's text, refused unread if it is not a regular file or larger than
-    ``MAX_YAML_BYTES``: opened without blocking (a FIFO does not wait for a writer) and
-    checked on the open file, so that nothing can be swapped in between."""
+    """The file's text: a regular file (a FIFO or a device refused unopened, and the opened
+    file checked again: :mod:`sim2real.input_files`) of at most ``MAX_YAML_BYTES``, refused
+    unread if larger; UTF-8 without NUL bytes."""
     source = str(path)
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
-    except IsADirectoryError:
-        raise ConfigError(source, "", "is a directory, not a YAML file") from None
-    except OSError as exc:
-        raise ConfigError(source, "", f"cannot read file: {exc.strerror or exc}") from None
-    try:
-        info = os.fstat(fd)  # the open file's: nothing can be swapped in after the check
-        if stat.S_ISDIR(info.st_mode):
-            raise ConfigError(source, "", "is a directory, not a YAML file")
-        if not stat.S_ISREG(info.st_mode):
-            raise ConfigError(source, "", "not a regular file (a FIFO, socket or device): refused unread")
-        if info.st_size > MAX_YAML_BYTES:
-            raise ConfigError(source, "", f"{info.st_size} bytes is too large for a configuration (at most "
-                              f"{MAX_YAML_BYTES} bytes; the largest shipped one is 10 KB): refused unread")
-        raw = os.read(fd, MAX_YAML_BYTES + 1)  # one read: a regular file this small comes whole
-        while len(raw) <= MAX_YAML_BYTES and (more := os.read(fd, MAX_YAML_BYTES + 1 - len(raw))):
-            raw += more  # (a file that grew since fstat still stops past the bound)
-    except OSError as exc:
-        raise ConfigError(source, "", f"cannot read file: {exc.strerror or exc}") from None
-    finally:
-        os.close(fd)
-    if len(raw) > MAX_YAML_BYTES:
-        raise ConfigError(source, "", f"more than {MAX_YAML_BYTES} bytes is too large for a configuration")
+    raw = read_regular_bytes(path, source, limit=MAX_YAML_BYTES, what="configuration")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -21,7 +21,7 @@ from sim2real.controller.file import Controller
 from sim2real.controller.mapping import ServoMapping, quantize
 from sim2real.controller.policy import Policy
 from sim2real.errors import ConfigError
-from sim2real.hardware.trace import TIMING, Trace, loop_channels, sidecar_path
+from sim2real.hardware.trace import TIMING, Trace, check_joint_angles, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.simulation.model_builder import JointAngles, SimulationUnstable, heading_rad, instability
 from sim2real.simulation.reality import Reality, load_reality, perturbed_model
@@ -96,13 +96,15 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
     if missing:
         raise ConfigError(str(trace_path), "header", f"lacks {len(missing)} column(s) of a {robot.name} trace: "
                           f"{', '.join(missing[:4])}{', ...' if len(missing) > 4 else ''}")
+    check_joint_angles(trace, [(j.name, j.range_rad) for j in robot.joints], str(trace_path))
     times = trace.times
     real = trace.present(names)
     feet_real = trace.feet
     policy = None
     if controller_path is not None:
         policy = Policy(Controller.load(controller_path, robot), robot)
-    suspended = trace.metadata.get("excitation", {}).get("pose") == "suspended"
+    excitation = trace.metadata.get("excitation")
+    suspended = isinstance(excitation, dict) and excitation.get("pose") == "suspended"
     profile.check_batchable()  # its simulation here steps the model only, as evolution's does
     model, _ = perturbed_model(robot, profile, suspended=suspended)  # seed 0, as the simulated bus draws it
     sim, feet_sim = _simulate(robot, times, trace.goals(names), policy, model)
@@ -120,7 +122,7 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
 
 
 def plot(result: dict[str, Any], path: Path | str) -> None:
-    from sim2real.figures import pyplot
+    from sim2real.figures import pyplot, save_figure
 
     plt = pyplot()
 
@@ -143,5 +145,4 @@ def plot(result: dict[str, Any], path: Path | str) -> None:
     fig.supxlabel("time [s]")
     fig.supylabel("joint angle [deg]")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path, dpi=90)

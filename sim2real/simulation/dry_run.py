@@ -21,6 +21,7 @@ from sim2real.errors import BipedError, ConfigError
 from sim2real.hardware.deploy import drive
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.hardware.realtime import RealtimeRequest
+from sim2real.input_files import check_regular_file
 from sim2real.robot import RobotSpec
 from sim2real.robot.validation import Node, load_yaml
 
@@ -87,6 +88,7 @@ def _check_device(dxl_id: int, kind: str, robot: RobotSpec | None, source: str, 
 
 
 def _faults_file(path: Path, robot: RobotSpec | None = None) -> list[tuple[str, int, float]]:
+    check_regular_file(path)  # before load_yaml opens it: a FIFO would block, a device never end
     node = Node(load_yaml(path) or {}, str(path)).mapping(optional=FAULT_KINDS)
     faults = []
     for kind in ("silent", "overload"):
@@ -120,9 +122,13 @@ class SimulatedBusProcess:
 
     def __enter__(self) -> "SimulatedBusProcess":
         self._stderr = tempfile.TemporaryFile(mode="w+")
+        # Its own session: a terminal's Ctrl-C (SIGINT to the whole foreground process group) or
+        # hang-up must reach only this process, which stops the run safely and then the bus by
+        # closing its standard input - a bus killed first leaves nothing to turn torque off on.
         self.proc = subprocess.Popen([sys.executable, "-m", "sim2real.simulation.simbus", *self.args,
                                       "--exit-on-stdin-eof", "--report"],
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._stderr, text=True)
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._stderr, text=True,
+                                     start_new_session=True)
         self.port = self.proc.stdout.readline().strip()
         if not self.port:
             self.proc.wait(timeout=30)
@@ -189,6 +195,12 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     truth = simbus.ground_truth
     if "distance_m" not in truth:
         raise BipedError("the simulated bus ended without its report (it crashed?)")
+    stalls = truth.get("stalls") or {"count": 0}
+    if stalls["count"] and report.stop_reason.startswith("lost communication"):
+        note = (f"the simulated bus, not the loop, fell behind: this computer held it up {stalls['count']} time(s), "
+                f"up to {stalls['longest_ms']:.0f} ms (first at {stalls['first_at_s']:.1f} s after it started)")
+        report.stop_notes.append(note)
+        log(f"note: {note}")
     summary = report.summary()
     if truth.get("unstable"):  # the loop ran and stopped; what the robot did is no result
         from sim2real.simulation.model_builder import SimulationUnstable  # MuJoCo: the simulated bus had it
@@ -200,9 +212,9 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
             "ticks": report.ticks,
             "overruns": report.overruns, "bus_errors": report.bus_errors, "retries": report.retries,
             "missed_ticks": report.missed_ticks, "corrupt_replies": report.corrupt_replies,
-            "stop_reason": report.stop_reason, "stop_notes": report.stop_notes, "torque_off": summary["torque_off"],
+            "stop_reason": report.stop_reason, "stop_signal": report.stop_signal, "stop_notes": report.stop_notes, "torque_off": summary["torque_off"],
             "reality": profile.name, "trace": str(trace_path) if trace_path and Path(trace_path).exists() else None,
             "simulated_s": truth["simulated_s"], "fell_after_stop": truth.get("fell_after_stop"),
             "simulated_s_after_stop": truth.get("simulated_s_after_stop"),
             **{k: v for k, v in summary.items() if k.startswith(("compute", "jitter"))},
-            "realtime": summary["realtime"], "simbus_realtime": truth.get("realtime")}
+            "realtime": summary["realtime"], "simbus_realtime": truth.get("realtime"), "simbus_stalls": stalls}

@@ -38,9 +38,10 @@ from typing import Any, Callable, Sequence
 import mujoco
 import numpy as np
 
-from sim2real.errors import ConfigError
+from sim2real.atomic_json import write_text_atomic
 from sim2real.controller.mapping import ServoMapping
-from sim2real.hardware.trace import Trace
+from sim2real.errors import ConfigError
+from sim2real.hardware.trace import Trace, check_joint_angles, sidecar_path
 from sim2real.robot import RobotSpec
 from sim2real.simulation.model_builder import JointAngles, finished_spec
 from sim2real.simulation.reality import NOMINAL, Perturbation, apply_to_model, sample
@@ -82,10 +83,14 @@ class Segment:
 
 def check_traces(paths: Sequence[Path | str], robot: RobotSpec, warn: Callable[[str], None] = print) -> list[Trace]:
     """Read the traces and refuse, one line each, what cannot be fitted: another robot's
-    trace, one without the robot's joints, too short, without excitation, or not hung."""
+    trace, one without the robot's joints or with angles it cannot take, too short, without
+    excitation, or not of the hung robot - including every trace whose sidecar does not say
+    how the robot was held (a `biped run` trace of a walk: the model is fitted hung, and
+    a walking robot's joints carry its weight and hit the floor, so its servo parameters
+    would come out wrong, with nothing to say so)."""
     traces = []
     for path in paths:
-        trace = Trace.read(path)  # refuses NaNs, text that is not a trace; drops a cut last row (a note)
+        trace = Trace.read(path)  # refuses NaNs, text that is not a trace; notes a cut last row and gaps
         for note in trace.notes:
             warn(f"warning: {note}")
         source = str(path)
@@ -96,6 +101,7 @@ def check_traces(paths: Sequence[Path | str], robot: RobotSpec, warn: Callable[[
         if missing:
             raise ConfigError(source, "header", f"lacks {len(missing)} channel(s) of robot {robot.name}, "
                               f"e.g. {missing[0]!r}: a trace of another robot?")
+        check_joint_angles(trace, [(j.name, j.range_rad) for j in robot.joints], source)
         if trace.times[-1] - trace.times[0] < MIN_SECONDS:
             raise ConfigError(source, "", f"too short to fit: {trace.times[-1] - trace.times[0]:.2f} s "
                               f"(at least {MIN_SECONDS:g} s; `biped excite` records about 2 minutes)")
@@ -103,21 +109,37 @@ def check_traces(paths: Sequence[Path | str], robot: RobotSpec, warn: Callable[[
         if moved.max() < MIN_EXCITATION_DEG:
             raise ConfigError(source, "", f"no excitation: no goal moves more than {moved.max():.2f} deg "
                               "(record one with `biped excite`)")
-        pose = trace.metadata.get("excitation", {}).get("pose")
+        excitation = trace.metadata.get("excitation")
+        pose = excitation.get("pose") if isinstance(excitation, dict) else None
         if pose is None:
-            warn(f"warning: {source}: not a `biped excite` trace; fitted as if the robot hung by its pelvis")
-        elif pose != "suspended":
+            raise ConfigError(source, "excitation.pose", "not a `biped excite` trace: its sidecar does not say that "
+                              "the robot hung by its pelvis, and the fit replays it on the hung model (a walk's "
+                              "joints carry the weight and meet the floor: fitted as hung, the servo parameters "
+                              "would come out wrong). Record one with `biped excite`; compare a walk with "
+                              "`biped compare`")
+        _check_segments(excitation.get("segments", []), str(sidecar_path(source)))
+        if pose != "suspended":
             raise ConfigError(source, "excitation.pose", f"{pose!r}: only traces of the hung robot "
                               "(`biped excite --pose suspended`) can be fitted: standing, the trunk's "
                               "position and speed are not measured, so no replay can start where the "
                               "robot was (use a standing trace with `biped compare`)")
-        gaps = np.diff(trace.times)
-        if gaps.max() > 5 * np.median(gaps):
-            k = int(np.argmax(gaps))
-            warn(f"warning: {source}: {gaps[k] * 1e3:.0f} ms without a row at {trace.times[k]:.2f} s "
-                 f"(the tick is {np.median(gaps) * 1e3:.1f} ms); the goal is held across it")
         traces.append(trace)
     return traces
+
+
+def _check_segments(parts: Any, source: str) -> None:
+    """The sidecar's excitation segments as `biped excite` writes them: {group, kind, joints,
+    start, end} with whole ticks, start before end, each joint a name."""
+    if not isinstance(parts, list):
+        raise ConfigError(source, "excitation.segments", "must be a list of segments")
+    for i, part in enumerate(parts):
+        ok = (isinstance(part, dict) and all(isinstance(part.get(k), str) for k in ("group", "kind"))
+              and all(type(part.get(k)) is int and part[k] >= 0 for k in ("start", "end"))
+              and part["start"] < part["end"]
+              and isinstance(part.get("joints", []), list) and all(isinstance(j, str) for j in part.get("joints", [])))
+        if not ok:
+            raise ConfigError(source, f"excitation.segments[{i}]", "must be {group, kind, joints, start, end} with "
+                              "0 <= start < end in ticks, as `biped excite` writes it")
 
 
 def segments(traces: Sequence[Trace]) -> list[Segment]:
@@ -404,10 +426,11 @@ def write_report(folder: Path, fit: Fit, opt_params, result, residual_fn, joint_
     from mujoco import sysid
 
     folder.mkdir(parents=True, exist_ok=True)
+    # save_path=None: it would write report.html itself, in place; written whole here instead
     report = sysid.default_report(fit.sequences, fit.params, opt_params, residual_fn, result,
-                                  title=f"System identification: {fit.robot.name}", save_path=folder,
+                                  title=f"System identification: {fit.robot.name}", save_path=None,
                                   build_model=fit.build, generate_videos=False)
-    report.save(folder / "report.html")
+    write_text_atomic(folder / "report.html", report.build())
     final_fit, final_params, final_fn = joint_fit or (fit, opt_params, residual_fn)
     plot_overlay(final_fit, fit.nominal_params(), final_params, final_fn, folder / "overlay.png", nominal_fn=residual_fn)
 
@@ -416,7 +439,7 @@ def plot_overlay(fit: Fit, before, after, residual_fn, path: Path, nominal_fn=No
     """Recorded and simulated angles of each excited group's segments, with the nominal
     (``before``, through ``nominal_fn`` if its parameters differ in layout) and the identified
     model, one row a segment (its first moving joint)."""
-    from sim2real.figures import pyplot
+    from sim2real.figures import pyplot, save_figure
 
     plt = pyplot()
 
@@ -438,5 +461,4 @@ def plot_overlay(fit: Fit, before, after, residual_fn, path: Path, nominal_fn=No
     axes[0, 0].legend(loc="upper right", fontsize=8, ncol=3)
     axes[-1, 0].set_xlabel("time in segment [s]")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path, dpi=90)

@@ -39,7 +39,7 @@ import numpy as np
 
 from sim2real.errors import ConfigError
 from sim2real.robot.loading import exists
-from sim2real.robot.validation import Node, load_yaml, show
+from sim2real.robot.validation import Node, load_yaml, show, show_name
 from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing
 from sim2real.simulation.model_builder import CLOSED_PLAY_RAD, JointAngles, build_model
@@ -288,7 +288,7 @@ def load_reality(name_or_path: str | Path | dict | Reality | None, *, chain: tup
             candidate = reality_dir() / f"{name_or_path}.yaml"
             if not exists(candidate):
                 known = ", ".join(sorted(p.stem for p in reality_dir().glob("*.yaml")))
-                raise FileNotFoundError(f"unknown reality profile {show(str(name_or_path))} (known: nominal, {known}; "
+                raise FileNotFoundError(f"unknown reality profile {show_name(str(name_or_path))} (known: nominal, {known}; "
                                         "or a path)")
             path = candidate
         source = str(path)

@@ -18,6 +18,7 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
 
 import mujoco  # noqa: E402
 
+from sim2real.atomic_json import atomic_output, write_bytes_atomic  # noqa: E402
 from sim2real.errors import BipedError  # noqa: E402
 
 
@@ -51,11 +52,32 @@ def save_video(path: Path, frames: list[np.ndarray], frame_s: float) -> None:
     except ImportError as exc:
         raise BipedError("writing videos needs imageio: pip install 'servo-biped-evolve[plot]'") from exc
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.suffix.lower() == ".gif":
-        iio.imwrite(path, np.stack(frames), duration=frame_s * 1000, loop=0)
-    else:
-        iio.imwrite(path, np.stack(frames), fps=round(1.0 / frame_s), codec="libx264", macro_block_size=8)
+    if path.suffix.lower() == ".gif":  # made in memory: only the one write below can meet a full disk
+        write_bytes_atomic(path, iio.imwrite("<bytes>", np.stack(frames), extension=".gif",
+                                             duration=frame_s * 1000, loop=0))
+        return
+    with atomic_output(path) as tmp:  # ffmpeg writes to a path: a temporary one beside, renamed when whole
+        iio.imwrite(tmp, np.stack(frames), fps=round(1.0 / frame_s), codec="libx264", macro_block_size=8)
+        _check_video(tmp, len(frames))
+
+
+def _check_video(path: Path, frames: int) -> None:
+    """Raise ``OSError`` unless the video at ``path`` holds ``frames`` frames: imageio-ffmpeg
+    does not look at ffmpeg's exit status, so an encoder that could not write (a full disk)
+    would otherwise leave an empty or cut video behind a success."""
+    import errno
+
+    import imageio_ffmpeg
+
+    try:
+        found, _ = imageio_ffmpeg.count_frames_and_secs(str(path))
+    except (RuntimeError, OSError):
+        found = 0
+    if found != frames:
+        free = os.statvfs(path.parent)
+        if free.f_bavail * free.f_frsize < 1 << 20:  # under 1 MiB left: what ffmpeg met, most likely
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        raise OSError(errno.EIO, f"ffmpeg wrote {found} of {frames} frames (its messages above say why)")
 
 
 def save_image(path: Path, image: np.ndarray) -> None:
@@ -63,5 +85,5 @@ def save_image(path: Path, image: np.ndarray) -> None:
         import imageio.v3 as iio
     except ImportError as exc:
         raise BipedError("writing images needs imageio: pip install 'servo-biped-evolve[plot]'") from exc
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    iio.imwrite(path, image)
+    path = Path(path)
+    write_bytes_atomic(path, iio.imwrite("<bytes>", image, extension=path.suffix.lower()))

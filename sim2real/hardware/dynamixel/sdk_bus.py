@@ -16,11 +16,16 @@ Works around the SDK 4.1.0 pitfalls listed in DESIGN.md section 6, in this layer
   (a sync read repeated under load) was read as the answer to the next question - a 4-byte
   position's low byte decoded as a Hardware Error Status, or a 2-byte load's status read as
   a 4-byte position (CRC bytes and all).  Such packets are now skipped, in reads and sync
-  reads alike.
+  reads alike;
+* an exchange that ends in an exception (the serial device gone, or any exception raised
+  between a packet sent and its reply) left the SDK's port flagged busy, and it then refused
+  every later packet, the torque-off included.  Each exchange here clears the flag and the
+  input buffer on the way out, and a serial error becomes a :class:`CommunicationError`.
 """
 
 from __future__ import annotations
 
+import functools
 import time
 
 import dynamixel_sdk as sdk
@@ -59,6 +64,30 @@ class _Port(sdk.PortHandler):
         return self.ser.read(length)
 
 
+def _exchange(method):
+    """One exchange on the wire: whatever ends it, the port is free for the next one."""
+
+    @functools.wraps(method)
+    def exchange(self: "DynamixelBus", *args, **kwargs):
+        try:
+            return method(self, *args, **kwargs)
+        except CommunicationError:
+            raise
+        except BaseException as exc:
+            self.port.is_using = False
+            try:  # a reply half read would be taken for the start of the next one
+                self.port.clearPort()
+            except Exception:  # noqa: BLE001 - the port may be gone: the error below says so
+                pass
+            if isinstance(exc, OSError):  # pyserial's SerialException: the device went away
+                raise CommunicationError([], f"{self.port_name}: {exc}") from exc
+            raise
+        finally:
+            self.port.is_using = False
+
+    return exchange
+
+
 class DynamixelBus(Bus):
     def __init__(self, port: str, baud: int, robot: RobotSpec | None = None, protocol: float | None = None,
                  return_delay_us: float = 0.0):
@@ -91,6 +120,7 @@ class DynamixelBus(Bus):
         if error:
             raise status_error(ids[0], error, value)
 
+    @_exchange
     def ping(self, dxl_id: int) -> int:
         model, result, error = self.packets.ping(self.port, dxl_id)
         self._check([dxl_id], result, error & ERROR_NUMBER_MASK, "ping")
@@ -108,6 +138,7 @@ class DynamixelBus(Bus):
                 first = P2.PKT_PARAMETER0 + 1
                 return packet[first:first + size], result, packet[P2.PKT_ERROR]
 
+    @_exchange
     def read(self, dxl_id: int, address: int, size: int) -> int:
         if self.protocol == 1.0:
             data, result, error = self.packets.readTxRx(self.port, dxl_id, address, size)
@@ -120,6 +151,7 @@ class DynamixelBus(Bus):
         self._check([dxl_id], result, error, f"read {size} bytes at {address}", value)
         return value
 
+    @_exchange
     def write(self, dxl_id: int, address: int, size: int, value: int) -> None:
         data = list(int(value).to_bytes(size, "little"))
         if self.protocol == 1.0:
@@ -131,6 +163,7 @@ class DynamixelBus(Bus):
                 _, result, error = self._status(dxl_id, 0)
         self._check([dxl_id], result, error, f"write at {address}")
 
+    @_exchange
     def sync_read(self, ids: list[int], address: int, size: int) -> dict[int, int]:
         if self.protocol == 1.0:  # no SYNC_READ in protocol 1.0
             return {i: self.read(i, address, size) for i in ids}
@@ -169,6 +202,7 @@ class DynamixelBus(Bus):
             raise status_error(dxl_id, error, values[dxl_id])
         return values
 
+    @_exchange
     def sync_write(self, address: int, size: int, values: dict[int, int]) -> None:
         group = sdk.GroupSyncWrite(self.port, self.packets, address, size)  # both protocols have it
         for dxl_id, value in values.items():
@@ -177,6 +211,7 @@ class DynamixelBus(Bus):
         if result != sdk.COMM_SUCCESS:
             raise CommunicationError(list(values), f"sync write: {self.packets.getTxRxResult(result)}")
 
+    @_exchange
     def reboot(self, dxl_id: int) -> None:
         result, error = self.packets.reboot(self.port, dxl_id)
         self._check([dxl_id], result, error & ERROR_NUMBER_MASK, "reboot")

@@ -46,6 +46,7 @@ class EmulatedChain:
         self.registered: dict[int, tuple[int, bytes]] = {}  # REG_WRITE held for ACTION
         self.clock = clock
         self._last = clock()
+        self.heard_at = clock()  # the last instruction packet, for the servos' Bus Watchdog
         self.lock = threading.Lock()
 
     def _advance(self) -> None:
@@ -58,8 +59,13 @@ class EmulatedChain:
 
     def tick(self) -> None:
         """Move the devices on while no instruction arrives (the simulated bus keeps its
-        physics in step with the wall clock this way, on the serving thread)."""
+        physics in step with the wall clock this way, on the serving thread).  A servo whose
+        Bus Watchdog expires stops first (:meth:`MockDevice.watch`): checked here only, when
+        the wire has been idle, so that the simulator's own stall never trips it."""
         with self.lock:
+            silent_s = self.clock() - self.heard_at
+            for device in self.devices.values():
+                device.watch(silent_s)
             self._advance()
 
     def parser(self):
@@ -77,6 +83,9 @@ class EmulatedChain:
     def handle(self, dxl_id: int, inst: int, params: bytes) -> bytes:
         """Replies (status packets, concatenated) to one instruction packet."""
         with self.lock:
+            # every servo on the wire hears every packet; the e-manual's watchdog counts "all the
+            # Instruction Packet" and does not say whether another ID's feed it: here they do
+            self.heard_at = self.clock()
             self._advance()
             if self.protocol == 1.0:
                 return self._handle_p1(dxl_id, inst, params)
@@ -188,6 +197,9 @@ def _read_targets(inst: int, params: bytes) -> list[tuple[int, int, int]]:
             for k in range(0, len(params) - 4, 5)]  # id, address, size for each
 
 
+STALL_S = 0.05  # a serving loop held up this long [s] makes replies late enough to count as lost (0.1 s)
+
+
 class PtyServer:
     """Serves an :class:`EmulatedChain` on a new pseudo-terminal; ``port`` is its path.
 
@@ -197,6 +209,10 @@ class PtyServer:
     without it they leave at once.  Between instructions the chain is ticked every
     ``idle_s``.  One thread does all of it: a second thread stepping the physics would hold
     Python's GIL for milliseconds and make replies late.
+
+    ``stalls`` lists each time the serving loop was held up longer than :data:`STALL_S`
+    (when, since the start [s], and how long [s]): a runtime that reports lost communication
+    then was let down by this computer, not by its loop.
     """
 
     def __init__(self, chain: EmulatedChain, baud: int | None = None, drop_rate: float = 0.0,
@@ -213,6 +229,7 @@ class PtyServer:
         self._slave = slave
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._serve, daemon=True)
+        self.stalls: list[tuple[float, float]] = []  # (since the start, length) [s]; appended by the serving thread
 
     def __enter__(self) -> "PtyServer":
         self._thread.start()
@@ -232,7 +249,12 @@ class PtyServer:
 
     def _serve(self) -> None:
         parser = self.chain.parser()
+        start = last = time.monotonic()
         while not self._stop.is_set():
+            now = time.monotonic()
+            if now - last > STALL_S + self.idle_s:
+                self.stalls.append((last - start, now - last))
+            last = now
             ready, _, _ = select.select([self.master], [], [], self.idle_s)
             if not ready:
                 self.chain.tick()

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 import threading
@@ -90,16 +91,35 @@ def serve(args: argparse.Namespace) -> int:
             print(f"simbus: {grant.describe()}", file=sys.stderr, flush=True)
         for timer in timers:
             timer.start()
+        warned = 0
         try:
             while not done.wait(0.2):
-                pass
+                warned = _warn_of_stalls(server.stalls, warned)
         except KeyboardInterrupt:
             pass
         for timer in timers:
             timer.cancel()
+        _warn_of_stalls(server.stalls, warned)
     if args.report:
-        print(json.dumps({**physics.ground_truth(), "realtime": grant.summary()}), flush=True)
+        print(json.dumps({**physics.ground_truth(), "realtime": grant.summary(),
+                          "stalls": stall_summary(server.stalls)}), flush=True)
     return 0
+
+
+def stall_summary(stalls: list[tuple[float, float]]) -> dict[str, float | int | None]:
+    """How often and how long the serving loop was held up (see ``PtyServer.stalls``)."""
+    return {"count": len(stalls), "longest_ms": max((d for _, d in stalls), default=0.0) * 1e3,
+            "first_at_s": stalls[0][0] if stalls else None}
+
+
+def _warn_of_stalls(stalls: list[tuple[float, float]], warned: int) -> int:
+    """Say on standard error, as it happens, that this computer held the simulated bus up: a
+    runtime on the other end of the port may then report lost communication that no real
+    robot would have caused.  Returns how many stalls have been reported."""
+    for at_s, length_s in stalls[warned:len(stalls)]:
+        print(f"simbus: warning: the simulated bus was held up {length_s * 1e3:.0f} ms at {at_s:.1f} s (this "
+              "computer was busy: replies were late)", file=sys.stderr, flush=True)
+    return len(stalls)
 
 
 def arm_faults(spec: str | None, chain: "EmulatedChain", physics: "PhysicsChain",
@@ -119,9 +139,15 @@ def arm_faults(spec: str | None, chain: "EmulatedChain", physics: "PhysicsChain"
 
 
 def _set_on_eof(done: threading.Event, physics: "PhysicsChain") -> None:
+    # Raw reads of the descriptor, not sys.stdin: a daemon thread blocked inside the buffered
+    # reader holds its lock, and the interpreter's exit (after a SIGTERM) then aborted with
+    # "Fatal Python error: _enter_buffered_busy".
+    pending = b""
     try:
-        while line := sys.stdin.buffer.readline():
-            if line.decode(errors="replace").strip() == END_OF_RUN:
+        while chunk := os.read(sys.stdin.fileno(), 4096):
+            pending += chunk
+            *lines, pending = pending.split(b"\n")
+            if any(line.decode(errors="replace").strip() == END_OF_RUN for line in lines):
                 physics.mark_end_of_run()
     except (OSError, ValueError):
         pass
