@@ -313,7 +313,7 @@ BAD_REALITIES = [
     ("supply_sag: 2.0", "supply_sag", "plausible 0 to 1"),
     ("stribeck_rad_s: 0.0", "stribeck_rad_s", "plausible 0.001 to 10"),
     ("com_offset_m: [0.0, 5.0]", "com_offset_m", "plausible 0 to 0.1 m"),
-    ("heading_drift_deg_s: [-100, 100]", "heading_drift_deg_s", "plausible -10 to 10"),
+    ("heading_drift_deg_s: [-1000, 1000]", "heading_drift_deg_s", "plausible -180 to 180"),
     ("foot_flip: 0.9", "foot_flip", "plausible 0 to 0.5"),
     ("latency_ms: 1.0e+9", "latency_ms", "plausible 0 to 500 ms"),
     ("joints: {right_knee: {kp_scale: 50.0}}", "joints.right_knee.kp_scale", "plausible 0.05 to 10"),

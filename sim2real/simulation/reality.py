@@ -95,7 +95,7 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
     "joint_noise_deg": (0.0, 10.0),
     "up_noise": (0.0, 0.5),
     "foot_flip": (0.0, 0.5),
-    "heading_drift_deg_s": (-10.0, 10.0),
+    "heading_drift_deg_s": (-180.0, 180.0),  # a calibrated gyro drifts < 1 deg/s; a broken one, tested, 90
     "stribeck_nm": (0.0, 5.0),
     "stribeck_rad_s": (0.001, 10.0),  # it divides: never 0
     "load_friction": (0.0, 1.0),
