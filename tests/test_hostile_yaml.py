@@ -308,7 +308,7 @@ def test_the_human_character_scaled_to_nonsense_is_refused(tmp_path):
 
 BAD_REALITIES = [
     ("latency_ticks: 1.0e+6", "latency_ticks", "plausible 0 to 10 ticks"),
-    ("armature_scale: 1.0e+300", "armature_scale", "plausible 0.02 to 20"),
+    ("armature_scale: 1.0e+300", "armature_scale", "plausible 0.01 to 20"),
     ("backlash_deg: 90", "backlash_deg", "plausible 0 to 10 deg"),
     ("supply_sag: 2.0", "supply_sag", "plausible 0 to 1"),
     ("stribeck_rad_s: 0.0", "stribeck_rad_s", "plausible 0.001 to 10"),
@@ -316,7 +316,7 @@ BAD_REALITIES = [
     ("heading_drift_deg_s: [-1000, 1000]", "heading_drift_deg_s", "plausible -180 to 180"),
     ("foot_flip: 0.9", "foot_flip", "plausible 0 to 0.5"),
     ("latency_ms: 1.0e+9", "latency_ms", "plausible 0 to 500 ms"),
-    ("joints: {right_knee: {kp_scale: 50.0}}", "joints.right_knee.kp_scale", "plausible 0.05 to 10"),
+    ("joints: {right_knee: {kp_scale: 50.0}}", "joints.right_knee.kp_scale", "plausible 0.01 to 10"),
     ("kp_scale: 1.0e308", "kp_scale", "write 1.0e+308"),
     ("kp_scale: .inf", "kp_scale", "finite"),
     ("description: [&a [1, 2], *a]", "description", "must be a non-empty string"),
@@ -345,7 +345,7 @@ def test_ranges_centred_beyond_plausible_are_refused(tmp_path):
     path = tmp_path / "ranges.yaml"
     path.write_text(f"kp_scale: [0.5, 2.0]\ncentre: {tmp_path / 'fit.yaml'}\n")
     with pytest.raises(ConfigError, match=r"ranges.yaml: kp_scale: around its centre fit this is 4 to 16, outside "
-                                          r"the plausible 0.05 to 10"):
+                                          r"the plausible 0.01 to 10"):
         load_reality(path)
 
 
