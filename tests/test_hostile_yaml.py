@@ -319,6 +319,7 @@ BAD_REALITIES = [
     ("joints: {right_knee: {kp_scale: 50.0}}", "joints.right_knee.kp_scale", "plausible 0.01 to 10"),
     ("kp_scale: 1.0e308", "kp_scale", "write 1.0e+308"),
     ("kp_scale: .inf", "kp_scale", "finite"),
+    ("kp_scale: '1.2'", "kp_scale", "'1.2' is text (in quotes?), not a number: write 1.2 without them"),
     ("description: [&a [1, 2], *a]", "description", "must be a non-empty string"),
 ]
 

@@ -105,6 +105,9 @@ def _not_a_number(value: Any, kind: str) -> str:
             if not (whole.is_integer() and abs(whole) < 1e15):
                 return f"must be an integer, got {show(value)} (text to YAML 1.1)"
             written = str(int(whole))
+        if "e" not in value.lower():  # a plain number is a string only in quotes
+            plain = written if kind == "an integer" else value.strip()
+            return f"{show(value)} is text (in quotes?), not a number: write {plain} without them"
         return f"{show(value)} is text to YAML 1.1, not a number: write {written}"
     if isinstance(value, bool):
         return f"must be {kind}, got {value!r} (YAML reads yes/no/on/off as true/false)"
