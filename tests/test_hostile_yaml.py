@@ -26,7 +26,7 @@ from evolve.config import load_evolve_config
 from evolve.limits import MAX_EPISODE_S, MAX_POPULATION
 from evolve.run import Run
 from sim2real.cli.args import MAX_REPLAY_S
-from sim2real.errors import BipedError, ConfigError
+from sim2real.errors import ConfigError
 from sim2real.robot import load_robot
 from sim2real.robot.paths import data_root
 from sim2real.robot.profiles import available_profiles
@@ -647,7 +647,3 @@ def test_a_dry_run_whose_simulated_robot_went_unstable_is_no_result(monkeypatch,
                                                  r"simulated robot went numerically unstable"):
         module.dry_run(CONTROLLER, duration_s=0.2, ramp_s=0.1, log=lambda line: None, simbus_realtime=["--no-realtime"],
                        reality="default")
-
-
-def test_a_config_error_is_a_biped_error():  # the CLI's one-line exit 2 for every refusal here
-    assert issubclass(ConfigError, BipedError)
