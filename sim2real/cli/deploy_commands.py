@@ -14,7 +14,7 @@ from sim2real.cli.args import (
     check_baud,
     check_duration,
     output_file,
-    positive_finite_float,
+    positive_float_at_most,
     print_result,
     reality_name,
     realtime_flags,
@@ -26,11 +26,18 @@ from sim2real.cli.args import (
 )
 from sim2real.errors import UsageError
 from sim2real.hardware.deploy import LOST_AFTER_S
-from sim2real.hardware.trace import sidecar_path
+from sim2real.hardware.trace import MAX_TIME_S, sidecar_path
 from sim2real.robot import DEFAULT_ROBOT, load_robot
 from sim2real.simulation.simbus import service as simbus_service
 
 TRACE_FILE = output_file(exclude=(".json",))  # a trace's sidecar takes its name with .json
+# A run's length: at most what a trace's reader accepts as a loop's time (a week; longer is
+# a slip of units, and 1e308 s overflowed the tick count); without --duration `run` goes on
+# until stopped.
+RUN_SECONDS = positive_float_at_most(MAX_TIME_S, "a week: run without --duration to go on until stopped")
+# Communication counts as lost after at most a minute without one good reply: a robot left
+# that long without a read is not being controlled.
+LOST_AFTER_MS = positive_float_at_most(60_000.0, "a minute")
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -44,12 +51,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     where.add_argument("--bus", choices=["mock", "sim"],
                        help="mock: an in-memory mock bus; sim (the default without --port): the simulated bus")
     run.add_argument("--baud", type=baud_rate, help="baud rate of the real bus (default: the robot config's)")
-    run.add_argument("--duration", type=positive_finite_float,
+    run.add_argument("--duration", type=RUN_SECONDS,
                      help="seconds to run (default: until Ctrl-C; 10 on the simulated bus)")
     run.add_argument("--trace", type=TRACE_FILE, help="write a trace CSV (+ JSON sidecar) here")
     run.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                      help="switch a control module off (repeatable)")
-    run.add_argument("--lost-after-ms", type=positive_finite_float, default=LOST_AFTER_S * 1e3, metavar="MS",
+    run.add_argument("--lost-after-ms", type=LOST_AFTER_MS, default=LOST_AFTER_S * 1e3, metavar="MS",
                      help="stop when no read has succeeded for this long (default %(default).0f ms; single "
                      "missed replies are retried and their ticks hold the last goals)")
     run.add_argument("--json", action="store_true", help="print the report as one JSON object")
@@ -66,7 +73,7 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
                          "falls come from the simulator's ground truth.")
     dry.add_argument("controller", type=Path)
     dry.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
-    dry.add_argument("--duration", type=positive_finite_float, default=10.0, help="seconds of the loop (default 10)")
+    dry.add_argument("--duration", type=RUN_SECONDS, default=10.0, help="seconds of the loop (default 10)")
     dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE "
                      "or a YAML file of them")
     dry.add_argument("--reality", type=reality_name, metavar="PROFILE",
