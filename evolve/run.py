@@ -162,18 +162,15 @@ class Run:
         if another works there)."""
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
-        lock = RunLock.acquire(out)
-        try:
+        def create() -> "Run":
             if (out / "checkpoint.json.gz").exists():
                 raise FileExistsError(f"{out} already holds a run; use --resume to continue it or another --out")
             write_text_atomic(out / "config.yaml", config.to_yaml())
             run = cls(config, out, log=log, **backend)
             write_text_atomic(out / "stats.csv", _csv_text([run.columns]))
-        except BaseException:
-            lock.release()
-            raise
-        run.lock = lock
-        return run
+            return run
+
+        return cls._locked(out, create)
 
     @classmethod
     def resume(cls, out: Path, generations: int | None = None, threads: int | None = None,
@@ -182,9 +179,14 @@ class Run:
         out = Path(out)
         if not (out / "checkpoint.json.gz").exists():
             raise FileNotFoundError(f"{out} has no checkpoint.json.gz to resume")
+        return cls._locked(out, lambda: cls._resume(out, generations, threads, log, **backend))
+
+    @staticmethod
+    def _locked(out: Path, build: Callable[[], "Run"]) -> "Run":
+        """``build()``'s run, holding the folder's lock (released again if building fails)."""
         lock = RunLock.acquire(out)
         try:
-            run = cls._resume(out, generations, threads, log, **backend)
+            run = build()
         except BaseException:
             lock.release()
             raise

@@ -355,17 +355,19 @@ class _NonFinite:
         return self.literal
 
 
-class _DuplicateKey(Exception):
-    pass
+class DuplicateKey(Exception):
+    """A JSON object names one key twice (``args[0]``: the key)."""
 
 
-def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+def unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """``object_pairs_hook`` for ``json.loads``: a key given twice in one object raises
+    :class:`DuplicateKey` instead of the last one silently winning."""
     obj = dict(pairs)
     if len(obj) != len(pairs):
         seen: set[str] = set()
         for key, _ in pairs:
             if key in seen:
-                raise _DuplicateKey(key)
+                raise DuplicateKey(key)
             seen.add(key)
     return obj
 
@@ -399,11 +401,11 @@ def decode(raw: bytes, source: str) -> Any:
         raise ConfigError(source, "", f"JSON nested {depth} levels deep (line {line}); "
                           f"a controller nests at most {MAX_DEPTH}")
     try:
-        return json.loads(text, parse_constant=_NonFinite, object_pairs_hook=_unique_keys)
+        return json.loads(text, parse_constant=_NonFinite, object_pairs_hook=unique_keys)
     except json.JSONDecodeError as exc:
         raise ConfigError(source, "", f"not valid JSON (truncated?): {exc.msg} (line {exc.lineno} "
                           f"column {exc.colno})") from None
-    except _DuplicateKey as exc:
+    except DuplicateKey as exc:
         raise ConfigError(source, "", f"key {_show(exc.args[0])} appears twice in one object "
                           "(JSON keys must be unique)") from None
     except RecursionError:  # not reached after the depth scan; kept as the last guard

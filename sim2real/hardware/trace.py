@@ -322,27 +322,11 @@ def check_joint_angles(trace: "Trace", joints: Sequence[tuple[str, tuple[float, 
                                   "range_deg): not an angle this robot takes")
 
 
-class _DuplicateKey(Exception):
-    pass
-
-
-def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    """``object_pairs_hook``: a key given twice in one object is refused, as controller JSON's."""
-    obj = dict(pairs)
-    if len(obj) != len(pairs):
-        seen: set[str] = set()
-        for key, _ in pairs:
-            if key in seen:
-                raise _DuplicateKey(key)
-            seen.add(key)
-    return obj
-
-
 def _read_sidecar(path: Path, notes: list[str]) -> dict[str, Any]:
     """The sidecar's JSON object, read as controller files are: a regular file of at most
     ``MAX_SIDECAR_BYTES`` (:mod:`sim2real.input_files`), brackets nested at most as deep as a
     controller's (scanned before decoding), no key twice in one object."""
-    from sim2real.controller.file import MAX_DEPTH, nesting_depth  # no MuJoCo there either
+    from sim2real.controller.file import MAX_DEPTH, DuplicateKey, nesting_depth, unique_keys  # no MuJoCo there either
 
     sidecar = sidecar_path(path)
     if not sidecar.exists():
@@ -355,8 +339,8 @@ def _read_sidecar(path: Path, notes: list[str]) -> dict[str, Any]:
         raise ConfigError(source, "", f"not a trace sidecar: JSON nested {depth} levels deep (line {line}); at most "
                           f"{MAX_DEPTH}")
     try:
-        meta = json.loads(raw.decode("utf-8"), object_pairs_hook=_unique_keys)
-    except _DuplicateKey as exc:
+        meta = json.loads(raw.decode("utf-8"), object_pairs_hook=unique_keys)
+    except DuplicateKey as exc:
         key = exc.args[0] if len(exc.args[0]) <= 40 else exc.args[0][:37] + "..."
         raise ConfigError(source, "", f"key {key!r} appears twice in one object (JSON keys must be unique)") from None
     except ValueError as exc:  # not UTF-8, not JSON, an integer of thousands of digits
