@@ -145,15 +145,16 @@ REPLAY = {"view": cmd_view_controller, "render": cmd_render_controller, "strip":
 def resolve_config(name: str) -> Path:
     from sim2real.input_files import check_regular_file
     from sim2real.robot.paths import data_root
+    from sim2real.robot.validation import show_name
 
     path = Path(name)
     if os.path.lexists(path):
         return check_regular_file(path)  # a FIFO would block the read, a device never end
     candidate = data_root() / "configs" / "evolve" / f"{name}.yaml"
-    if candidate.exists():
+    if os.path.exists(candidate):  # not Path.exists: a name too long for the system raises there
         return candidate
     known = ", ".join(sorted(p.stem for p in (data_root() / "configs" / "evolve").glob("*.yaml")))
-    raise FileNotFoundError(f"unknown evolution config {name!r} (known: {known}; or give a path)")
+    raise FileNotFoundError(f"unknown evolution config {show_name(name)} (known: {known}; or give a path)")
 
 
 def check_evolve(args: argparse.Namespace) -> None:

@@ -367,6 +367,18 @@ def test_a_loop_through_two_reality_files_is_refused_naming_the_chain(tmp_path, 
     assert str(err.value) == "b.yaml: centre: a cycle of centres: a.yaml -> b.yaml -> a.yaml"
 
 
+def test_a_relative_centre_is_read_beside_the_file_that_names_it(tmp_path, monkeypatch):
+    """From another working folder, as a user runs `biped eval --reality robots/mine/ranges.yaml`."""
+    folder = tmp_path / "robots" / "mine"
+    folder.mkdir(parents=True)
+    (folder / "fit.yaml").write_text("kp_scale: 0.8\n")
+    (folder / "ranges.yaml").write_text("kp_scale: [0.9, 1.1]\ncentre: fit.yaml\n")
+    monkeypatch.chdir(tmp_path)
+    reality = load_reality("robots/mine/ranges.yaml")
+    assert reality.centre is not None and reality.centre.name == "fit"
+    assert reality.ranges["kp_scale"] == pytest.approx((0.72, 0.88))
+
+
 def test_a_long_chain_of_centres_is_refused(tmp_path):
     for i in range(12):
         (tmp_path / f"r{i}.yaml").write_text(f"kp_scale: 1.0\ncentre: {tmp_path / f'r{i + 1}.yaml'}\n")

@@ -259,8 +259,13 @@ def parse_reality(doc: Any, source: str, name: str = "inline", *, chain: tuple[s
         item = node["centre"]
         if not isinstance(item.value, (str, dict)):
             raise item.error("must be a reality file's name or path (fixed values), or its contents")
+        target = item.value
+        if isinstance(target, str) and not Path(target).is_absolute() and source != "<inline reality>":
+            beside = Path(source).parent / target  # as an include is read: from the naming file's folder
+            if exists(beside):
+                target = str(beside)
         try:
-            centre = load_reality(item.value, chain=(*chain, source))
+            centre = load_reality(target, chain=(*chain, source))
         except FileNotFoundError as exc:
             raise item.error(str(exc)) from None
         reality = centred(reality, centre)
