@@ -67,6 +67,8 @@ def transfer_check(controller: Path, reality: str = "default", runs: int = 3, ke
     dry = []
     for seed in range(runs):
         r = dry_run(controller, duration_s=sim["seconds"], reality=reality, seed=seed, log=lambda line: None)
+        if r["unstable"]:  # no distance to average
+            raise RuntimeError(f"dry run {seed} ({reality}): the simulated robot went {r['unstable']}")
         log(f"dry run {seed} ({reality}): {r['distance_m']:.3f} m, facing {r['heading_deg']:+.0f} deg, "
             f"fell={r['fell']}, stop: {r['stop_reason']}, bus errors {r['bus_errors']}, overruns {r['overruns']}")
         dry.append({k: r[k] for k in ("distance_m", "heading_deg", "fell", "ticks", "overruns", "bus_errors",

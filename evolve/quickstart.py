@@ -110,6 +110,8 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     print(json.dumps({k: result[k] for k in ("distance_m", "fell", "ticks", "overruns", "bus_errors", "stop_reason")}))
     if result["stop_reason"] != "duration reached":
         return run_failed(f"the dry run stopped early: {result['stop_reason']}")
+    if result["unstable"]:
+        return run_failed(f"the dry run's simulated robot went {result['unstable']}: no result to compare")
 
     step(5, "comparing the dry-run trace with the nominal simulation")
     compared = compare(trace, controller_path=controller)

@@ -644,9 +644,9 @@ def test_the_simulated_bus_reports_instability_with_its_ground_truth(mujoco_log)
     assert "numerically unstable" in chain.ground_truth()["unstable"]
 
 
-def test_a_dry_run_whose_simulated_robot_went_unstable_is_no_result(monkeypatch, mujoco_log):
+def test_a_dry_run_whose_simulated_robot_went_unstable_is_no_result(monkeypatch, mujoco_log, capsys):
+    from sim2real.cli.deploy_commands import run_exit_code
     from sim2real.simulation import dry_run as module
-    from sim2real.simulation.model_builder import SimulationUnstable
 
     exit_ = module.SimulatedBusProcess.__exit__
 
@@ -655,7 +655,14 @@ def test_a_dry_run_whose_simulated_robot_went_unstable_is_no_result(monkeypatch,
         self.ground_truth["unstable"] = "numerically unstable: NaN, Inf or huge value in the accelerations"
 
     monkeypatch.setattr(module.SimulatedBusProcess, "__exit__", unstable_exit)
-    with pytest.raises(SimulationUnstable, match=r"the dry run ended \(duration reached; torque off: .*\), but its "
-                                                 r"simulated robot went numerically unstable"):
-        module.dry_run(CONTROLLER, duration_s=0.2, ramp_s=0.1, log=lambda line: None, simbus_realtime=["--no-realtime"],
-                       reality="default")
+    lines = []
+    result = module.dry_run(CONTROLLER, duration_s=0.2, ramp_s=0.1, log=lines.append,
+                            simbus_realtime=["--no-realtime"], reality="default")
+    assert result["stop_reason"] == "duration reached" and not result["torque_off"]["unconfirmed"]  # stopped safely
+    assert result["distance_m"] is None and result["fell"] is None  # but no result
+    assert result["unstable"].startswith("numerically unstable")
+    assert any("simulated robot went numerically unstable" in line for line in lines)
+    capsys.readouterr()
+    assert run_exit_code(result, lines.append) == 1
+    assert capsys.readouterr().err.strip() == ("biped: error: the simulated robot went numerically unstable: NaN, Inf "
+                                               "or huge value in the accelerations: its distance and falls are no result")

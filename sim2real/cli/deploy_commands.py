@@ -247,8 +247,8 @@ EXIT_TORQUE_UNCONFIRMED = 3
 
 def run_exit_code(result: dict, log) -> int:
     """0: the run ended as asked (its duration, or a signal such as Ctrl-C); 1: it stopped on
-    a fault; 3: torque off was not confirmed on every servo (the most important message, so
-    it wins)."""
+    a fault, or (a dry run) its simulated robot went numerically unstable; 3: torque off was
+    not confirmed on every servo (the most important message, so it wins)."""
     torque_off = result["torque_off"]
     if torque_off is None:
         log("biped: error: torque off was never read back: cut the power to the robot")
@@ -259,4 +259,6 @@ def run_exit_code(result: dict, log) -> int:
         return EXIT_TORQUE_UNCONFIRMED
     if result["stop_reason"] != "duration reached" and not result.get("stop_signal"):
         return run_failed(f"the run stopped early: {result['stop_reason']}")
+    if result.get("unstable"):  # a dry run: the loop was fine, the simulation behind the bus was not
+        return run_failed(f"the simulated robot went {result['unstable']}: its distance and falls are no result")
     return 0

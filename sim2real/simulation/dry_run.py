@@ -202,13 +202,12 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
         report.stop_notes.append(note)
         log(f"note: {note}")
     summary = report.summary()
-    if truth.get("unstable"):  # the loop ran and stopped; what the robot did is no result
-        from sim2real.simulation.model_builder import SimulationUnstable  # MuJoCo: the simulated bus had it
-
-        raise SimulationUnstable(f"the dry run ended ({report.stop_reason}; torque off: {summary['torque_off']}), but "
-                                 f"its simulated robot went {truth['unstable']}: its distance and falls are no result "
-                                 f"(check the reality profile {profile.name}'s values)")
-    return {"distance_m": truth["distance_m"], "fell": truth["fell"], "heading_deg": truth["heading_deg"],
+    unstable = truth.get("unstable")  # the loop ran and stopped safely, but what the robot did is no result
+    if unstable:
+        log(f"the simulated robot went {unstable}: its distance and falls are no result (check the reality profile "
+            f"{profile.name}'s values)")
+    return {"distance_m": None if unstable else truth["distance_m"], "fell": None if unstable else truth["fell"],
+            "heading_deg": None if unstable else truth["heading_deg"], "unstable": unstable,
             "ticks": report.ticks,
             "overruns": report.overruns, "bus_errors": report.bus_errors, "retries": report.retries,
             "missed_ticks": report.missed_ticks, "corrupt_replies": report.corrupt_replies,
