@@ -47,3 +47,16 @@ def grown_controller():
     for _ in range(5):
         pop.step(lambda gs: rng.random(len(gs)))
     return controller_from_genome(pop.genomes[0], robot, layout, TaskConfig(), 1.0, {"seed": 1})
+
+
+@pytest.fixture
+def served_chain():
+    """The default robot's servos emulated behind a pseudo-terminal, as the official SDK meets
+    real ones: (the emulated chain, to read their registers straight; the port's path)."""
+    from sim2real.hardware import MockBus
+    from sim2real.robot import load_robot
+    from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
+
+    chain = EmulatedChain(MockBus(load_robot()).devices)
+    with PtyServer(chain, baud=1_000_000) as server:
+        yield chain, server.port

@@ -43,13 +43,6 @@ def controller(grown_controller):
     return grown_controller
 
 
-@pytest.fixture
-def served():
-    chain = EmulatedChain(MockBus(ROBOT).devices)
-    with PtyServer(chain, baud=1_000_000) as server:
-        yield chain, server.port
-
-
 def emulated_torque(chain) -> dict[int, int]:
     return {i: chain.devices[i].get_named("torque_enable") for i in SERVOS}
 
@@ -69,8 +62,8 @@ def assert_all_off(chain, report):
 
 
 @pytest.mark.parametrize("signum", STOP_SIGNALS, ids=lambda s: signal.Signals(s).name)
-def test_every_stop_signal_ends_in_a_safe_stop(served, controller, signum):
-    chain, port = served
+def test_every_stop_signal_ends_in_a_safe_stop(served_chain, controller, signum):
+    chain, port = served_chain
     timer = threading.Timer(0.35, os.kill, (os.getpid(), signum))  # inside the loop
     timer.start()
     try:
@@ -82,11 +75,11 @@ def test_every_stop_signal_ends_in_a_safe_stop(served, controller, signum):
     assert_all_off(chain, report)
 
 
-def test_sigints_at_random_moments_while_tracing_always_end_with_torque_off(served, controller, tmp_path):
+def test_sigints_at_random_moments_while_tracing_always_end_with_torque_off(served_chain, controller, tmp_path):
     """The reported failure: a SIGINT that landed inside an SDK exchange left the port flagged
     busy, every later packet was refused and all 11 servos stayed powered (2 in 6 traced
     runs).  Signals now land anywhere - start-up, ramp, loop, trace write, final ramp."""
-    chain, port = served
+    chain, port = served_chain
     rng = random.Random(31)
     stop_reasons = set()
     for k in range(RANDOM_SIGINTS):
@@ -103,8 +96,8 @@ def test_sigints_at_random_moments_while_tracing_always_end_with_torque_off(serv
     assert "interrupted (Ctrl-C)" in stop_reasons  # most land in the loop
 
 
-def test_a_second_signal_during_the_stop_only_cuts_the_ramp_short(served, controller):
-    chain, port = served
+def test_a_second_signal_during_the_stop_only_cuts_the_ramp_short(served_chain, controller):
+    chain, port = served_chain
     timers = [threading.Timer(t, os.kill, (os.getpid(), s)) for t, s in ((0.3, signal.SIGHUP), (0.45, signal.SIGINT))]
     for t in timers:
         t.start()
@@ -116,9 +109,9 @@ def test_a_second_signal_during_the_stop_only_cuts_the_ramp_short(served, contro
     assert_all_off(chain, report)
 
 
-def test_an_exception_inside_an_sdk_exchange_leaves_the_port_usable(served, monkeypatch):
+def test_an_exception_inside_an_sdk_exchange_leaves_the_port_usable(served_chain, monkeypatch):
     """Whatever ends an exchange, the next one is not refused as 'port is in use'."""
-    chain, port = served
+    chain, port = served_chain
     bus = DynamixelBus(port, 1_000_000, ROBOT)
     bus.open()
     try:
@@ -140,10 +133,10 @@ def test_an_exception_inside_an_sdk_exchange_leaves_the_port_usable(served, monk
         bus.close()
 
 
-def test_a_serial_error_becomes_a_communication_error(served, monkeypatch):
+def test_a_serial_error_becomes_a_communication_error(served_chain, monkeypatch):
     import serial
 
-    chain, port = served
+    chain, port = served_chain
     bus = DynamixelBus(port, 1_000_000, ROBOT)
     bus.open()
     try:
@@ -158,8 +151,8 @@ def test_a_serial_error_becomes_a_communication_error(served, monkeypatch):
         bus.close()
 
 
-def test_a_trace_that_cannot_be_written_stops_the_run_safely(served, controller, tmp_path, monkeypatch):
-    chain, port = served
+def test_a_trace_that_cannot_be_written_stops_the_run_safely(served_chain, controller, tmp_path, monkeypatch):
+    chain, port = served_chain
     real_write, calls = TraceWriter.write, {"n": 0}
 
     def full_disk(self, *args, **kwargs):
@@ -175,8 +168,8 @@ def test_a_trace_that_cannot_be_written_stops_the_run_safely(served, controller,
     assert_all_off(chain, report)
 
 
-def test_a_trace_that_cannot_be_closed_does_not_hide_the_report(served, controller, tmp_path, monkeypatch):
-    chain, port = served
+def test_a_trace_that_cannot_be_closed_does_not_hide_the_report(served_chain, controller, tmp_path, monkeypatch):
+    chain, port = served_chain
 
     def fail_close(self):
         raise OSError(errno.ENOSPC, "No space left on device")
@@ -188,9 +181,9 @@ def test_a_trace_that_cannot_be_closed_does_not_hide_the_report(served, controll
     assert_all_off(chain, report)
 
 
-def test_a_log_that_cannot_be_written_does_not_keep_torque_on(served, controller):
+def test_a_log_that_cannot_be_written_does_not_keep_torque_on(served_chain, controller):
     """After a SIGHUP the terminal is gone: every write to it fails (EIO)."""
-    chain, port = served
+    chain, port = served_chain
 
     def gone(line):
         raise OSError(errno.EIO, "Input/output error")

@@ -35,13 +35,6 @@ def controller(grown_controller):
     return grown_controller
 
 
-@pytest.fixture
-def served():
-    chain = EmulatedChain(MockBus(ROBOT).devices)
-    with PtyServer(chain, baud=1_000_000) as server:
-        yield chain, server.port
-
-
 def torque(chain) -> dict[int, int]:
     return {i: chain.devices[i].get_named("torque_enable") for i in SERVOS}
 
@@ -88,8 +81,8 @@ def assert_all_off(chain, report, silent=()):
     assert report.torque_off.unconfirmed == list(silent)
 
 
-def test_duration(served, controller):
-    chain, port = served
+def test_duration(served_chain, controller):
+    chain, port = served_chain
     report = run(port, controller)
     assert report.stop_reason == "duration reached"
     assert_all_off(chain, report)
@@ -97,8 +90,8 @@ def test_duration(served, controller):
 
 @pytest.mark.parametrize("signum, reason", [(signal.SIGINT, "interrupted (Ctrl-C)"),
                                             (signal.SIGTERM, "terminated (SIGTERM)")])
-def test_a_signal_in_the_loop(served, controller, signum, reason):
-    chain, port = served
+def test_a_signal_in_the_loop(served_chain, controller, signum, reason):
+    chain, port = served_chain
     hooks = Hooks(in_loop=kill(signum))
     report = run(port, controller, hooks, duration_s=5)
     assert report.stop_reason == reason
@@ -107,8 +100,8 @@ def test_a_signal_in_the_loop(served, controller, signum, reason):
 
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
-def test_a_signal_during_the_final_ramp_cuts_it_short_and_torque_still_goes_off(served, controller, signum):
-    chain, port = served
+def test_a_signal_during_the_final_ramp_cuts_it_short_and_torque_still_goes_off(served_chain, controller, signum):
+    chain, port = served_chain
     hooks = Hooks(in_final_ramp=kill(signum), n=2)
     report = run(port, controller, hooks)
     assert report.stop_reason == "duration reached"
@@ -117,8 +110,8 @@ def test_a_signal_during_the_final_ramp_cuts_it_short_and_torque_still_goes_off(
     assert_all_off(chain, report)
 
 
-def test_double_ctrl_c(served, controller):
-    chain, port = served
+def test_double_ctrl_c(served_chain, controller):
+    chain, port = served_chain
     hooks = Hooks(in_loop=kill(signal.SIGINT), in_final_ramp=kill(signal.SIGINT), n=2)
     report = run(port, controller, hooks, duration_s=5)
     assert report.stop_reason == "interrupted (Ctrl-C)" and hooks.final_ramp_steps == 2
@@ -127,8 +120,8 @@ def test_double_ctrl_c(served, controller):
 
 @pytest.mark.parametrize("raised, reason", [(RuntimeError("boom"), "error: RuntimeError: boom"),
                                             (SystemExit(3), "exit requested inside the loop (SystemExit 3)")])
-def test_an_exception_inside_the_loop(served, controller, monkeypatch, raised, reason):
-    chain, port = served
+def test_an_exception_inside_the_loop(served_chain, controller, monkeypatch, raised, reason):
+    chain, port = served_chain
     real_step, calls = Policy.step, {"n": 0}
 
     def step(self, *args, **kwargs):
@@ -143,8 +136,8 @@ def test_an_exception_inside_the_loop(served, controller, monkeypatch, raised, r
     assert_all_off(chain, report)
 
 
-def test_a_non_finite_output(served, controller, monkeypatch):
-    chain, port = served
+def test_a_non_finite_output(served_chain, controller, monkeypatch):
+    chain, port = served_chain
     real_step = Policy.step
     monkeypatch.setattr(Policy, "step", lambda self, *a, **kw: real_step(self, *a, **kw) * np.nan)
     report = run(port, controller, duration_s=5)
@@ -152,25 +145,25 @@ def test_a_non_finite_output(served, controller, monkeypatch):
     assert_all_off(chain, report)
 
 
-def test_lost_communication_reports_the_silent_servo_unconfirmed(served, controller):
-    chain, port = served
+def test_lost_communication_reports_the_silent_servo_unconfirmed(served_chain, controller):
+    chain, port = served_chain
     report = run(port, controller, Hooks(in_loop=lambda: chain.silent.add(3)), duration_s=5)
     assert report.stop_reason.startswith("lost communication: servo 3")
     assert_all_off(chain, report, silent=(3,))
 
 
-def test_a_hardware_error(served, controller):
-    chain, port = served
+def test_a_hardware_error(served_chain, controller):
+    chain, port = served_chain
     report = run(port, controller, Hooks(in_loop=lambda: chain.devices[7].raise_hardware_error(1 << 5)),
                  duration_s=5)
     assert "servo 7" in report.stop_reason and "overload" in report.stop_reason
     assert_all_off(chain, report)
 
 
-def test_a_servo_that_ignores_the_first_torque_off_is_written_again(served, controller, monkeypatch):
+def test_a_servo_that_ignores_the_first_torque_off_is_written_again(served_chain, controller, monkeypatch):
     """The sync write of torque-off is lost for servo 5 (as a write on a noisy wire can be):
     the read-back finds it on and writes again."""
-    chain, port = served
+    chain, port = served_chain
     real_write = chain.devices[5].write
     torque_address = chain.devices[5].profile.register("torque_enable").address
     lost = {"n": 0}
@@ -256,10 +249,10 @@ def test_a_silent_servo_makes_the_run_fail_naming_it_and_asking_to_cut_power(con
 # -- a noisy bus ---------------------------------------------------------------------------------
 
 
-def test_missed_replies_hold_the_goals_and_only_a_long_silence_stops_the_run(served, controller):
+def test_missed_replies_hold_the_goals_and_only_a_long_silence_stops_the_run(served_chain, controller):
     """Servo 5 misses a few replies: retried, some ticks held, the run goes on; silent for
     good, the run stops once no read has succeeded for lost_after_s, not at the first miss."""
-    chain, port = served
+    chain, port = served_chain
     misses = {"n": 0, "on": False}
     real_read = chain._read
 
@@ -276,8 +269,8 @@ def test_missed_replies_hold_the_goals_and_only_a_long_silence_stops_the_run(ser
     assert_all_off(chain, report)
 
 
-def test_lost_communication_waits_for_lost_after_s(served, controller):
-    chain, port = served
+def test_lost_communication_waits_for_lost_after_s(served_chain, controller):
+    chain, port = served_chain
     stopped = {}
     hooks = Hooks(in_loop=lambda: (chain.silent.add(3), stopped.setdefault("silent_at", time.monotonic())), n=5)
     report = run(port, controller, hooks, duration_s=5, lost_after_s=0.3)
