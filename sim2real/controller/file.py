@@ -42,7 +42,6 @@ import codecs
 import hashlib
 import json
 import math
-import os
 import re
 import reprlib
 from dataclasses import dataclass
@@ -69,7 +68,7 @@ from sim2real.controller.symmetry import (
     wired_layout,
 )
 from sim2real.errors import ConfigError
-from sim2real.input_files import open_regular
+from sim2real.input_files import read_regular_bytes
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.robot.timing import control_timing
 
@@ -327,20 +326,10 @@ class Controller:
 
 # -- bytes to JSON ------------------------------------------------------------------------------
 def read_bounded(path: Path | str, source: str) -> bytes:
-    """The file's bytes, refused unread when larger than ``MAX_BYTES`` or not a regular file
-    (a FIFO would block the open, a device never end: :mod:`sim2real.input_files`)."""
-    with open_regular(path, source) as f:
-        try:
-            size = os.fstat(f.fileno()).st_size
-            if size > MAX_BYTES:
-                raise ConfigError(source, "", f"{size} bytes is too large for a controller "
-                                  f"(at most {MAX_BYTES} bytes; a 300-connection controller is about 20 KB)")
-            raw = f.read(MAX_BYTES + 1)  # a file growing while it is read stops at the limit
-        except OSError as exc:
-            raise ConfigError(source, "", f"cannot read: {exc.strerror or exc}") from exc
-    if len(raw) > MAX_BYTES:
-        raise ConfigError(source, "", f"more than {MAX_BYTES} bytes is too large for a controller")
-    return raw
+    """The file's bytes, refused unread when larger than ``MAX_BYTES`` (a 300-connection
+    controller is about 20 KB) or not a regular file (a FIFO would block the open, a device
+    never end: :mod:`sim2real.input_files`)."""
+    return read_regular_bytes(path, source, limit=MAX_BYTES, what="controller")
 
 
 class _NonFinite:
