@@ -31,6 +31,7 @@ from sim2real.atomic_json import OutputError
 from sim2real.errors import BipedError, UsageError
 from sim2real.hardware.realtime import DEFAULT_PRIORITY, RealtimeRequest
 from sim2real.input_files import kind_problem, regular_file_problem
+from sim2real.robot.validation import show
 
 if TYPE_CHECKING:
     from sim2real.robot import RobotSpec
@@ -84,7 +85,7 @@ def int_within(low: int, high: int, why: str = "") -> Callable[[str], int]:
         value = _whole(text)
         if not low <= value <= high:
             raise argparse.ArgumentTypeError(f"must be a whole number within [{low}, {high}]"
-                                             f"{f' ({why})' if why else ''}, got {_cut(text)}")
+                                             f"{f' ({why})' if why else ''}, got {show(text)}")
         return value
 
     convert.__name__ = f"int_within_{low}_{high}"
@@ -98,16 +99,11 @@ def positive_float_at_most(high: float, why: str = "") -> Callable[[str], float]
         value = _finite(text)
         if not 0 < value <= high:
             raise argparse.ArgumentTypeError(f"must be a number within (0, {high:g}]"
-                                             f"{f' ({why})' if why else ''}, got {_cut(text)}")
+                                             f"{f' ({why})' if why else ''}, got {show(text)}")
         return value
 
     convert.__name__ = f"positive_float_at_most_{high:g}"
     return convert
-
-
-def _cut(text: str) -> str:
-    """A flag's text in a message, cut to a few dozen characters."""
-    return repr(text) if len(text) <= 40 else repr(text[:37] + "...")
 
 
 positive_int = int_at_least(1)
