@@ -311,11 +311,6 @@ class StopSignals:
         for signum, handler in self._previous.items():
             signal.signal(signum, handler)
 
-    @property
-    def requested(self) -> str | None:
-        """The name of the first signal received, if any."""
-        return self.received[0] if self.received else None
-
     def check(self) -> None:
         """Raise :class:`StopRequested` if a signal has come (call only at safe points)."""
         if self.received and not self.stopping:
@@ -406,7 +401,6 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
                 loop.run(duration_s, report)
             report.stop_reason = "duration reached"
         except BaseException as exc:  # noqa: BLE001 - every way out leads to the same safe stop
-            signals.stopping = True
             if isinstance(exc, StartupError):
                 startup_error = exc
             report.stop_reason = _stop_reason(exc, chain, report)
