@@ -20,16 +20,10 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome, genome_from_controller
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population, PopulationNetwork
-from sim2real.controller.file import (
-    MAX_BYTES,
-    MAX_DEPTH,
-    MAX_STEEPNESS,
-    MAX_WEIGHT,
-    TICK_RANGE_S,
-    Controller,
-    nesting_depth,
-    tick_bounds,
-)
+from sim2real.controller.checks import tick_bounds
+from sim2real.controller.file import Controller
+from sim2real.controller.json_reader import MAX_BYTES, MAX_DEPTH, nesting_depth
+from sim2real.controller.schema import MAX_STEEPNESS, MAX_WEIGHT, TICK_RANGE_S
 from sim2real.controller.policy import Policy
 from sim2real.controller.symmetry import bias_values, symmetric_layout
 from sim2real.errors import ConfigError

@@ -16,6 +16,7 @@ import sim2real.controller.activation as activation
 import sim2real.controller.file as controller_file
 import sim2real.controller.mapping as mapping
 import sim2real.controller.policy as policy_module
+import sim2real.controller.schema as controller_schema
 import sim2real.controller.symmetry as symmetry
 import sim2real.hardware.dynamixel.chain as chain
 import sim2real.hardware.mock as mock
@@ -249,17 +250,17 @@ def test_the_symmetry_block_is_what_the_runtime_wires(tmp_path):
 
 
 def test_the_published_schema_owns_the_formats_keys_and_bounds():
-    schema = json.loads((Path(controller_file.__file__).parent / "schemas" / "controller-v1.schema.json").read_text())
-    assert controller_file.SCHEMA == schema and controller_file.REQUIRED == tuple(schema["required"])
-    assert controller_file.TICK_RANGE_S == (schema["properties"]["tick_s"]["minimum"],
-                                            schema["properties"]["tick_s"]["maximum"])
+    schema = json.loads((Path(controller_schema.__file__).parent / "schemas" / "controller-v1.schema.json").read_text())
+    assert controller_schema.SCHEMA == schema and controller_schema.REQUIRED == tuple(schema["required"])
+    assert controller_schema.TICK_RANGE_S == (schema["properties"]["tick_s"]["minimum"],
+                                              schema["properties"]["tick_s"]["maximum"])
     assert schema["properties"]["symmetry"]["properties"]["networks"]["const"] == list(symmetry.SIDES)
     assert Controller.load(V1_FILE).inputs[-4:] == symmetry.SENSOR_INPUTS
 
 
 def test_export_writes_the_controller_through_the_one_type():
     controller = controller_from_genome(grown(), ROBOT, LAYOUT, TaskConfig(), 1.0, {"seed": 5})
-    assert isinstance(controller, Controller) and controller.version == controller_file.VERSION == 1
+    assert isinstance(controller, Controller) and controller.version == controller_schema.VERSION == 1
     assert controller.symmetry == controller_file.Symmetry.of(ROBOT, LAYOUT)
     assert controller.symmetry.center_output == symmetry.CENTER_OUTPUT
-    assert list(controller.to_dict()) == list(controller_file.REQUIRED)
+    assert list(controller.to_dict()) == list(controller_schema.REQUIRED)

@@ -190,7 +190,8 @@ from hypothesis import strategies as st  # noqa: E402
        readings=st.lists(st.floats(-1e9, 1e9, allow_nan=False), min_size=16, max_size=16),
        weight_scale=st.floats(0.01, 1e3))
 def test_no_goal_outside_the_limits_whatever_the_network_or_readings(seed, robot_name, readings, weight_scale):
-    from sim2real.controller.file import MAX_WEIGHT, Controller
+    from sim2real.controller.file import Controller
+    from sim2real.controller.schema import MAX_WEIGHT
     from sim2real.controller.policy import Policy
 
     robot = load_robot(robot_name)

@@ -40,7 +40,8 @@ from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, NeatConfig, Population
 from evolve.run_lock import RunFolderBusy, RunLock
-from sim2real.controller.file import Controller, tick_bounds
+from sim2real.controller.checks import tick_bounds
+from sim2real.controller.file import Controller
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError, UsageError
 from sim2real.hardware.trace import Trace, TraceWriter

@@ -538,7 +538,7 @@ def _no_evolution(*args, **kwargs):
 
 def test_the_flag_bounds_agree_with_the_config_bounds():
     assert MAX_REPLAY_S == MAX_EPISODE_S  # sim2real cannot import evolve: the same number twice
-    from sim2real.controller.file import TICK_RANGE_S
+    from sim2real.controller.schema import TICK_RANGE_S
     from sim2real.robot.spec import CONTROL_TICK_S
 
     assert CONTROL_TICK_S == TICK_RANGE_S

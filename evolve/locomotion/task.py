@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from evolve.limits import MAX_EPISODE_S
-from sim2real.controller.file import HEADING_SCALE_MAX_DEG, PHASE_RANGE_S
+from sim2real.controller.schema import HEADING_SCALE_MAX_DEG, PHASE_RANGE_S
 from sim2real.controller.symmetry import HEADING_SCALE_DEG
 from sim2real.errors import ConfigError
 from sim2real.robot.spec import DEFAULT_CONTACT_SHARE

@@ -15,7 +15,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from sim2real.controller.file import MAX_STEEPNESS, MAX_WEIGHT
+from sim2real.controller.schema import MAX_STEEPNESS, MAX_WEIGHT
 from sim2real.errors import ConfigError
 from sim2real.robot.validation import dataclass_from_mapping
 
@@ -93,7 +93,7 @@ class NeatConfig:
                 raise bad(f.name, f"must not be negative, got {value}")
         if self.sigmoid_steepness <= 0:
             raise bad("sigmoid_steepness", "must be > 0")
-        # what a controller file may hold (sim2real.controller.file), so that every champion saves
+        # what a controller file may hold (sim2real.controller.schema), so that every champion saves
         if self.sigmoid_steepness > MAX_STEEPNESS:
             raise bad("sigmoid_steepness", f"must be <= {MAX_STEEPNESS:g} (the controller format's bound)")
         for name in ("weight_limit", "initial_weight_range", "new_link_weight_range", "weight_replace_range"):

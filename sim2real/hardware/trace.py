@@ -326,7 +326,7 @@ def _read_sidecar(path: Path, notes: list[str]) -> dict[str, Any]:
     """The sidecar's JSON object, read as controller files are: a regular file of at most
     ``MAX_SIDECAR_BYTES`` (:mod:`sim2real.input_files`), brackets nested at most as deep as a
     controller's (scanned before decoding), no key twice in one object."""
-    from sim2real.controller.file import MAX_DEPTH, DuplicateKey, nesting_depth, unique_keys  # no MuJoCo there either
+    from sim2real.controller.json_reader import MAX_DEPTH, DuplicateKey, nesting_depth, unique_keys  # no MuJoCo there either
 
     sidecar = sidecar_path(path)
     if not sidecar.exists():

@@ -1,0 +1,441 @@
+"""The checks of a decoded controller: every field against the format, then against a robot.
+
+:func:`check_controller` is the one validation: ``Controller.load`` runs it on a file's
+decoded JSON (:mod:`sim2real.controller.json_reader`) and every
+:class:`~sim2real.controller.file.Controller` passes it on construction, so that whatever
+loads runs (:class:`~sim2real.controller.policy.Policy`) without an exception.  Every problem
+is one :class:`ConfigError` line, ``FILE: FIELD: problem``.  Its keys and bounds are the
+published schema's (:mod:`sim2real.controller.schema`); these checks say what the schema
+says with messages that name the field, and what a schema cannot say.  In order:
+
+* fields: every field's type, shape and range: ``tick_s`` in ``TICK_RANGE_S`` [s],
+  ``sigmoid_steepness`` in (0, ``MAX_STEEPNESS``], two bias rows (right, left) of two
+  values in [-1, 1], node ids integers (not booleans) below 2^31, hidden ids unique and
+  above the interface, connections ``[src, dst, weight, module]`` between existing nodes,
+  never into an input or bias node, with ``|weight| <= MAX_WEIGHT``
+  (50x evolution's default clip of 20; the sigmoid saturates long before), and the
+  inputs, outputs, symmetry block and driven joints consistent with each other; every
+  module enabled (switching one off is ``--disable-module``'s job); no unknown keys
+  outside the free-form ``task`` and ``provenance``; no ``NaN`` or ``Infinity`` anywhere.
+* with a robot: its joint-map hash (:func:`joint_map_hash`), and inputs, outputs, symmetry
+  and joint ranges exactly those the robot gives for the driven joints (its control set);
+  every hold angle inside its joint's range; and ``tick_s`` within :func:`tick_bounds` - no
+  shorter than one bus cycle (the loop could not read and write every servo in it), no
+  longer than half the Bus Watchdog start-up sets (one late tick would trip it and the
+  servos would stop taking goals).  A tick other than the robot's own is allowed within
+  these bounds.
+
+The field checker here speaks JSON (objects, ``a.b[0]`` key paths, missing keys before
+unknown ones) where :class:`sim2real.robot.validation.Node` speaks YAML; both echo values
+through :func:`sim2real.robot.validation.show`, the one cutter of user input in messages.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import re
+from typing import Any
+
+from sim2real.controller.json_reader import NonFinite
+from sim2real.controller.schema import (
+    ANGLE_LIMIT_RAD,
+    BIAS_RANGE,
+    BIAS_SHAPE,
+    FIELDS,
+    FORMAT,
+    HEADING_SCALE_MAX_DEG,
+    JOINT_MAP_HASH_PATTERN,
+    JOINTS_KEYS,
+    LEG_JOINTS_KEYS,
+    MAX_NODE_ID,
+    MAX_STEEPNESS,
+    MAX_WEIGHT,
+    MIRROR_SIGNS,
+    MODULE_KEYS,
+    NETWORKS,
+    OPTIONAL,
+    PHASE_RANGE_S,
+    REQUIRED,
+    ROBOT_KEYS,
+    SYMMETRY_KEYS,
+    TICK_RANGE_S,
+    VERSION,
+)
+from sim2real.controller.symmetry import GOAL_SUFFIX, HEADING_INPUT, PHASE_INPUTS, SENSOR_INPUTS, symmetric_layout
+from sim2real.errors import ConfigError
+from sim2real.robot import RobotSpec
+from sim2real.robot.timing import control_timing
+from sim2real.robot.validation import show
+
+RANGE_TOLERANCE_RAD = 1e-9  # [rad] a file's joint range may differ from the robot's by rounding
+
+
+# -- the field checker -------------------------------------------------------------------------
+def _join(path: str, key: Any) -> str:
+    if isinstance(key, int):
+        return f"{path}[{key}]"
+    if isinstance(key, str) and key.isidentifier():
+        return f"{path}.{key}" if path else key
+    return f"{path}[{show(key)}]"
+
+
+class _Checker:
+    """Type, shape and range checks that name the field: ``FILE: FIELD: problem``."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def error(self, key: str, problem: str) -> ConfigError:
+        return ConfigError(self.source, key, problem)
+
+    def obj(self, value: Any, key: str, required: tuple[str, ...] = (), optional: tuple[str, ...] = (),
+            free: bool = False) -> dict[str, Any]:
+        if not isinstance(value, dict):
+            raise self.error(key, f"must be an object, got {show(value)}")
+        for name in required:
+            if name not in value:
+                raise self.error(_join(key, name), "missing")
+        if not free:
+            allowed = required + optional
+            for name in value:
+                if name not in allowed:
+                    raise self.error(_join(key, name), f"unknown key (allowed: {', '.join(allowed)})")
+        return value
+
+    def string(self, value: Any, key: str) -> str:
+        if not isinstance(value, str) or not value:
+            raise self.error(key, f"must be a non-empty string, got {show(value)}")
+        return value
+
+    def names(self, value: Any, key: str, min_len: int = 0) -> list[str]:
+        if not isinstance(value, list):
+            raise self.error(key, f"must be a list of names, got {show(value)}")
+        if len(value) < min_len:
+            raise self.error(key, f"must have at least {min_len} entr{'y' if min_len == 1 else 'ies'}")
+        for i, name in enumerate(value):
+            self.string(name, f"{key}[{i}]")
+        if len(set(value)) != len(value):
+            twice = next(n for i, n in enumerate(value) if n in value[:i])
+            raise self.error(key, f"{show(twice)} appears twice")
+        return value
+
+    def number(self, value: Any, key: str, lo: float, hi: float, lo_open: bool = False) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float, NonFinite)):
+            raise self.error(key, f"must be a number, got {show(value)}")
+        if isinstance(value, NonFinite) or isinstance(value, float) and not math.isfinite(value):
+            raise self.error(key, f"must be a finite number, got {show(value)}")
+        if value < lo or (lo_open and value == lo) or value > hi:
+            raise self.error(key, f"must be within {'(' if lo_open else '['}{lo:g}, {hi:g}], got {show(value)}")
+        return float(value)
+
+    def same_names(self, key: str, got: list[str], want: list[str], why: str) -> None:
+        if got == want:
+            return
+        if len(got) != len(want):
+            raise self.error(key, f"has {len(got)} names where {why} has {len(want)}: {show(want)}")
+        i = next(i for i, (a, b) in enumerate(zip(got, want)) if a != b)
+        raise self.error(f"{key}[{i}]", f"is {show(got[i])} where {why} has {show(want[i])}")
+
+    def finite_everywhere(self, value: Any, key: str) -> None:
+        """Free-form blocks (task, provenance) may hold anything JSON allows, finite numbers only."""
+        if isinstance(value, dict):
+            for k, v in value.items():
+                self.finite_everywhere(v, _join(key, k))
+        elif isinstance(value, list):
+            for i, v in enumerate(value):
+                self.finite_everywhere(v, f"{key}[{i}]")
+        elif isinstance(value, NonFinite) or (isinstance(value, float) and not math.isfinite(value)):
+            raise self.error(key, f"must be a finite number, got {show(value)}")
+
+
+# -- the format ---------------------------------------------------------------------------------
+def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> dict[str, Any]:
+    """Check a decoded controller whole (see the module docstring); returns it unchanged."""
+    c = _Checker(source)
+    if not isinstance(data, dict):
+        raise c.error("", f"a controller file must hold a JSON object, got {show(data)}")
+    if data.get("format") != FORMAT:
+        problem = "missing" if "format" not in data else f"{show(data['format'])}"
+        raise c.error("format", f"not a controller file (format {problem}, expected {FORMAT!r})")
+    version = data.get("version")
+    if type(version) is not int or version != VERSION:
+        raise c.error("version", f"version {show(version)} is not supported (this code reads {VERSION})")
+    c.obj(data, "", REQUIRED, OPTIONAL)
+    clock = "phase_period_s" in data
+    if clock:
+        c.number(data["phase_period_s"], "phase_period_s", *PHASE_RANGE_S)
+    efference, heading = data.get("efference_copy", False), data.get("heading_input", False)
+    for key, value in (("efference_copy", efference), ("heading_input", heading)):
+        if not isinstance(value, bool):
+            raise c.error(key, f"must be true or false, got {show(value)}")
+    if "heading_scale_deg" in data:
+        if not heading:
+            raise c.error("heading_scale_deg", "is the heading input's scale: give it only with heading_input: true")
+        c.number(data["heading_scale_deg"], "heading_scale_deg", 0.0, HEADING_SCALE_MAX_DEG, lo_open=True)
+    rob = c.obj(data["robot"], "robot", *ROBOT_KEYS)
+    c.string(rob["name"], "robot.name")
+    hash_ = rob["joint_map_hash"]
+    if not isinstance(hash_, str) or not re.fullmatch(JOINT_MAP_HASH_PATTERN, hash_):
+        raise c.error("robot.joint_map_hash", f"must be 16 hex digits, got {show(rob['joint_map_hash'])}")
+    c.number(data["tick_s"], "tick_s", *TICK_RANGE_S)
+    c.number(data["sigmoid_steepness"], "sigmoid_steepness", 0.0, MAX_STEEPNESS, lo_open=True)
+    inputs = c.names(data["inputs"], "inputs", FIELDS["inputs"]["minItems"])
+    outputs = c.names(data["outputs"], "outputs", FIELDS["outputs"]["minItems"])
+    bias = data["bias"]
+    if not isinstance(bias, list) or len(bias) != BIAS_SHAPE[0]:
+        raise c.error("bias", f"must be two rows (right network, left network), got {show(bias)}")
+    for s, row in enumerate(bias):
+        if not isinstance(row, list) or len(row) != BIAS_SHAPE[1]:
+            raise c.error(f"bias[{s}]", f"must be the two bias node values of one network, got {show(row)}")
+        for k, value in enumerate(row):
+            c.number(value, f"bias[{s}][{k}]", *BIAS_RANGE)
+    driven = _check_joints(c, data["joints"])
+    # the interface first: it numbers the nodes
+    _check_symmetry(c, data["symmetry"], driven, inputs, outputs, clock, efference, heading)
+    n_in, n_bias, n_out = len(inputs), len(bias[0]), len(outputs)
+    n_modules = _check_modules(c, data["modules"])
+    hidden = _check_hidden(c, data["hidden"], n_in + n_bias + n_out, n_modules)
+    _check_connections(c, data["connections"], n_in, n_bias, n_out, hidden, n_modules)
+    for block in ("task", "provenance"):
+        c.obj(data[block], block, free=True)
+        c.finite_everywhere(data[block], block)
+    if "control_set" in data["task"]:
+        c.string(data["task"]["control_set"], "task.control_set")
+    if robot is not None:
+        _check_robot(c, data, robot)
+    return data
+
+
+def _check_modules(c: _Checker, modules: Any) -> int:
+    if not isinstance(modules, list) or not modules:
+        raise c.error("modules", f"must be a non-empty list of {{name, enabled}}, got {show(modules)}")
+    for i, m in enumerate(modules):
+        c.obj(m, f"modules[{i}]", *MODULE_KEYS)
+        c.string(m["name"], f"modules[{i}].name")
+        if m["enabled"] is not True:
+            raise c.error(f"modules[{i}].enabled", f"must be true, got {show(m['enabled'])} (switch a module "
+                          "off at run time with --disable-module NAME)")
+    c.names([m["name"] for m in modules], "modules")
+    return len(modules)
+
+
+def _check_hidden(c: _Checker, hidden: Any, n_interface: int, n_modules: int) -> set[int]:
+    if not isinstance(hidden, list):
+        raise c.error("hidden", f"must be a list of [node id, module index], got {show(hidden)}")
+    ids: set[int] = set()
+    for i, entry in enumerate(hidden):
+        if not isinstance(entry, list) or len(entry) != 2:
+            raise c.error(f"hidden[{i}]", f"must be [node id, module index], got {show(entry)}")
+        node, module = entry
+        if type(node) is not int or not n_interface <= node <= MAX_NODE_ID:
+            raise c.error(f"hidden[{i}]", f"node id must be an integer within [{n_interface}, {MAX_NODE_ID}] "
+                          f"(ids below {n_interface} are inputs, biases and outputs), got {show(node)}")
+        if type(module) is not int or not 0 <= module < n_modules:
+            raise c.error(f"hidden[{i}]", f"module {show(module)} is not an index into modules "
+                          f"(0..{n_modules - 1})")
+        if node in ids:
+            raise c.error(f"hidden[{i}]", f"node id {node} appears twice")
+        ids.add(node)
+    return ids
+
+
+def _check_connections(c: _Checker, conns: Any, n_in: int, n_bias: int, n_out: int, hidden: set[int],
+                       n_modules: int) -> None:
+    """The hot loop of the check: a 300-connection controller takes well under 1 ms."""
+    if not isinstance(conns, list):
+        raise c.error("connections", f"must be a list of [src, dst, weight, module], got {show(conns)}")
+    n_interface, first_driven = n_in + n_bias + n_out, n_in + n_bias
+    for i, conn in enumerate(conns):
+        if not isinstance(conn, list) or len(conn) != 4:
+            raise c.error(f"connections[{i}]", f"must be [src, dst, weight, module], got {show(conn)}")
+        src, dst, weight, module = conn
+        for end, node in (("src", src), ("dst", dst)):
+            if type(node) is not int:
+                raise c.error(f"connections[{i}]", f"{end} must be an integer node id, got {show(node)}")
+            if not (0 <= node < n_interface or node in hidden):
+                raise c.error(f"connections[{i}]", f"{end} {show(node)} is not a node of this network "
+                              f"(0..{n_interface - 1} and the hidden ids)")
+        if dst < first_driven:
+            raise c.error(f"connections[{i}]", f"dst {dst} is an input or bias node (nothing drives those)")
+        if isinstance(weight, NonFinite) or isinstance(weight, float) and not math.isfinite(weight):
+            raise c.error(f"connections[{i}]", f"weight must be a finite number, got {show(weight)}")
+        if isinstance(weight, bool) or not isinstance(weight, (int, float)):
+            raise c.error(f"connections[{i}]", f"weight must be a number, got {show(weight)}")
+        if not -MAX_WEIGHT <= weight <= MAX_WEIGHT:
+            raise c.error(f"connections[{i}]", f"weight {show(weight)} is beyond the format's bound "
+                          f"|weight| <= {MAX_WEIGHT:g}")
+        if type(module) is not int or not 0 <= module < n_modules:
+            raise c.error(f"connections[{i}]", f"module {show(module)} is not an index into modules "
+                          f"(0..{n_modules - 1})")
+
+
+def _check_joints(c: _Checker, joints: Any) -> list[str]:
+    c.obj(joints, "joints", *JOINTS_KEYS)
+    driven = c.names(joints["driven"], "joints.driven", FIELDS["joints"]["properties"]["driven"]["minItems"])
+    ranges = c.obj(joints["range_rad"], "joints.range_rad", free=True)
+    for name in driven:
+        if name not in ranges:
+            raise c.error(_join("joints.range_rad", name), "missing (every driven joint needs its range)")
+    for name, pair in ranges.items():
+        key = _join("joints.range_rad", name)
+        if not isinstance(pair, list) or len(pair) != 2:
+            raise c.error(key, f"must be [low, high] [rad], got {show(pair)}")
+        lo = c.number(pair[0], f"{key}[0]", -ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD)
+        hi = c.number(pair[1], f"{key}[1]", -ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD)
+        if not lo < hi:
+            raise c.error(key, f"low must be below high, got {show(pair)}")
+    for name, value in c.obj(joints.get("hold_rad", {}), "joints.hold_rad", free=True).items():
+        c.number(value, _join("joints.hold_rad", name), -ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD)
+        if name in driven:
+            raise c.error(_join("joints.hold_rad", name), "is a driven joint: only joints not driven are held")
+    if "output_rule" in joints:
+        c.string(joints["output_rule"], "joints.output_rule")
+    return driven
+
+
+def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str], outputs: list[str],
+                    clock: bool, efference: bool, heading: bool) -> None:
+    """The symmetry block against the driven joints, and the inputs and outputs it implies
+    (:func:`sim2real.controller.symmetry.symmetric_layout` names them so): the heading after
+    the sensors with a ``heading_input``, the clock's after them when the file has a
+    ``phase_period_s``, the last goals last with an ``efference_copy``."""
+    c.obj(sym, "symmetry", *SYMMETRY_KEYS)
+    if sym["networks"] != NETWORKS:
+        raise c.error("symmetry.networks", f"must be {NETWORKS}, got {show(sym['networks'])}")
+    legs = c.obj(sym["leg_joints"], "symmetry.leg_joints", *LEG_JOINTS_KEYS)
+    right = c.names(legs["right"], "symmetry.leg_joints.right")
+    left = c.names(legs["left"], "symmetry.leg_joints.left")
+    if len(right) != len(left):
+        raise c.error("symmetry.leg_joints", f"{len(right)} right joints but {len(left)} left")
+    center = c.names(sym["center_joints"], "symmetry.center_joints")
+    mirror = sym["center_mirror_for_left"]
+    if not isinstance(mirror, list) or len(mirror) != len(center):
+        raise c.error("symmetry.center_mirror_for_left", f"must be one of -1, 1 per centre joint, got {show(mirror)}")
+    for i, m in enumerate(mirror):
+        if isinstance(m, bool) or m not in MIRROR_SIGNS:
+            raise c.error(f"symmetry.center_mirror_for_left[{i}]", f"must be -1 or 1, got {show(m)}")
+    if "center_output" in sym:
+        c.string(sym["center_output"], "symmetry.center_output")
+    wired = right + left + center
+    if len(set(wired)) != len(wired):
+        raise c.error("symmetry", f"{show(next(n for i, n in enumerate(wired) if n in wired[:i]))} is wired twice")
+    if set(wired) != set(driven):
+        raise c.error("symmetry", _difference("joints.driven", sorted(set(wired) - set(driven)),
+                                              sorted(set(driven) - set(wired))))
+    k = len(right)
+    own = outputs[:k]
+    for i, name in enumerate(own):
+        if not name.startswith("own_"):
+            raise c.error(f"outputs[{i}]", f"{show(name)}: the first {k} outputs are the own leg's (own_...)")
+    why = f"the symmetry block ({k} leg joints, centre joints {show(center)})"
+    c.same_names("outputs", outputs, own + center, why)
+    angles = own + ["other_" + n[4:] for n in own] + center
+    sensors = list(SENSOR_INPUTS) + ([HEADING_INPUT] if heading else []) + (list(PHASE_INPUTS) if clock else [])
+    goals = [n + GOAL_SUFFIX for n in angles] if efference else []
+    c.same_names("inputs", inputs, angles + sensors + goals,
+                 why[:-1] + (", then 4 sensors" + (" and the heading (heading_input)" if heading
+                                                   else "; a heading input needs heading_input: true"))
+                 + (", then the clock (phase_period_s)" if clock else "; a clock's inputs need a phase_period_s")
+                 + (", then the last goals (efference_copy))" if efference
+                    else "; the last goals as inputs need efference_copy: true)"))
+
+
+def _difference(what: str, extra: list[str], lacking: list[str]) -> str:
+    parts = [f"has {show(extra)} beyond {what}"] if extra else []
+    return "; ".join(parts + ([f"lacks {show(lacking)} of {what}"] if lacking else []))
+
+
+# -- against a robot ---------------------------------------------------------------------------
+def joint_map_hash(robot: RobotSpec) -> str:
+    """A short hash of what a controller relies on: joint names, order, ranges and servos."""
+    parts = []
+    for j in robot.joints:
+        servo = (j.servo.id, j.servo.profile.model, j.servo.direction, round(j.servo.zero_offset_rad, 9)) if j.servo else None
+        parts.append([j.name, j.side, j.location, j.axis, [round(a, 9) for a in j.range_rad], servo])
+    return hashlib.sha256(json.dumps(parts).encode()).hexdigest()[:16]
+
+
+def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
+    want = joint_map_hash(robot)
+    if data["robot"]["joint_map_hash"] != want:
+        raise c.error("robot.joint_map_hash", f"made for robot {data['robot']['name']!r} with joint map "
+                      f"{data['robot']['joint_map_hash']}, but {robot.name} has {want}")
+    driven = data["joints"]["driven"]
+    control_set = data["task"].get("control_set")
+    if control_set is not None:
+        if control_set not in robot.control_sets:
+            raise c.error("task.control_set", f"robot {robot.name} has no control set {show(control_set)} "
+                          f"(has {', '.join(robot.control_sets)})")
+        members = set(robot.control_sets[control_set])
+        if set(driven) != members:
+            raise c.error("joints.driven", _difference(f"robot {robot.name}'s {control_set!r} control set "
+                                                       "(task.control_set)", sorted(set(driven) - members),
+                                                       sorted(members - set(driven))))
+    try:
+        layout = symmetric_layout(robot, tuple(driven), "phase_period_s" in data, data.get("efference_copy", False),
+                                  data.get("heading_input", False))
+    except (ValueError, KeyError) as exc:
+        raise c.error("joints.driven", str(exc)) from None
+    why = f"robot {robot.name} driving {show(list(layout.driven))}"
+    c.same_names("outputs", data["outputs"], list(layout.output_names), why)
+    c.same_names("inputs", data["inputs"], list(layout.input_names), why)
+    names = robot.joint_names
+    sym = data["symmetry"]
+    for side in NETWORKS:
+        c.same_names(f"symmetry.leg_joints.{side}", sym["leg_joints"][side],
+                     [names[i] for i in layout.leg_index[side]], why)
+    c.same_names("symmetry.center_joints", sym["center_joints"], [names[i] for i in layout.center_index], why)
+    if [float(m) for m in sym["center_mirror_for_left"]] != layout.center_mirror.tolist():
+        raise c.error("symmetry.center_mirror_for_left", f"must be {layout.center_mirror.tolist()} for {why}")
+    for block in ("range_rad", "hold_rad"):
+        for name, value in data["joints"].get(block, {}).items():
+            if name not in names:
+                raise c.error(_join(f"joints.{block}", name), f"robot {robot.name} has no such joint")
+            actual = robot.joint(name).range_rad
+            if block == "range_rad":
+                if any(abs(a - b) > RANGE_TOLERANCE_RAD for a, b in zip(value, actual)):
+                    raise c.error(_join("joints.range_rad", name), f"{show(value)} differs from robot "
+                                  f"{robot.name}'s {list(actual)}")
+            elif not actual[0] - RANGE_TOLERANCE_RAD <= value <= actual[1] + RANGE_TOLERANCE_RAD:
+                raise c.error(_join("joints.hold_rad", name), f"{show(value)} rad ({math.degrees(value):.1f} deg) "
+                              f"is outside the joint's range [{actual[0]:.6g}, {actual[1]:.6g}] rad "
+                              f"([{math.degrees(actual[0]):.1f}, {math.degrees(actual[1]):.1f}] deg, robot "
+                              f"{robot.name}'s range_deg): a held joint must hold an angle it can reach")
+    low, high, why = tick_bounds(robot)
+    tick = data["tick_s"]
+    if not low - 1e-12 <= tick <= high + 1e-12:
+        raise c.error("tick_s", f"{show(tick)} s is outside the ticks robot {robot.name} can run at, "
+                      f"[{low * 1e3:.3g}, {high * 1e3:.3g}] ms: {why}; its own tick is "
+                      f"{control_timing(robot).tick_s * 1e3:.3g} ms")
+
+
+def tick_bounds(robot: RobotSpec) -> tuple[float, float, str]:
+    """The control ticks a controller may run at on ``robot``: (shortest, longest [s], where
+    both come from, in words).  Shortest: one bus cycle - the sync write of every goal, the
+    sync read of every position and the sensor board's read at the robot's baud
+    (:func:`sim2real.robot.timing.bus_cycle_s`) - or one physics step for a robot without a
+    bus.  Longest: half the Bus Watchdog that start-up sets on servos that have one (goals
+    must keep coming though one tick runs late), else the format's bound."""
+    from sim2real.hardware.dynamixel.registers import Reg
+    from sim2real.hardware.dynamixel.startup import WATCHDOG_MS
+    from sim2real.robot.timing import PHYSICS_DT_S, bus_cycle_bytes, bus_cycle_s
+
+    cycle, step = bus_cycle_s(robot), robot.physics_dt_s or PHYSICS_DT_S
+    if robot.bus is not None and cycle >= step:
+        low = cycle
+        why = (f"the shortest is one bus cycle ({bus_cycle_bytes(robot)} bytes at {robot.bus.baud} baud, "
+               "sim2real/robot/timing.py)")
+    else:
+        low, why = step, f"the shortest is one physics step ({step * 1e3:g} ms, longer than a bus cycle)"
+    watched = robot.bus is not None and any(
+        j.servo is not None and Reg.BUS_WATCHDOG in j.servo.profile.control_table for j in robot.joints)
+    if watched:
+        high = WATCHDOG_MS / 2e3
+        why += (f"; the longest half the {WATCHDOG_MS} ms Bus Watchdog that start-up sets on its servos "
+                "(one late tick must not trip it)")
+    else:
+        high = TICK_RANGE_S[1]
+        why += "; the longest the format's"
+    return low, high, why
