@@ -34,6 +34,7 @@ from sim2real.robot import RobotSpec, load_robot
 from sim2real.robot.servo_model import derivative_time, servo_physics
 from sim2real.robot.timing import control_timing
 from sim2real.simulation.model_builder import JointAngles, build_model
+from sim2real.simulation.robot_model import UP_SENSOR
 from sim2real.simulation.reality import Reality, apply_to_model, load_reality, needs_backlash_joints, sample
 
 STEP_DEG = 10.0
@@ -123,7 +124,7 @@ def standing(robot: RobotSpec, reality: Reality, backlash: bool) -> dict[str, fl
     return {"pelvis_drop_mm": round(1e3 * float(start - sim.data.qpos[2]), 3),
             "max_joint_error_deg": round(float(error.max()), 3),
             "max_speed_rad_s": float(f"{np.abs(sim.data.qvel).max():.2g}"),
-            "upright": round(float(sim.data.sensor("torso_up").data[2]), 5)}
+            "upright": round(float(sim.data.sensor(UP_SENSOR).data[2]), 5)}
 
 
 def measure(robot: RobotSpec, reality: Reality, backlash: bool) -> dict[str, object]:

@@ -15,6 +15,7 @@ import numpy as np
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import genome_from_controller
 from evolve.locomotion.task import TaskConfig
+from sim2real.controller import channels
 from sim2real.controller.activation import check_disabled_modules
 from sim2real.controller.file import Controller
 from sim2real.controller.symmetry import turn_rad
@@ -31,10 +32,7 @@ def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes:
     check_disabled_modules(data, disabled_modules)
     task = TaskConfig.from_mapping(dict(data.task), str(path), "task.")
     changes = {"episode_s": float(seconds)} if seconds is not None else {}
-    changes["phase_period_s"] = data.phase_period_s or 0.0  # the file's clock, whatever its task block says
-    changes["efference_copy"] = data.efference_copy  # and its inputs
-    changes["heading_input"] = data.heading_input
-    changes["heading_scale_deg"] = data.heading_scale_deg
+    changes.update(channels.every_key(data.input_channels))  # the file's inputs, whatever its task block says
     if keep_going:
         changes.update(fall_height=1e-6, fall_tilt_deg=180.0)
     if keep_going or not stagnation_stop:
@@ -185,7 +183,7 @@ def gait(path: Path | str, robot: str | None = None, seconds: float | None = Non
     def record(ev: LocomotionEvaluator, alive: np.ndarray) -> None:
         times.append(len(times) * ev.tick_s)
         angles.append(ev.joint_angles(np.array([0]))[0])
-        feet.append(ev.sensordata[0, ev.touch_adr] > ev.touch_threshold)
+        feet.append(ev.parts.feet_touching(ev.sensordata[0]))
 
     result = evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=record,
                                 disabled_modules=disabled_modules, perturbation=perturbation)
@@ -252,7 +250,7 @@ def strip(paths: list[Path | str], columns: int = 6, seconds: float | None = Non
                 if count[0] in wanted:
                     d = ev.batch.get_data(0)
                     mujoco.mj_forward(ev.model, d)
-                    camera.lookat[:] = (d.subtree_com[ev.pelvis][0], d.subtree_com[ev.pelvis][1], 0.5 * tallest)
+                    camera.lookat[:] = (d.subtree_com[ev.root][0], d.subtree_com[ev.root][1], 0.5 * tallest)
                     renderer.update_scene(d, camera=camera)
                     images.append(renderer.render().copy())
                 count[0] += 1

@@ -649,7 +649,7 @@ def _with_clock(valid: dict, period_s=0.6) -> dict:
 
 
 @pytest.mark.parametrize("mutate, expected", [
-    (lambda d: d.pop("phase_period_s"), r"inputs: has 13 names where .*a clock.s inputs need a phase_period_s.* has 11"),
+    (lambda d: d.pop("phase_period_s"), r"inputs: has 13 names where .*a clock input needs a phase_period_s.* has 11"),
     (lambda d: d.update(phase_period_s=0.01), r"phase_period_s: must be within \[0.05, 10\], got 0.01"),
     (lambda d: d.update(phase_period_s=True), "phase_period_s: must be a number"),
     (lambda d: d.update(inputs=d["inputs"][:-2] + ["phase_cos", "phase_sin"]), r"inputs\[11\]: is .phase_cos."),
@@ -680,7 +680,8 @@ def _with_heading(valid: dict) -> dict:
 @pytest.mark.parametrize("extend, has", [
     (_with_clock, lambda c: c.phase_period_s == 0.6 and c.layout(ROBOT).phase),
     (_with_efference, lambda c: c.efference_copy and c.layout(ROBOT).efference),
-    (_with_heading, lambda c: c.heading_input and c.heading_scale_deg == 45.0 and c.layout(ROBOT).heading),
+    (_with_heading, lambda c: c.heading_input and c.input_channels["heading"]["heading_scale_deg"] == 45.0
+     and c.layout(ROBOT).heading),
 ], ids=["clock", "efference-copy", "heading"])
 def test_a_controller_with_more_inputs_round_trips_and_fits_its_robot(valid, tmp_path, extend, has):
     data = extend(valid)
@@ -693,12 +694,12 @@ def test_a_controller_with_more_inputs_round_trips_and_fits_its_robot(valid, tmp
 
 @pytest.mark.parametrize("extend, mutate, expected", [
     (_with_efference, lambda d: d.pop("efference_copy"),
-     r"inputs: has 18 names where .*need efference_copy: true.* has 11"),
+     r"inputs: has 18 names where .*needs efference_copy: true.* has 11"),
     (_with_efference, lambda d: d.update(efference_copy="yes"), r"efference_copy: must be true or false, got 'yes'"),
     (_with_efference, lambda d: d.update(inputs=d["inputs"][:-1]),
-     r"inputs: has 17 names where .*the last goals \(efference_copy\)"),
+     r"inputs: has 17 names where .*then the efference \(efference_copy\)"),
     (_with_heading, lambda d: d.update(heading_input=False),
-     r"heading_scale_deg: is the heading input's scale: give it only with heading_input: true"),
+     r"heading_scale_deg: is the heading input's setting: give it only with heading_input: true"),
     (_with_heading, lambda d: (d.pop("heading_input"), d.pop("heading_scale_deg")),
      r"inputs: has 12 names where .*a heading input needs heading_input: true.* has 11"),
     (_with_heading, lambda d: d.update(heading_scale_deg=0), r"heading_scale_deg: must be within \(0, 180\], got 0"),

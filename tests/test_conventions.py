@@ -12,7 +12,9 @@ import yaml
 
 import evolve.locomotion.evaluator as evaluator_module
 import evolve.neat.network as neat_network
+import sim2real.simulation.robot_model as robot_model
 import sim2real.controller.activation as activation
+import sim2real.controller.channels as channels
 import sim2real.controller.file as controller_file
 import sim2real.controller.mapping as mapping
 import sim2real.controller.policy as policy_module
@@ -96,10 +98,12 @@ def test_one_activation_step_for_evolution_and_the_runtime(monkeypatch):
 
 # -- wiring, the central-0.8 rule, normalization, the rate limit -----------------------------------
 def test_evolution_and_the_runtime_wire_and_map_with_the_same_functions(monkeypatch):
-    for name in ("normalized_angle", "output_to_angle", "rate_limit"):
+    for name in ("output_to_angle", "rate_limit"):
         assert getattr(evaluator_module, name) is getattr(policy_module, name) is getattr(mapping, name), name
-    for name in ("network_inputs", "joint_outputs", "foot_inputs", "phase_inputs"):
-        assert getattr(evaluator_module, name) is getattr(policy_module, name) is getattr(symmetry, name), name
+    assert channels.normalized_angle is mapping.normalized_angle  # the joint channels' normalization
+    for name in ("InputWiring", "Readings"):  # every input, from the one channel registry
+        assert getattr(evaluator_module, name) is getattr(policy_module, name) is getattr(channels, name), name
+    assert evaluator_module.joint_outputs is symmetry.joint_outputs
     assert compare_module.Policy is Policy
     controller = controller_from_genome(grown(), ROBOT, LAYOUT, TaskConfig(), 1.0, {})
     angles, feet, up = np.zeros(len(ROBOT.joints)), np.array([True, False]), np.array([0.0, 0.0, 1.0])
@@ -138,7 +142,8 @@ def test_the_bias_values_have_one_owner():
 
 # -- joint angles: servo joint + gear play, read in one place -------------------------------------
 def test_evolution_the_simulated_bus_and_compare_read_joint_angles_through_one_reader(monkeypatch, tmp_path):
-    assert evaluator_module.JointAngles is physics.JointAngles is compare_module.JointAngles is model_builder.JointAngles
+    assert physics.JointAngles is model_builder.JointAngles is robot_model.JointAngles  # RobotModel.angles too
+    assert evaluator_module.RobotModel is physics.RobotModel is compare_module.RobotModel is robot_model.RobotModel
     reality = load_reality({"backlash_deg": 2.0})
     now = [0.0]
     sim = physics.PhysicsChain(ROBOT, clock=lambda: now[0], reality=reality)
@@ -173,7 +178,7 @@ def test_the_robots_sensor_board_decides_when_a_foot_touches_everywhere(tmp_path
     assert strict.contact_share == 1.0 and strict.foot_contact_n == pytest.approx(ROBOT.foot_contact_n * 20)
     for robot, touching in ((ROBOT, 1), (strict, 0)):  # standing: about half the weight on each sole
         ev = LocomotionEvaluator(robot, TaskConfig(episode_s=0.1), 1, threads=1)  # evolution
-        assert ev.touch_threshold == robot.foot_contact_n
+        assert ev.parts.foot_contact_n == robot.foot_contact_n
         now = [0.0]
         sim = physics.PhysicsChain(robot, clock=lambda: now[0])  # the simulated bus's foot switches
         for dxl_id in sim.ids:
@@ -203,7 +208,8 @@ def test_the_board_profile_gives_the_up_vectors_unit_to_the_simulated_bus_and_th
     board = ROBOT.sensor_board
     assert board.profile.units["up_vector_unit"] == 1 / 16384  # Q14, from foot_sensor_board.yaml
     assert board.profile.units["heading_unit"] == 1 / 8192  # Q13 [rad]
-    coarse = dataclasses.replace(board.profile, units={"up_vector_unit": 1 / 1000, "heading_unit": 1 / 100})
+    coarse = dataclasses.replace(board.profile, units={"up_vector_unit": 1 / 1000, "heading_unit": 1 / 100,
+                                                       "gyro_unit": 1 / 10})
     robot = dataclasses.replace(ROBOT, sensor_board=dataclasses.replace(board, profile=coarse))
     sim = physics.PhysicsChain(robot)  # writes the board's registers in the profile's unit
     assert abs(sim.devices[board.id].get_named("up_vector_z") - 1000) <= 2
@@ -217,7 +223,7 @@ def test_the_board_profile_gives_the_up_vectors_unit_to_the_simulated_bus_and_th
     bus = MockBus(robot)
     bus.devices = sim.devices  # the runtime's chain reads them in the same unit
     bus.open()
-    feet, up, heading = ServoChain(bus, robot).read_board()
+    feet, up, heading, _ = ServoChain(bus, robot).read_board()
     assert up == pytest.approx([0.0, 0.0, 1.0], abs=3e-3) and heading == pytest.approx(yaw, abs=0.011)
 
 

@@ -254,7 +254,7 @@ def _heading_controller():
     from evolve.neat.genome import ConnectionGene
     from sim2real.controller.symmetry import symmetric_layout
 
-    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"], heading=True)
+    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"], TaskConfig(heading_input=True).inputs)
     genome = Genome(0, neat_layout(layout))
     genome.add_connection(ConnectionGene(0, layout.input_names.index("heading"), layout.n_inputs + layout.n_bias,
                                          3.0, True, genome.active_module))

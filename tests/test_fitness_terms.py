@@ -142,7 +142,7 @@ def test_with_a_heading_limit_only_walks_that_kept_their_heading_earn_the_bonus(
 
 
 @pytest.mark.parametrize("values, problem", [
-    ({"heading_scale_deg": 45.0}, "heading_scale_deg: is the heading input's scale: give it only with heading_input"),
+    ({"heading_scale_deg": 45.0}, "heading_scale_deg: is the heading input's setting: give it only with heading_input"),
     ({"heading_input": True, "heading_scale_deg": 0.0}, r"heading_scale_deg: must be within \(0, 180\], got 0"),
     ({"heading_input": True, "heading_scale_deg": 200.0}, r"heading_scale_deg: must be within \(0, 180\], got 200"),
 ])

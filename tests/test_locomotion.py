@@ -63,7 +63,7 @@ def test_a_mirror_symmetric_state_reads_the_same_on_both_sides():
 
 
 def test_the_heading_reads_as_a_turn_toward_each_networks_own_side():
-    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"], heading=True)
+    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"], TaskConfig(heading_input=True).inputs)
     joints, feet, up = np.zeros((1, len(ROBOT.joints))), np.array([[-1.0, -1.0]]), np.array([[0.0, 0.0, 1.0]])
     turned_left = heading_input(3.0 + 0.5, 3.0)  # yaw counter-clockwise from above: a turn to the left
     assert turned_left == pytest.approx(-0.5 / np.pi)

@@ -15,7 +15,8 @@ from sim2real.robot import load_robot
 
 def _grown_controller(seed=4, modules=("main",), efference=False, heading=False):
     robot = load_robot()
-    layout = symmetric_layout(robot, robot.control_sets["walk"], efference=efference, heading=heading)
+    task = TaskConfig(efference_copy=efference, heading_input=heading)
+    layout = symmetric_layout(robot, robot.control_sets["walk"], task.inputs)
     config = NeatConfig(population_size=20, target_species=3, add_node_prob=0.4, add_link_prob=0.6,
                         sigmoid_steepness=2.5)
     pop = Population(config, neat_layout(layout), seed=seed, modules=modules)
@@ -23,7 +24,6 @@ def _grown_controller(seed=4, modules=("main",), efference=False, heading=False)
     for _ in range(12):
         pop.step(lambda gs: rng.random(len(gs)))
     genome = max(pop.genomes, key=lambda g: len(g.conns))
-    task = TaskConfig(efference_copy=efference, heading_input=heading)
     return genome, controller_from_genome(genome, robot, layout, task, 2.5, {"seed": seed})
 
 
@@ -98,7 +98,7 @@ def _clock_only_controller(period_s=0.6, weight=4.0):
 
     robot = load_robot()
     task = TaskConfig(phase_period_s=period_s, episode_s=1.0)
-    layout = symmetric_layout(robot, robot.control_sets["walk"], phase=True)
+    layout = symmetric_layout(robot, robot.control_sets["walk"], task.inputs)
     genome = Genome(0, neat_layout(layout))
     src = layout.input_names.index("phase_sin")
     dst = layout.n_inputs + layout.n_bias + layout.output_names.index("own_hip_pitch")
@@ -155,7 +155,7 @@ def test_an_efference_copy_feeds_back_the_last_goals_in_evolution_and_the_runtim
 
     robot = load_robot()
     task = TaskConfig(phase_period_s=0.6, efference_copy=True, episode_s=1.0)
-    layout = symmetric_layout(robot, robot.control_sets["walk"], phase=True, efference=True)
+    layout = symmetric_layout(robot, robot.control_sets["walk"], task.inputs)
     assert layout.input_names[-len(layout.driven):][:2] == ("own_hip_roll_goal", "own_hip_pitch_goal")
     genome = Genome(0, neat_layout(layout))
     out = layout.n_inputs + layout.n_bias
@@ -189,7 +189,7 @@ def test_the_heading_drives_evolution_and_the_runtime_alike_drift_included():
 
     robot = load_robot()
     task = TaskConfig(heading_input=True, heading_scale_deg=30.0, episode_s=1.0)  # saturates after 1/3 s
-    layout = symmetric_layout(robot, robot.control_sets["walk"], heading=True)
+    layout = symmetric_layout(robot, robot.control_sets["walk"], task.inputs)
     assert layout.input_names[layout.input_names.index("up_sideways") + 1] == "heading"
     genome = Genome(0, neat_layout(layout))
     out = layout.n_inputs + layout.n_bias
@@ -198,7 +198,7 @@ def test_the_heading_drives_evolution_and_the_runtime_alike_drift_included():
                                          genome.active_module))
     controller = Controller.from_dict(controller_from_genome(genome, robot, layout, task, 1.0, {}).to_dict())
     assert controller.heading_input and controller.to_dict()["heading_input"] is True
-    assert controller.heading_scale_deg == 30.0
+    assert controller.input_channels["heading"]["heading_scale_deg"] == 30.0
     spinning = load_reality({"heading_drift_deg_s": 90.0})  # a gyro gone bad: a quarter turn a second
     evaluator = LocomotionEvaluator(robot, task, 1, threads=1, reality=spinning)
     p = evaluator.sample(np.array([[1, 0]]))

@@ -48,7 +48,7 @@ def test_a_push_is_the_impulse_of_its_speed_change_and_moves_the_robot():
     force, com = [], []
 
     def record(ev, alive):
-        force.append(ev.xfrc[:2, ev.pelvis, :3].copy())
+        force.append(ev.xfrc[:2, ev.root, :3].copy())
         com.append(ev.subtree_com[:2, 0].copy())  # the whole robot's centre of mass
 
     evaluator.evaluate([still, still], 1.0, pushes=pushes, on_tick=record)

@@ -29,28 +29,14 @@ from mujoco.batch import Batch, SimulationError
 from evolve.locomotion.objectives import Episodes, Objective, WalkObjective
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, Layout, PopulationNetwork
-from sim2real.controller.mapping import (
-    hold_pose,
-    max_steps,
-    normalized_angle,
-    output_to_angle,
-    quantize,
-    rate_limit,
-)
-from sim2real.controller.symmetry import (
-    SymmetricLayout,
-    bias_values,
-    foot_inputs,
-    heading_input,
-    joint_outputs,
-    network_inputs,
-    phase_inputs,
-    symmetric_layout,
-)
+from sim2real.controller.channels import InputWiring, Readings
+from sim2real.controller.mapping import hold_pose, max_steps, output_to_angle, quantize, rate_limit
+from sim2real.controller.symmetry import SymmetricLayout, bias_values, joint_outputs, symmetric_layout
 from sim2real.robot import RobotSpec
 from sim2real.robot.spec import GRAVITY
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import JointAngles, build_model, heading_rad
+from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.robot_model import RobotModel
 from sim2real.simulation.reality import (
     NOMINAL,
     PERTURBED_FIELDS,
@@ -90,25 +76,19 @@ class LocomotionEvaluator:
         self.model = model = build_model(robot, latency_capacity_s(reality, self.tick_s),
                                          backlash=needs_backlash_joints(reality))
         self.n_ticks = int(round(task.episode_s / self.tick_s))
-        self.layout = symmetric_layout(robot, robot.control_sets[task.control_set], task.phase_period_s > 0,
-                                       task.efference_copy, task.heading_input)
-        names = [j.name for j in robot.joints]
-        self.driven = np.array([names.index(n) for n in self.layout.driven], dtype=np.intp)
+        self.layout = symmetric_layout(robot, robot.control_sets[task.control_set], task.inputs)
+        self.driven = np.array([robot.joint_names.index(n) for n in self.layout.driven], dtype=np.intp)
         self.low = np.array([j.range_rad[0] for j in robot.joints])
         self.high = np.array([j.range_rad[1] for j in robot.joints])
         self.resolution = np.array([j.servo.profile.position.rad_per_tick if (j.servo and task.quantize)
                                     else 0.0 for j in robot.joints])
         self.max_step = max_steps(robot, self.tick_s)
         self.hold = hold_pose(robot, self.layout.driven)
-        self.angles = JointAngles.of(model, names)
-        self.touch_adr = np.array([model.sensor_adr[model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")])
-        self.up_adr = model.sensor_adr[model.sensor("torso_up").id]
-        self.forward_adr = model.sensor_adr[model.sensor("torso_forward").id]
-        self.soles = np.array([model.site(f"{s}_sole").id for s in ("left", "right")])
-        self.pelvis = model.body("pelvis").id
+        self.wiring = InputWiring(self.layout, self.low, self.high)
+        self.parts = parts = RobotModel.of(model, robot)
+        self.angles, self.root = parts.angles, parts.root
         self.leg = robot.body.leg_length
         self.mass = robot.body.mass
-        self.touch_threshold = robot.foot_contact_n
 
         self.batch = Batch(model, max_population, threads)
         self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")
@@ -121,8 +101,33 @@ class LocomotionEvaluator:
     def heading(self, ids: np.ndarray, tick: int, p: Perturbation | None) -> np.ndarray:
         """The heading the boards of simulations ``ids`` report at ``tick`` [rad]: the torso's
         yaw, plus the gyro's drift since the start."""
-        yaw = heading_rad(self.sensordata[ids, self.forward_adr:self.forward_adr + 3])
+        yaw = self.parts.heading(self.sensordata[ids])
         return yaw if p is None else yaw + p.heading_drift_rad_s[ids] * (tick * self.tick_s)
+
+    def readings(self, alive: np.ndarray, t: int, p: Perturbation | None, goal: np.ndarray,
+                 start_heading: np.ndarray | None) -> Readings:
+        """What the boards and servos of simulations ``alive`` report at tick ``t``: the
+        encoders quantized, every reading with this simulation's noise, what the layout's
+        inputs need (``goal``: every simulation's last driven goals)."""
+        sensors = self.sensordata[alive]
+        q = self.joint_angles(alive)
+        touch = self.parts.feet_touching(sensors)
+        up = self.parts.up(sensors)
+        gyro = self.parts.gyro(sensors) if self.layout.gyro else None
+        if p is not None:
+            q = q + p.joint_noise_rad[alive, t]
+            touch = touch ^ p.foot_flip[alive, t]
+            up = up + p.up_noise[alive, t]
+            if gyro is not None:
+                gyro = gyro + p.gyro_noise_rad_s[alive, t] + p.gyro_bias_rad_s[alive]
+        sent = None
+        if self.layout.efference:  # the goals of last tick, every joint (undriven ones hold)
+            sent = np.broadcast_to(self.hold, (len(alive), len(self.hold))).copy()
+            sent[:, self.driven] = goal[alive]
+        heading = self.heading(alive, t, p) if self.layout.heading else None
+        return Readings(angles=quantize(q, self.resolution), feet=touch, up=up, time_s=t * self.tick_s,
+                        previous_goal=sent, heading=heading,
+                        start_heading=None if start_heading is None else start_heading[alive], gyro=gyro)
 
     def joint_angles(self, ids: np.ndarray) -> np.ndarray:
         """Joint angles of simulations ``ids`` (len(ids), joints) [rad], unquantized and
@@ -176,7 +181,7 @@ class LocomotionEvaluator:
         net = PopulationNetwork([g for g in genomes for _ in range(2)], steepness, disabled_modules,
                                 bias_values(n))
         score = (objective or WalkObjective)(self, n)
-        start_pelvis = self.xipos[:n, self.pelvis].copy()
+        start_root = self.parts.root_com(self.xipos[:n]).copy()
         goal = self.hold[self.driven][None, :].repeat(n, axis=0)
         elapsed = np.zeros(n)
         unstable = np.zeros(n, dtype=bool)
@@ -188,38 +193,19 @@ class LocomotionEvaluator:
         p = perturbation
 
         d_low, d_high, d_step = self.low[self.driven], self.high[self.driven], self.max_step[self.driven]
-        start_heading = self.heading(ids, 0, p) if task.heading_input else None
+        start_heading = self.heading(ids, 0, p) if self.layout.heading else None
         for t in range(self.n_ticks):
-            sensors = self.sensordata[alive]
-            q = self.joint_angles(alive)
-            touch = sensors[:, self.touch_adr] > self.touch_threshold
-            up = sensors[:, self.up_adr:self.up_adr + 3]
-            if p is not None:
-                q = q + p.joint_noise_rad[alive, t]
-                touch = touch ^ p.foot_flip[alive, t]
-                up = up + p.up_noise[alive, t]
-            q = quantize(q, self.resolution)
-            clock = None
-            if task.phase_period_s > 0:  # every robot's clock reads the same: all started together
-                clock = np.broadcast_to(phase_inputs(t * tick, task.phase_period_s), (len(alive), 2))
-            sent = None
-            if task.efference_copy:  # the goals of last tick, every joint (undriven ones hold)
-                sent = np.broadcast_to(self.hold, (len(alive), len(self.hold))).copy()
-                sent[:, self.driven] = goal[alive]
-                sent = normalized_angle(sent, self.low, self.high)
-            turn = (heading_input(self.heading(alive, t, p), start_heading[alive], task.heading_scale_deg)
-                    if task.heading_input else None)
-            inputs = network_inputs(self.layout, normalized_angle(q, self.low, self.high), foot_inputs(touch), up,
-                                    clock, sent, turn)
+            readings = self.readings(alive, t, p, goal, start_heading)
+            inputs = self.wiring.inputs(readings)
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
             goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)
             goal[alive] = goal_alive
             self.ctrl[alive[:, None], self.driven] = goal_alive
             if harness or pushes is not None:
-                force = self._harness(alive, start_pelvis, k, c, cap) if harness else np.zeros((len(alive), 3))
+                force = self._harness(alive, start_root, k, c, cap) if harness else np.zeros((len(alive), 3))
                 if pushes is not None:  # an impulse of mass x speed change, spread over the tick
                     force[:, :2] += pushes[alive, t] * (self.mass / tick)
-                self.xfrc[alive, self.pelvis, :3] = force
+                self.xfrc[alive, self.root, :3] = force
             failed = np.zeros(len(alive), dtype=bool)
             try:
                 self.batch.step(alive, self.substeps)

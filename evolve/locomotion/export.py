@@ -16,15 +16,14 @@ from sim2real.robot import RobotSpec
 def controller_from_genome(genome: Genome, robot: RobotSpec, layout: SymmetricLayout, task: TaskConfig,
                            steepness: float, provenance: dict[str, Any]) -> Controller:
     """The genome's expressed network (enabled genes, every module) as ``robot``'s controller
-    (with a clock, a heading and an efference copy as ``layout`` has them)."""
+    (its inputs as ``layout`` has them)."""
     nodes, conns = expressed(genome)
     module_of = {(g.src, g.dst): g.module for g in genome.conns.values() if g.enabled}
     return Controller.for_robot(
         robot, layout, sigmoid_steepness=steepness, modules=genome.modules,
         hidden=[(n, genome.hidden[n]) for n in nodes if n in genome.hidden],
         connections=[(s, d, w, module_of[(s, d)]) for s, d, w in conns],
-        task=task.to_dict(), provenance=provenance, phase_period_s=task.phase_period_s or None,
-        heading_scale_deg=task.heading_scale_deg)
+        task=task.to_dict(), provenance=provenance)
 
 
 def genome_from_controller(controller: Controller) -> Genome:

@@ -85,8 +85,8 @@ class WalkObjective:
     def __init__(self, ev, n: int):
         task = ev.task
         self.ev, self.task = ev, task
-        self.start_x = ev.site_xpos[:n, ev.soles, 0].mean(axis=1)
-        self.start_pelvis = ev.xipos[:n, ev.pelvis].copy()
+        self.start_x = ev.parts.sole_positions(ev.site_xpos[:n])[..., 0].mean(axis=1)
+        self.start_pelvis = ev.parts.root_com(ev.xipos[:n]).copy()
         self.distance_term = np.full(n, task.epsilon)  # [leg lengths]
         self.time_term = np.zeros(n)  # [s]
         self.progress_best = np.zeros(n)  # hindmost foot [leg lengths], for stagnation
@@ -100,10 +100,10 @@ class WalkObjective:
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, task = self.ev, self.task
-        hind = ev.site_xpos[alive[:, None], ev.soles, 0].min(axis=1) - self.start_x[alive]
+        hind = ev.parts.sole_positions(ev.site_xpos[alive])[..., 0].min(axis=1) - self.start_x[alive]
         progress = hind / ev.leg
-        pelvis_z = ev.xipos[alive, ev.pelvis, 2]
-        up_z = ev.sensordata[alive, ev.up_adr + 2]
+        pelvis_z = ev.parts.root_com(ev.xipos[alive])[:, 2]
+        up_z = ev.parts.up(ev.sensordata[alive])[:, 2]
         down = (pelvis_z < task.fall_height * self.start_pelvis[alive, 2]) | (up_z < self.min_up_z)
         ok = ~down & ~bad
         live = alive[ok]
@@ -112,7 +112,7 @@ class WalkObjective:
         self.time_term[live] = elapsed[live]
         self.distance[live] = hind[ok]
         self.pelvis_best[live] = np.maximum(
-            self.pelvis_best[live], (ev.xipos[live, ev.pelvis, 0] - self.start_pelvis[live, 0]) / ev.leg)
+            self.pelvis_best[live], (ev.parts.root_com(ev.xipos[live])[:, 0] - self.start_pelvis[live, 0]) / ev.leg)
         gained = progress > self.progress_best[alive] + task.epsilon
         self.progress_best[alive[gained]] = progress[gained]
         self.last_gain[alive[gained]] = elapsed[alive[gained]]
@@ -183,8 +183,8 @@ class PoseObjective:
     def __init__(self, ev, n: int, weights: PoseWeights, limits: PoseLimits, target_rad: np.ndarray):
         self.ev, self.weights, self.limits = ev, weights, limits
         self.target = target_rad
-        self.com_target = ev.subtree_com[:n, ev.pelvis].copy()
-        self.sole_z0 = ev.site_xpos[:n, ev.soles, 2].copy()
+        self.com_target = ev.subtree_com[:n, ev.root].copy()
+        self.sole_z0 = ev.parts.sole_positions(ev.site_xpos[:n])[..., 2].copy()
         self.pose_error = np.zeros(n)
         self.ticks = np.zeros(n)
         self.fell = np.zeros(n, dtype=bool)  # failed a rule (instability aside)
@@ -198,12 +198,12 @@ class PoseObjective:
         squared = ((q - self.target) ** 2).sum(axis=1)
         self.pose_error[alive] += squared
         fail = bad | ~(self.pose_error[alive] <= limits.rest_pose)
-        com = ev.subtree_com[alive, ev.pelvis]
+        com = ev.subtree_com[alive, ev.root]
         com_err = ((com - self.com_target[alive]) ** 2).sum(axis=1) / ev.leg ** 2
-        height = (ev.site_xpos[alive[:, None], ev.soles, 2] - self.sole_z0[alive]) / ev.leg
+        height = (ev.parts.sole_positions(ev.site_xpos[alive])[..., 2] - self.sole_z0[alive]) / ev.leg
         feet_err = (height ** 2).sum(axis=1)
         if limits.standing:
-            soles = ev.site_xpos[alive[:, None], ev.soles, :2]
+            soles = ev.parts.sole_positions(ev.site_xpos[alive])[..., :2]
             apart = np.linalg.norm(soles[:, 0] - soles[:, 1], axis=1) / ev.leg
             fail |= ((com[:, 2] - self.com_target[alive, 2]) / ev.leg < -limits.com_drop) \
                 | (height.max(axis=1) > limits.foot_height) | (apart > limits.feet_apart)

@@ -28,15 +28,15 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from evolve.limits import MAX_EPISODE_S
-from sim2real.controller.schema import HEADING_SCALE_MAX_DEG, PHASE_RANGE_S
-from sim2real.controller.symmetry import HEADING_SCALE_DEG
+from sim2real.controller import channels
+from sim2real.controller.channels import InputSettings
 from sim2real.errors import ConfigError
 from sim2real.robot.spec import DEFAULT_CONTACT_SHARE
 from sim2real.robot.validation import dataclass_from_mapping, show
 
 # (key, low, high): the value must lie in (low, high]
-BOUNDED = (("episode_s", 0.0, MAX_EPISODE_S), ("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")), ("harness_height", 0.0, 1.0),
-           ("heading_scale_deg", 0.0, HEADING_SCALE_MAX_DEG))
+BOUNDED = (("episode_s", 0.0, MAX_EPISODE_S), ("fall_tilt_deg", 0.0, 180.0), ("stagnation_s", 0.0, float("inf")),
+           ("harness_height", 0.0, 1.0))
 LEGACY_CONTACT_THRESHOLD = "contact_threshold"  # the task's key for it until the robot owned it
 
 
@@ -57,7 +57,9 @@ class TaskConfig:
     phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (symmetry.PHASE_INPUTS)
     efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (symmetry.GOAL_SUFFIX)
     heading_input: bool = False  # the networks get the torso's turn since the start (symmetry.HEADING_INPUT)
-    heading_scale_deg: float = HEADING_SCALE_DEG  # [deg] the turn that input reads as 1 (clipped beyond)
+    heading_scale_deg: float = channels.Heading.settings[0].default  # [deg] the turn that input reads as 1 (clipped beyond)
+    gyro_input: bool = False  # the networks get the torso's angular rate (channels.Gyro)
+    gyro_scale_dps: float = channels.Gyro.settings[0].default  # [deg/s] the rate that input reads as 1 (clipped beyond)
     harness_generations: int = 100  # generations with the support harness (0: never)
     harness_fade_generations: int = 50  # over its last this many generations it weakens to nothing
     harness_stiffness: float = 10.0  # harness spring: this many body weights per leg length [m g / L]
@@ -93,15 +95,10 @@ class TaskConfig:
             if not lo < v <= hi:
                 bound = f"> {lo:g}" if hi == float("inf") else f"within ({lo:g}, {hi:g}]"
                 raise ConfigError(source, prefix + key, f"must be {bound}, got {v:g}")
-        if config.phase_period_s and not PHASE_RANGE_S[0] <= config.phase_period_s <= PHASE_RANGE_S[1]:
-            raise ConfigError(source, prefix + "phase_period_s", f"must be 0 (no clock) or within "
-                              f"[{PHASE_RANGE_S[0]:g}, {PHASE_RANGE_S[1]:g}] s, got {config.phase_period_s:g}")
         if config.selection_heading_deg and not (config.selection_walk_bonus and config.selection_heading_deg < 180):
             raise ConfigError(source, prefix + "selection_heading_deg", "limits which walks earn "
                               "selection_walk_bonus: give the bonus too, and less than 180 deg")
-        if config.heading_scale_deg != HEADING_SCALE_DEG and not config.heading_input:
-            raise ConfigError(source, prefix + "heading_scale_deg", "is the heading input's scale: give it only "
-                              "with heading_input: true")
+        _check_input_settings(config, source, prefix)
         if not 0 < config.fall_height < 1:
             raise ConfigError(source, prefix + "fall_height", "must be within (0, 1)")
         return config
@@ -117,3 +114,27 @@ class TaskConfig:
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
+
+    @property
+    def inputs(self) -> InputSettings:
+        """The optional input channels on, with their settings (:func:`channels.selection`)."""
+        return channels.selection(self.to_dict())
+
+
+def _check_input_settings(config: TaskConfig, source: str, prefix: str) -> None:
+    """Each input channel's settings within the controller format's bounds, and given only
+    with their channel on (a clock's period of 0 is the clock off)."""
+    chosen = config.inputs
+    for channel in channels.CHANNELS:
+        for setting in channel.settings:
+            value = getattr(config, setting.key)
+            if channel.switch is None and value == 0:  # the setting that switches it: 0 is off
+                continue
+            if channel.key not in chosen:
+                if value != setting.default:
+                    raise ConfigError(source, prefix + setting.key, f"is the {channel.key} input's setting: give it "
+                                      f"only with {channel.switch}: true")
+                continue
+            if not setting.admits(value):
+                off = f"0 (no {channel.key}) or " if channel.switch is None else ""
+                raise ConfigError(source, prefix + setting.key, f"must be {off}within {setting.bounds}, got {value:g}")

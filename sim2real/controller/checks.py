@@ -45,7 +45,6 @@ from sim2real.controller.schema import (
     BIAS_SHAPE,
     FIELDS,
     FORMAT,
-    HEADING_SCALE_MAX_DEG,
     JOINT_MAP_HASH_PATTERN,
     JOINTS_KEYS,
     LEG_JOINTS_KEYS,
@@ -56,14 +55,14 @@ from sim2real.controller.schema import (
     MODULE_KEYS,
     NETWORKS,
     OPTIONAL,
-    PHASE_RANGE_S,
     REQUIRED,
     ROBOT_KEYS,
     SYMMETRY_KEYS,
     TICK_RANGE_S,
     VERSION,
 )
-from sim2real.controller.symmetry import GOAL_SUFFIX, HEADING_INPUT, PHASE_INPUTS, SENSOR_INPUTS, symmetric_layout
+from sim2real.controller.channels import CHANNELS, InputSettings, input_names, selection
+from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError
 from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing
@@ -163,17 +162,7 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
     if type(version) is not int or version != VERSION:
         raise c.error("version", f"version {show(version)} is not supported (this code reads {VERSION})")
     c.obj(data, "", REQUIRED, OPTIONAL)
-    clock = "phase_period_s" in data
-    if clock:
-        c.number(data["phase_period_s"], "phase_period_s", *PHASE_RANGE_S)
-    efference, heading = data.get("efference_copy", False), data.get("heading_input", False)
-    for key, value in (("efference_copy", efference), ("heading_input", heading)):
-        if not isinstance(value, bool):
-            raise c.error(key, f"must be true or false, got {show(value)}")
-    if "heading_scale_deg" in data:
-        if not heading:
-            raise c.error("heading_scale_deg", "is the heading input's scale: give it only with heading_input: true")
-        c.number(data["heading_scale_deg"], "heading_scale_deg", 0.0, HEADING_SCALE_MAX_DEG, lo_open=True)
+    chosen = _check_input_channels(c, data)
     rob = c.obj(data["robot"], "robot", *ROBOT_KEYS)
     c.string(rob["name"], "robot.name")
     hash_ = rob["joint_map_hash"]
@@ -193,7 +182,7 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
             c.number(value, f"bias[{s}][{k}]", *BIAS_RANGE)
     driven = _check_joints(c, data["joints"])
     # the interface first: it numbers the nodes
-    _check_symmetry(c, data["symmetry"], driven, inputs, outputs, clock, efference, heading)
+    _check_symmetry(c, data["symmetry"], driven, inputs, outputs, chosen)
     n_in, n_bias, n_out = len(inputs), len(bias[0]), len(outputs)
     n_modules = _check_modules(c, data["modules"])
     hidden = _check_hidden(c, data["hidden"], n_in + n_bias + n_out, n_modules)
@@ -295,12 +284,31 @@ def _check_joints(c: _Checker, joints: Any) -> list[str]:
     return driven
 
 
+def _check_input_channels(c: _Checker, data: dict[str, Any]) -> dict[str, dict[str, float]]:
+    """Each input channel's keys (:data:`sim2real.controller.channels.CHANNELS`): its switch
+    true or false, its settings within the schema's bounds and only with it on; returns the
+    channels on with their settings."""
+    for channel in CHANNELS:
+        on = True
+        if channel.switch is not None:
+            on = data.get(channel.switch, False)
+            if not isinstance(on, bool):
+                raise c.error(channel.switch, f"must be true or false, got {show(on)}")
+        for setting in channel.settings:
+            if setting.key not in data:
+                continue
+            if not on:
+                raise c.error(setting.key, f"is the {channel.key} input's setting: give it only with "
+                              f"{channel.switch}: true")
+            c.number(data[setting.key], setting.key, setting.low, setting.high, lo_open=setting.low_open)
+    return selection(data)
+
+
 def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str], outputs: list[str],
-                    clock: bool, efference: bool, heading: bool) -> None:
+                    chosen: InputSettings) -> None:
     """The symmetry block against the driven joints, and the inputs and outputs it implies
-    (:func:`sim2real.controller.symmetry.symmetric_layout` names them so): the heading after
-    the sensors with a ``heading_input``, the clock's after them when the file has a
-    ``phase_period_s``, the last goals last with an ``efference_copy``."""
+    (:func:`sim2real.controller.symmetry.symmetric_layout` names them so): the joint angles,
+    then each input channel the file switches on, in the registry's order."""
     c.obj(sym, "symmetry", *SYMMETRY_KEYS)
     if sym["networks"] != NETWORKS:
         raise c.error("symmetry.networks", f"must be {NETWORKS}, got {show(sym['networks'])}")
@@ -332,14 +340,13 @@ def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str],
     why = f"the symmetry block ({k} leg joints, centre joints {show(center)})"
     c.same_names("outputs", outputs, own + center, why)
     angles = own + ["other_" + n[4:] for n in own] + center
-    sensors = list(SENSOR_INPUTS) + ([HEADING_INPUT] if heading else []) + (list(PHASE_INPUTS) if clock else [])
-    goals = [n + GOAL_SUFFIX for n in angles] if efference else []
-    c.same_names("inputs", inputs, angles + sensors + goals,
-                 why[:-1] + (", then 4 sensors" + (" and the heading (heading_input)" if heading
-                                                   else "; a heading input needs heading_input: true"))
-                 + (", then the clock (phase_period_s)" if clock else "; a clock's inputs need a phase_period_s")
-                 + (", then the last goals (efference_copy))" if efference
-                    else "; the last goals as inputs need efference_copy: true)"))
+    on = [f"then the {ch.key} ({ch.switch or ch.settings[0].key})" for ch in CHANNELS
+          if ch.key in chosen and ch.key != "joints"]
+    off = [f"{'an' if ch.key[0] in 'aeiou' else 'a'} {ch.key} input needs "
+           + (f"{ch.switch}: true" if ch.switch else f"a {ch.settings[0].key}") for ch in CHANNELS if ch.optional
+           and ch.key not in chosen]
+    c.same_names("inputs", inputs, list(input_names(angles, chosen)),
+                 why[:-1] + "".join(", " + part for part in on) + "".join("; " + part for part in off) + ")")
 
 
 def _difference(what: str, extra: list[str], lacking: list[str]) -> str:
@@ -374,8 +381,7 @@ def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
                                                        "(task.control_set)", sorted(set(driven) - members),
                                                        sorted(members - set(driven))))
     try:
-        layout = symmetric_layout(robot, tuple(driven), "phase_period_s" in data, data.get("efference_copy", False),
-                                  data.get("heading_input", False))
+        layout = symmetric_layout(robot, tuple(driven), selection(data))
     except (ValueError, KeyError) as exc:
         raise c.error("joints.driven", str(exc)) from None
     why = f"robot {robot.name} driving {show(list(layout.driven))}"

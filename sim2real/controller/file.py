@@ -23,7 +23,7 @@ joint map, control set, joint ranges and tick), the one validation, which every
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, ClassVar, Mapping
@@ -40,7 +40,9 @@ from sim2real.controller.json_reader import (
     unique_keys,
 )
 from sim2real.controller.mapping import OUTPUT_RULE, hold_pose
+from sim2real.controller import channels
 from sim2real.controller.schema import (
+    FIELDS,
     FORMAT,
     HEADING_SCALE_MAX_DEG,
     MAX_STEEPNESS,
@@ -52,14 +54,7 @@ from sim2real.controller.schema import (
     TICK_RANGE_S,
     VERSION,
 )
-from sim2real.controller.symmetry import (
-    BIAS,
-    CENTER_OUTPUT,
-    HEADING_SCALE_DEG,
-    SymmetricLayout,
-    symmetric_layout,
-    wired_layout,
-)
+from sim2real.controller.symmetry import BIAS, CENTER_OUTPUT, SymmetricLayout, symmetric_layout, wired_layout
 from sim2real.errors import ConfigError
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.robot.timing import control_timing
@@ -164,10 +159,9 @@ class Controller:
     joints: JointMap
     task: Mapping[str, Any]  # the task it was evolved for (free-form)
     provenance: Mapping[str, Any]  # seed, generation, fitness, ... (free-form)
-    phase_period_s: float | None = None  # the gait clock's period [s]; None: no clock
-    efference_copy: bool = False  # the last goals are inputs too
-    heading_input: bool = False  # the torso's heading is an input (the sensor board must report it)
-    heading_scale_deg: float = HEADING_SCALE_DEG  # [deg] the turn the heading input reads as 1
+    # the optional input channels on, with their settings (sim2real.controller.channels; a
+    # file holds them as each channel's keys: heading_input, phase_period_s, ...)
+    input_channels: Mapping[str, Mapping[str, float]] = field(default_factory=lambda: MappingProxyType({}))
 
     format: ClassVar[str] = FORMAT
     version: ClassVar[int] = VERSION
@@ -195,20 +189,13 @@ class Controller:
                             MappingProxyType(dict(joints["hold_rad"])) if "hold_rad" in joints else None,
                             joints.get("output_rule")),
             task=_frozen(data["task"]), provenance=_frozen(data["provenance"]),
-            phase_period_s=data.get("phase_period_s"), efference_copy=data.get("efference_copy", False),
-            heading_input=data.get("heading_input", False),
-            heading_scale_deg=data.get("heading_scale_deg", HEADING_SCALE_DEG),
+            input_channels=_frozen(channels.selection(data)),
         )
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON values of the file, keys in the format's order."""
-        input_keys = {} if self.phase_period_s is None else {"phase_period_s": self.phase_period_s}
-        if self.heading_input:
-            input_keys["heading_input"] = True
-            if self.heading_scale_deg != HEADING_SCALE_DEG:  # files of the default stay as they were
-                input_keys["heading_scale_deg"] = self.heading_scale_deg
-        if self.efference_copy:
-            input_keys["efference_copy"] = True
+        keys = channels.selection_keys(self.input_channels)
+        input_keys = {key: keys[key] for key in FIELDS if key in keys}  # in the format's order
         return {
             "format": self.format, "version": self.version,
             "robot": {"name": self.robot_name, "joint_map_hash": self.joint_map_hash},
@@ -224,12 +211,10 @@ class Controller:
     def for_robot(cls, robot: RobotSpec, layout: SymmetricLayout, *, sigmoid_steepness: float,
                   modules: tuple[str, ...], hidden: list[tuple[int, int]],
                   connections: list[tuple[int, int, float, int]], task: Mapping[str, Any],
-                  provenance: Mapping[str, Any], phase_period_s: float | None = None,
-                  heading_scale_deg: float = HEADING_SCALE_DEG) -> "Controller":
+                  provenance: Mapping[str, Any]) -> "Controller":
         """An evolved network (``hidden`` and ``connections`` in node ids) wired for
-        ``robot``'s joints by ``layout`` (with a clock of ``phase_period_s`` [s] and a heading
-        read on ``heading_scale_deg`` when the layout has them): its tick, bias values,
-        symmetry block, joint ranges and hold pose are the robot's and the conventions' own."""
+        ``robot``'s joints by ``layout`` (its inputs too): its tick, bias values, symmetry
+        block, joint ranges and hold pose are the robot's and the conventions' own."""
         hold = hold_pose(robot, layout.driven)
         return cls(
             robot_name=robot.name, joint_map_hash=joint_map_hash(robot), tick_s=control_timing(robot).tick_s,
@@ -239,10 +224,29 @@ class Controller:
             joints=JointMap(layout.driven, _frozen({j.name: j.range_rad for j in robot.joints}),
                             MappingProxyType({j.name: float(hold[i]) for i, j in enumerate(robot.joints)
                                               if j.name not in layout.driven}), OUTPUT_RULE),
-            task=_frozen(dict(task)), provenance=_frozen(dict(provenance)), phase_period_s=phase_period_s,
-            efference_copy=layout.efference, heading_input=layout.heading,
-            heading_scale_deg=heading_scale_deg if layout.heading else HEADING_SCALE_DEG,
+            task=_frozen(dict(task)), provenance=_frozen(dict(provenance)),
+            input_channels=_frozen(dict(layout.inputs)),
         )
+
+    # -- the input channels' settings, by name ---------------------------------------------------
+    @property
+    def phase_period_s(self) -> float | None:
+        """The gait clock's period [s]; None: no clock."""
+        return self.input_channels["clock"]["phase_period_s"] if "clock" in self.input_channels else None
+
+    @property
+    def efference_copy(self) -> bool:
+        return "efference" in self.input_channels
+
+    @property
+    def heading_input(self) -> bool:
+        return "heading" in self.input_channels
+
+    @property
+    def sensors(self) -> tuple[str, ...]:
+        """What it reads beyond joint angles, feet and up-vector (``heading``, ``gyro``): the
+        sensor board must report each."""
+        return channels.sensors_needed(self.input_channels)
 
     # -- files ---------------------------------------------------------------------------------
     @classmethod
@@ -270,10 +274,8 @@ class Controller:
         s = self.symmetry
         source = f"controller for {self.robot_name}"
         try:
-            clock = self.phase_period_s is not None
-            wired = wired_layout(robot, s.right, s.left, s.center, s.center_mirror_for_left, clock,
-                                 self.efference_copy, self.heading_input)
-            rule = symmetric_layout(robot, self.joints.driven, clock, self.efference_copy, self.heading_input)
+            wired = wired_layout(robot, s.right, s.left, s.center, s.center_mirror_for_left, self.input_channels)
+            rule = symmetric_layout(robot, self.joints.driven, self.input_channels)
         except ValueError as exc:
             raise ConfigError(source, "symmetry", str(exc)) from None
         if wired != rule or (rule.input_names, rule.output_names) != (self.inputs, self.outputs):

@@ -17,6 +17,10 @@ Each network reads its side's view of the robot and drives its side's joints:
   yaws, so without it a network cannot tell that it is turning, and a walker that turns a
   little on the model may walk back on a robot a little off it (``benchmarks/RESULTS.md``,
   "Heading").
+* optionally the torso's angular rate (``gyro_roll``, ``gyro_pitch``, ``gyro_yaw``): a gyro's
+  rates about the torso's x, y and z axes over a scale, clipped to [-1, 1]; the left network
+  reads roll and yaw rate negated (odd under the mirror) and pitch rate as it is.  Without it
+  a network senses rotation only once it has tilted or turned.
 * optionally a clock (:data:`PHASE_INPUTS`): the sine and cosine of the gait phase
   ``2 pi t / period``, the left network's half a period later (both negated), so that one
   genome's two networks step in antiphase.  A recurrent network then need not find its own
@@ -29,6 +33,10 @@ Each network reads its side's view of the robot and drives its side's joints:
 * outputs: its own leg's driven joints, then the centre joints; a centre joint gets the
   mean of the two networks' outputs (activations, as the paper says).
 
+Each input is a channel of :mod:`sim2real.controller.channels`, which owns the order, the
+names, the mirroring and the computation for evolution and the runtime alike; here are the
+layout (which joints each network reads and drives) and the plain reference of the inputs.
+
 Networks are interleaved: row ``2 i`` is genome ``i``'s right network, ``2 i + 1`` its left.
 """
 
@@ -38,6 +46,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim2real.controller import channels
+from sim2real.controller.channels import InputSettings
 from sim2real.robot import RobotSpec
 
 SIDES = ("right", "left")
@@ -84,11 +94,9 @@ class SymmetricLayout:
     leg_index: dict[str, np.ndarray]  # side -> robot joint index of each slot
     center_index: np.ndarray  # robot joint index of each driven centre joint
     center_mirror: np.ndarray  # -1 where the left network sees the joint mirrored (yaw, roll)
+    inputs: InputSettings  # the optional input channels on, with their settings (sim2real.controller.channels)
     input_names: tuple[str, ...]
     output_names: tuple[str, ...]
-    phase: bool = False  # the clock's inputs come after the sensors
-    efference: bool = False  # the last goals come last
-    heading: bool = False  # the torso's heading comes after the sensors
 
     n_bias = len(BIAS[0])
 
@@ -104,23 +112,38 @@ class SymmetricLayout:
     def n_leg(self) -> int:
         return len(self.leg_slots)
 
+    @property
+    def phase(self) -> bool:
+        return "clock" in self.inputs
+
+    @property
+    def efference(self) -> bool:
+        return "efference" in self.inputs
+
+    @property
+    def heading(self) -> bool:
+        return "heading" in self.inputs
+
+    @property
+    def gyro(self) -> bool:
+        return "gyro" in self.inputs
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, SymmetricLayout):
             return NotImplemented
-        return (self.driven == other.driven and self.leg_slots == other.leg_slots and self.phase == other.phase
-                and self.efference == other.efference and self.heading == other.heading
+        return (self.driven == other.driven and self.leg_slots == other.leg_slots
+                and {k: dict(v) for k, v in self.inputs.items()} == {k: dict(v) for k, v in other.inputs.items()}
                 and self.input_names == other.input_names and self.output_names == other.output_names
                 and all(np.array_equal(self.leg_index[s], other.leg_index[s]) for s in SIDES)
                 and np.array_equal(self.center_index, other.center_index)
                 and np.array_equal(self.center_mirror, other.center_mirror))
 
 
-def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...], phase: bool = False,
-                     efference: bool = False, heading: bool = False) -> SymmetricLayout:
+def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...], inputs: InputSettings | None = None) -> SymmetricLayout:
     """The wiring the rule gives for ``driven`` joints: leg slots in robot order, both sides
-    of each; centre joints in robot order, yaw and roll mirrored for the left network; with
-    ``heading``, the heading after the sensors; with ``phase``, the clock's inputs after
-    them; with ``efference``, the last goals last."""
+    of each; centre joints in robot order, yaw and roll mirrored for the left network; the
+    optional input channels ``inputs`` (:func:`sim2real.controller.channels.selection`) after
+    the sensors, in the registry's order."""
     joints = {j.name: j for j in robot.joints}
     unknown = [n for n in driven if n not in joints]
     if unknown:
@@ -143,12 +166,11 @@ def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...], phase: bool = Fa
         legs[side] = tuple(names)
     centers = tuple(n for n in sorted(driven, key=order.get) if joints[n].side == "center")
     mirror = tuple(-1.0 if joints[n].axis in ("yaw", "roll") else 1.0 for n in centers)
-    return wired_layout(robot, legs["right"], legs["left"], centers, mirror, phase, efference, heading)
+    return wired_layout(robot, legs["right"], legs["left"], centers, mirror, inputs)
 
 
 def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...], center: tuple[str, ...],
-                 center_mirror: tuple[float, ...], phase: bool = False, efference: bool = False,
-                 heading: bool = False) -> SymmetricLayout:
+                 center_mirror: tuple[float, ...], inputs: InputSettings | None = None) -> SymmetricLayout:
     """The layout of given wiring - a controller file's symmetry block: each side's leg
     joints slot by slot, the centre joints and their mirror signs for the left network."""
     order = {j.name: i for i, j in enumerate(robot.joints)}
@@ -156,16 +178,8 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
     if unknown:
         raise ValueError(f"joints not on robot {robot.name}: {unknown}")
     slots = tuple((robot.joints[order[n]].location, robot.joints[order[n]].axis) for n in right)
-    slot_names = [f"{loc}_{axis}" if loc != "knee" else "knee" for loc, axis in slots]
-    angles = [f"own_{s}" for s in slot_names] + [f"other_{s}" for s in slot_names] + list(center)
-    inputs = angles + list(SENSOR_INPUTS)
-    if heading:
-        inputs.append(HEADING_INPUT)
-    if phase:
-        inputs += PHASE_INPUTS
-    if efference:
-        inputs += [name + GOAL_SUFFIX for name in angles]
-    outputs = [f"own_{s}" for s in slot_names] + list(center)
+    settings = {key: dict(value) for key, value in (inputs or {}).items()}
+    angles = channels.angle_names(slots, center)
     return SymmetricLayout(
         driven=tuple(sorted((*right, *left, *center), key=order.get)),
         leg_slots=slots,
@@ -173,11 +187,9 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
                    for side, names in (("right", right), ("left", left))},
         center_index=np.array([order[n] for n in center], dtype=np.intp),
         center_mirror=np.array(center_mirror, dtype=float),
-        input_names=tuple(inputs),
-        output_names=tuple(outputs),
-        phase=phase,
-        efference=efference,
-        heading=heading,
+        inputs=settings,
+        input_names=channels.input_names(angles, settings),  # unknown channels refused here
+        output_names=tuple(angles[:len(slots)] + list(center)),
     )
 
 
@@ -188,8 +200,10 @@ def foot_inputs(touching: np.ndarray) -> np.ndarray:
 
 def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray,
                    up: np.ndarray, phase: np.ndarray | None = None, goals: np.ndarray | None = None,
-                   heading: np.ndarray | None = None) -> np.ndarray:
-    """Inputs of both networks of every robot.
+                   heading: np.ndarray | None = None, gyro: np.ndarray | None = None) -> np.ndarray:
+    """Inputs of both networks of every robot, side by side and name by name: the plain
+    reference (test oracle) of :meth:`sim2real.controller.channels.InputWiring.inputs`,
+    which evolution and the runtime run.
 
     Args:
       joints: (n, n_joints) normalized joint angles in robot order, in [-1, 1].
@@ -200,41 +214,38 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
         has an efference copy.
       heading: (n,) the right network's heading input (:func:`heading_input`), if the layout
         has one.
+      gyro: (n, 3) the torso's angular rate over the layout's scale, clipped to [-1, 1]
+        (roll, pitch, yaw: about x forward, y left, z up), if the layout reads it.
 
     Returns:
       (2 n, n_inputs), rows interleaved right, left.
     """
-    if layout.phase != (phase is not None):
-        raise ValueError("clock inputs given to a layout without a clock" if phase is not None
-                         else "this layout has clock inputs: give the phase")
-    if layout.efference != (goals is not None):
-        raise ValueError("goals given to a layout without an efference copy" if goals is not None
-                         else "this layout has an efference copy: give the last goals")
-    if layout.heading != (heading is not None):
-        raise ValueError("a heading given to a layout without one" if heading is not None
-                         else "this layout has a heading input: give the heading")
+    for given, (key, what) in ((phase, ("clock", "the phase")), (goals, ("efference", "the last goals")),
+                               (heading, ("heading", "the heading")), (gyro, ("gyro", "the gyro"))):
+        if (key in layout.inputs) != (given is not None):
+            raise ValueError(f"{what} given to a layout without that input" if given is not None
+                             else f"this layout reads {what}: give {what}")
     n = joints.shape[0]
     out = np.empty((n, 2, len(layout.input_names)))
-    k = layout.n_leg
-    m = 2 * k + len(layout.center_index)  # where the sensors start
-    clock = m + len(SENSOR_INPUTS) + (1 if heading is not None else 0)  # where the clock starts
-    last = clock + (len(PHASE_INPUTS) if phase is not None else 0)  # where the goals start
     for s, (own_foot, other_foot, side_sign) in enumerate(((feet[:, 1], feet[:, 0], 1.0),
                                                            (feet[:, 0], feet[:, 1], -1.0))):
-        row = out[:, s]
-        row[:, :m] = _angle_inputs(layout, joints, s)
+        value = dict(zip(layout.input_names, _angle_inputs(layout, joints, s).T))
         if goals is not None:
-            row[:, last:] = _angle_inputs(layout, goals, s)
-        row[:, m] = own_foot
-        row[:, m + 1] = other_foot
-        row[:, m + 2] = -up[:, 0]  # leaning forward is positive
+            angle_names = layout.input_names[:2 * layout.n_leg + len(layout.center_index)]
+            value.update(zip((name + GOAL_SUFFIX for name in angle_names), _angle_inputs(layout, goals, s).T))
+        value["own_foot"], value["other_foot"] = own_foot, other_foot
+        value["up_forward"] = -up[:, 0]  # leaning forward is positive
         # leaning toward the network's own side is positive on both sides (leaning right
         # tilts world up toward the torso's +y)
-        row[:, m + 3] = up[:, 1] * side_sign
+        value["up_sideways"] = up[:, 1] * side_sign
         if heading is not None:
-            row[:, m + 4] = heading * side_sign  # turning toward the network's own side is positive
+            value["heading"] = heading * side_sign  # turning toward the network's own side is positive
+        if gyro is not None:  # roll and yaw rate are odd under the mirror, pitch rate even
+            value["gyro_roll"], value["gyro_pitch"], value["gyro_yaw"] = \
+                gyro[:, 0] * side_sign, gyro[:, 1], gyro[:, 2] * side_sign
         if phase is not None:
-            row[:, clock:clock + 2] = phase * side_sign  # the left network half a period later
+            value["phase_sin"], value["phase_cos"] = phase[:, 0] * side_sign, phase[:, 1] * side_sign
+        out[:, s] = np.stack([value[name] for name in layout.input_names], axis=1)
     return out.reshape(2 * n, -1)
 
 

@@ -40,7 +40,7 @@ from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
 from sim2real.errors import BipedError, UsageError
 from sim2real.hardware.bus import Bus, CommunicationError, ServoError
-from sim2real.hardware.dynamixel.chain import BoardReading, ServoChain, board_reports_heading
+from sim2real.hardware.dynamixel.chain import BoardReading, ServoChain, board_reports
 from sim2real.hardware.dynamixel.errors import decode_hardware_error
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.dynamixel.startup import StartupError, start_up
@@ -51,7 +51,7 @@ from sim2real.hardware.realtime import (
     request_realtime,
 )
 from sim2real.hardware.readings import MotionReadings
-from sim2real.hardware.trace import HEADING_CHANNEL, Channel, TraceWriter
+from sim2real.hardware.trace import GYRO_CHANNELS, HEADING_CHANNEL, Channel, TraceWriter
 from sim2real.robot import RobotSpec
 
 RAMP_S = 2.0  # start-up and shutdown ramps [s]
@@ -133,7 +133,8 @@ class GoalSource(Protocol):
     def reset(self) -> np.ndarray: ...  # the pose the run starts from [rad]
 
     def step(self, angles: np.ndarray, feet_touching: np.ndarray, up: np.ndarray, previous: np.ndarray,
-             tick: int = 0, heading: float | None = None) -> np.ndarray: ...  # this tick's goals [rad]
+             tick: int = 0, heading: float | None = None,
+             gyro: np.ndarray | None = None) -> np.ndarray: ...  # this tick's goals [rad]
 
     def trace_metadata(self) -> dict[str, Any]: ...
 
@@ -181,9 +182,11 @@ class RealTimeLoop:
             if readings is None:  # hold the last goals; writing them again keeps the watchdog fed
                 report.missed_ticks += 1
             else:
-                angles, (feet, up, heading) = readings
+                angles, board = readings
+                feet, up = board.feet, board.up
                 t0 = self.clock()
-                goal = self.policy.step(angles, feet, up, self.goal, tick=report.ticks, heading=heading)
+                goal = self.policy.step(angles, feet, up, self.goal, tick=report.ticks, heading=board.heading,
+                                        gyro=board.gyro)
                 compute_s = self.clock() - t0
                 if not np.all(np.isfinite(goal)):
                     raise UnsafeOutput(f"non-finite goal at tick {report.ticks}: held the last goals")
@@ -199,7 +202,8 @@ class RealTimeLoop:
                 report.overruns += 1
                 deadline = now  # re-sync: never try to catch up
             if self.trace is not None and readings is not None:
-                extra = () if heading is None else (heading,)
+                extra = (*(() if board.heading is None else (board.heading,)),
+                         *(() if board.gyro is None else board.gyro))
                 if self.motion is not None:  # traced only: a tick without them loses its row, not its goals
                     motion = self._attempt(lambda: self.motion.read(attempts=1), began + self.tick_s, report)
                     extra = None if motion is None else (*extra, *motion)
@@ -357,10 +361,10 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
     if duration_s is not None and not (math.isfinite(duration_s) and round(duration_s / policy.tick_s) >= 1):
         raise UsageError(f"duration {duration_s!r} s: not a finite time of at least one control tick "
                          f"({policy.tick_s} s)")  # before any servo moves
-    layout = getattr(policy, "layout", None)
-    if layout is not None and layout.heading and not board_reports_heading(robot):
-        raise UsageError(f"the controller reads the torso's heading (heading_input), but robot {robot.name}'s sensor "
-                         "board reports none (no heading register in its profile)")  # before any servo moves
+    for sensor in getattr(policy, "sensors", ()):  # before any servo moves
+        if not board_reports(robot, sensor):
+            raise UsageError(f"the controller reads the torso's {sensor} ({sensor}_input), but robot {robot.name}'s "
+                             f"sensor board reports none (no {sensor} register in its profile)")
     report = RunReport()
     log = _SafeLog(log)
     chain = ServoChain(bus, robot)
@@ -381,11 +385,12 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
             if motion is not None and motion.left_out:
                 log(f"note: the trace leaves out servo {' and '.join(motion.left_out)}: not at one address on every servo")
             if trace_path is not None:
-                heading = (Channel(HEADING_CHANNEL, "rad"),) if board_reports_heading(robot) else ()
+                board_channels = ((Channel(HEADING_CHANNEL, "rad"),) if board_reports(robot, "heading") else ()) + \
+                    (tuple(Channel(name, "rad/s") for name in GYRO_CHANNELS) if board_reports(robot, "gyro") else ())
                 try:
                     trace = TraceWriter(trace_path, robot.joint_names, {
                         "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"},
-                        extra=(*heading, *(motion.channels if motion else ())))
+                        extra=(*board_channels, *(motion.channels if motion else ())))
                 except OSError as exc:  # before torque goes on: nothing has moved
                     raise TraceWriteError(f"cannot start the trace: {exc}") from exc
             loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s,

@@ -148,7 +148,7 @@ class ExcitationProgram:
         return self.hold.copy()
 
     def step(self, angles: np.ndarray, feet_touching: np.ndarray, up: np.ndarray, previous: np.ndarray,
-             tick: int = 0, heading: float | None = None) -> np.ndarray:
+             tick: int = 0, heading: float | None = None, gyro: np.ndarray | None = None) -> np.ndarray:
         """The program's goals at ``tick`` (its clock is the loop's tick count, so a missed
         tick does not stretch the program); home after its end."""
         return self.goals[tick].copy() if tick < len(self.goals) else self.hold

@@ -56,6 +56,7 @@ class Channel:
 
 
 HEADING_CHANNEL = "heading_rad"  # the board's heading, when it reports one (after the loop's channels)
+GYRO_CHANNELS = ("gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s")  # the board's angular rates, when it reports them
 
 
 def loop_channels(joints: Sequence[str]) -> tuple[Channel, ...]:

@@ -242,13 +242,22 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
                 raise sensors.error(f"up_vector_unit ({sensors.get('up_vector_unit').value}) must be given and be "
                                     f"up_vector_{axis}'s unit ({reg.unit})", key="up_vector_unit")
         units = {"up_vector_unit": up_unit} if up_unit is not None else {}
-        reg = table.get("heading")
-        if reg is not None:  # optional: a board without it serves controllers without a heading input
-            heading_unit = _lsb(sensors["heading_unit"]) if sensors.has("heading_unit") else None
-            if heading_unit is None or reg.unit is None or _lsb(Node(reg.unit, str(path))) != heading_unit:
-                raise sensors.error(f"heading_unit ({sensors.get('heading_unit').value}) must be given and be "
-                                    f"heading's unit ({reg.unit}) [rad]", key="heading_unit")
-            units["heading_unit"] = heading_unit
+        # optional sensors: a board without them serves controllers that do not read them
+        for unit_key, registers, unit in (("heading_unit", ("heading",), "rad"),
+                                          ("gyro_unit", ("gyro_x", "gyro_y", "gyro_z"), "rad/s")):
+            present = [r for r in registers if r in table]
+            if not present:
+                continue
+            if len(present) < len(registers):
+                raise root.error(f"control_table has {', '.join(present)} but not "
+                                 f"{', '.join(r for r in registers if r not in table)}: give all or none")
+            lsb = _lsb(sensors[unit_key]) if sensors.has(unit_key) else None
+            for name in registers:
+                reg = table[name]
+                if lsb is None or reg.unit is None or _lsb(Node(reg.unit, str(path))) != lsb:
+                    raise sensors.error(f"{unit_key} ({sensors.get(unit_key).value}) must be given and be "
+                                        f"{name}'s unit ({reg.unit}) [{unit}]", key=unit_key)
+            units[unit_key] = lsb
         return DeviceProfile(**profile, sensors=dict(sensors.free_mapping()), units=units)
 
     pos = root["position"].mapping(

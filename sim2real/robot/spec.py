@@ -33,6 +33,7 @@ GRAVITY = 9.81  # [m/s^2], as in the MuJoCo model (its default)
 # board's threshold (``sensor_board.contact_share`` in a robot config), which evolution,
 # the simulated bus and compare all read; robots without a board (simulation-only) use it too.
 DEFAULT_CONTACT_SHARE = 0.05
+BOX_ROOT_BODY = "pelvis"  # the floating root of a box robot (seed 000's "waist"), named so in its model
 
 # Plausible ranges of a robot config's physical quantities, checked on reading with the key
 # named (:mod:`sim2real.robot.loading`): wide enough for anything from a 20 cm hobby-servo
@@ -164,6 +165,11 @@ class RobotSpec:
             if j.name == name:
                 return j
         raise KeyError(f"robot {self.name} has no joint {name!r}")
+
+    @property
+    def root_body(self) -> str:
+        """The model's floating root body, whose centre of mass the fall test watches."""
+        return BOX_ROOT_BODY
 
     @property
     def is_servo_robot(self) -> bool:

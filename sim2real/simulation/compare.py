@@ -23,7 +23,8 @@ from sim2real.controller.policy import Policy
 from sim2real.errors import ConfigError
 from sim2real.hardware.trace import TIMING, Trace, check_joint_angles, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
-from sim2real.simulation.model_builder import JointAngles, SimulationUnstable, heading_rad, instability
+from sim2real.simulation.model_builder import SimulationUnstable, instability
+from sim2real.simulation.robot_model import RobotModel
 from sim2real.simulation.reality import Reality, load_reality, perturbed_model
 
 MAX_LAG_S = 0.5
@@ -37,20 +38,17 @@ def _simulate(robot: RobotSpec, times: np.ndarray, goals: np.ndarray, policy: Po
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)
     names = list(robot.joint_names)
-    joint_angles = JointAngles.of(model, names)
-    touch = [model.sensor_adr[model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
-    up_adr = model.sensor_adr[model.sensor("torso_up").id]
-    forward_adr = model.sensor_adr[model.sensor("torso_forward").id]
+    parts = RobotModel.of(model, robot)
     resolution = ServoMapping(robot).rad_per_tick
     angles = np.zeros((len(times), len(names)))
     feet = np.zeros((len(times), 2), dtype=bool)
     goal = policy.reset() if policy is not None else None
     for k, t in enumerate(times):
-        angles[k] = quantize(joint_angles.read(data.qpos), resolution)
-        feet[k] = [data.sensordata[a] > robot.foot_contact_n for a in touch]
+        angles[k] = quantize(parts.angles.read(data.qpos), resolution)
+        feet[k] = parts.feet_touching(data.sensordata)
         if policy is not None:
-            goal = policy.step(angles[k], feet[k], data.sensordata[up_adr:up_adr + 3], goal,
-                               heading=float(heading_rad(data.sensordata[forward_adr:forward_adr + 3])))
+            goal = policy.step(angles[k], feet[k], parts.up(data.sensordata), goal,
+                               heading=float(parts.heading(data.sensordata)), gyro=parts.gyro(data.sensordata))
             data.ctrl[:] = goal
         else:
             data.ctrl[:] = goals[k]

@@ -12,7 +12,8 @@ links overlap at the joints, and a servo bracket cannot pass through itself anyw
 Sensors: ``<side>_foot_touch`` (normal force under each sole [N]), ``torso_up`` (world up
 in the torso frame, x forward, y left, z up: what the sensor board's IMU reports),
 ``torso_forward`` (the torso's x axis in the world frame, whose yaw :func:`heading_rad` is the
-board's heading) and ``<joint>_pos`` (the servo joint's angle [rad], unquantized).  The
+board's heading), ``<joint>_pos`` (the servo joint's angle [rad], unquantized) and
+``torso_gyro`` (the torso's angular rate about its x, y, z axes [rad/s], as the board's gyro).  The
 keyframe ``home`` holds the standing pose in ``qpos`` and ``ctrl``.
 
 Gear backlash, when asked for (``backlash=True``), is a passive hinge ``<joint>_backlash``
@@ -35,8 +36,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
-from typing import Sequence
 
 import mujoco
 import numpy as np
@@ -45,7 +44,23 @@ from sim2real.errors import BipedError
 from sim2real.robot import Joint, RobotSpec
 from sim2real.robot.servo_model import ServoPhysics, servo_physics
 from sim2real.robot.timing import control_timing
+from sim2real.simulation.robot_model import (
+    BACKLASH_SUFFIX,
+    FEET,
+    FLOOR_GEOM,
+    FORWARD_SENSOR,
+    GYRO_SENSOR,
+    IMU_SITE,
+    UP_SENSOR,
+    JointAngles,
+    heading_rad,
+    joint_sensor,
+    sole_site,
+    touch_sensor,
+)
 from sim2real.simulation.statics import axis_inertia, dot3
+
+__all__ = ["JointAngles", "heading_rad"]  # read here by older code; they live in robot_model
 
 FLOOR, LEFT, RIGHT, TORSO = 1, 2, 4, 8  # contype / conaffinity bits
 COLLISION_BITS = {  # (contype, conaffinity)
@@ -73,7 +88,6 @@ SOLE_CLEARANCE_M = 0.0005  # the home keyframe starts the soles this far above t
 SUSPENDED_HEIGHT_LEGS = 2.0  # a hung robot's pelvis, in leg lengths above the floor: feet well clear
 OFFSCREEN_SIZE = (1280, 720)  # [px] the offscreen framebuffer: the largest picture `biped render` makes
 
-BACKLASH_SUFFIX = "_backlash"  # <joint>_backlash: the gears' free play behind <joint>
 # A width-0 draw closes the play to this [rad] (a limited joint needs low < high): its two
 # limits then hold the joint at 0 as the nominal model's rigid gears do.
 CLOSED_PLAY_RAD = 1e-6
@@ -184,11 +198,11 @@ def build_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
     world.add_light(name="sun", pos=[0, 0, 3 * max(1.0, b.height)], dir=[0, 0, -1],
                     type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
     contype, conaffinity = COLLISION_BITS["floor"]
-    world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
+    world.add_geom(name=FLOOR_GEOM, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
                    material="grid", friction=list(FLOOR_FRICTION), solref=list(FLOOR_SOLREF),
                    contype=contype, conaffinity=conaffinity)
 
-    pelvis = world.add_body(name="pelvis", pos=[0, 0, (SUSPENDED_HEIGHT_LEGS if suspended else 1.0) * b.leg_length])
+    pelvis = world.add_body(name=robot.root_body, pos=[0, 0, (SUSPENDED_HEIGHT_LEGS if suspended else 1.0) * b.leg_length])
     if not suspended:
         pelvis.add_freejoint(name="root")
     _box_geom(pelvis, "pelvis", b.pelvis.size, [0, 0, b.pelvis.size[2] / 2], b.pelvis.mass, "center")
@@ -200,7 +214,7 @@ def build_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
     dt = timing.physics_dt_s
     _add_joints(robot, trunk, "center", "waist", backlash, dt)
     _box_geom(trunk, "trunk", b.trunk.size, [0, 0, b.trunk.size[2] / 2], b.trunk.mass, "center")
-    trunk.add_site(name="imu", pos=[0, 0, b.trunk.size[2] / 2])
+    trunk.add_site(name=IMU_SITE, pos=[0, 0, b.trunk.size[2] / 2])
 
     f = b.foot
     for side, y in (("left", 1.0), ("right", -1.0)):
@@ -215,29 +229,27 @@ def build_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
         sole_center = [f.length / 2 - f.heel, 0, -f.ankle_height + f.thickness / 2]
         _box_geom(foot, f"{side}_foot", (f.length, f.width, f.thickness), sole_center, f.mass, side)
         # The touch site covers the sole and a sliver below it, where contact points lie.
-        foot.add_site(name=f"{side}_sole", type=mujoco.mjtGeom.mjGEOM_BOX, pos=sole_center,
+        foot.add_site(name=sole_site(side), type=mujoco.mjtGeom.mjGEOM_BOX, pos=sole_center,
                       size=[f.length / 2 + 1e-3, f.width / 2 + 1e-3, f.thickness], group=3)
-        spec.add_sensor(name=f"{side}_foot_touch", type=mujoco.mjtSensor.mjSENS_TOUCH,
-                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"{side}_sole")
+        spec.add_sensor(name=touch_sensor(side), type=mujoco.mjtSensor.mjSENS_TOUCH,
+                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=sole_site(side))
 
     # world up in the torso frame: what the sensor board's IMU reports
-    spec.add_sensor(name="torso_up", type=mujoco.mjtSensor.mjSENS_FRAMEZAXIS,
+    spec.add_sensor(name=UP_SENSOR, type=mujoco.mjtSensor.mjSENS_FRAMEZAXIS,
                     objtype=mujoco.mjtObj.mjOBJ_BODY, objname="world",
-                    reftype=mujoco.mjtObj.mjOBJ_SITE, refname="imu")
+                    reftype=mujoco.mjtObj.mjOBJ_SITE, refname=IMU_SITE)
     # the torso's forward axis in the world: its yaw is the heading the board's IMU reports
-    spec.add_sensor(name="torso_forward", type=mujoco.mjtSensor.mjSENS_FRAMEXAXIS,
-                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
+    spec.add_sensor(name=FORWARD_SENSOR, type=mujoco.mjtSensor.mjSENS_FRAMEXAXIS,
+                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname=IMU_SITE)
     for joint in robot.joints:
-        spec.add_sensor(name=f"{joint.name}_pos", type=mujoco.mjtSensor.mjSENS_JOINTPOS,
+        spec.add_sensor(name=joint_sensor(joint.name), type=mujoco.mjtSensor.mjSENS_JOINTPOS,
                         objtype=mujoco.mjtObj.mjOBJ_JOINT, objname=joint.name)
         _add_actuator(spec, joint)
+    # the torso's angular rate about its own axes [rad/s]: what the sensor board's gyro reports
+    # (last, so that the older sensors keep their addresses)
+    spec.add_sensor(name=GYRO_SENSOR, type=mujoco.mjtSensor.mjSENS_GYRO, objtype=mujoco.mjtObj.mjOBJ_SITE,
+                    objname=IMU_SITE)
     return spec
-
-
-def heading_rad(forward: np.ndarray) -> np.ndarray:
-    """The heading an IMU reports from the ``torso_forward`` sensor's values (..., 3): the
-    yaw of the torso's forward axis about world up, counter-clockwise seen from above [rad]."""
-    return np.arctan2(forward[..., 1], forward[..., 0])
 
 
 # MuJoCo's warnings of a simulation gone numerically unstable.  On a bad acceleration it resets
@@ -282,7 +294,7 @@ def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel)
     JointAngles.of(model).place(data.qpos, home)
     mujoco.mj_kinematics(model, data)
     lowest = np.inf
-    for side in ("left", "right"):
+    for side in FEET:
         geom = model.geom(f"{side}_foot").id
         up_row = data.geom_xmat[geom].reshape(3, 3)[2]  # world z of the foot's local axes
         centre_z = float(data.geom_xpos[geom][2])
@@ -325,62 +337,6 @@ def build_model(robot: RobotSpec, actuator_history_s: float = 0.0, backlash: boo
                 suspended: bool = False) -> mujoco.MjModel:
     """The robot's compiled MuJoCo model (see :func:`finished_spec`)."""
     return finished_spec(robot, actuator_history_s, backlash, suspended).compile()
-
-
-@dataclass(frozen=True)
-class JointAngles:
-    """Where a model keeps the robot's joint angles: the one reader of them from ``qpos``.
-
-    A joint's angle is what its encoder reports, on the servo's output shaft: the servo
-    (motor-side) joint's angle plus, in a model with backlash, the backlash joint's.
-    Index arrays are in the order of the names given (default: the actuated joints, in
-    actuator order = ``robot.joints`` order).
-    """
-
-    servo_joint: np.ndarray  # joint ids
-    servo_qpos: np.ndarray  # qpos addresses
-    servo_dof: np.ndarray  # qvel addresses
-    play_joint: np.ndarray | None  # the backlash joints' ids, or None in a model without
-    play_qpos: np.ndarray | None
-    play_dof: np.ndarray | None
-
-    @classmethod
-    def of(cls, model: mujoco.MjModel, names: Sequence[str] | None = None) -> "JointAngles":
-        if names is None:
-            names = [model.joint(model.actuator_trnid[i, 0]).name for i in range(model.nu)]
-        servo = np.array([model.joint(n).id for n in names], dtype=np.intp)
-        play_names = [n + BACKLASH_SUFFIX for n in names]
-        found = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) >= 0 for n in play_names]
-        if any(found) and not all(found):
-            raise ValueError(f"backlash joints behind only some of the joints {list(names)}")
-        play = np.array([model.joint(n).id for n in play_names], dtype=np.intp) if any(found) else None
-        return cls(servo, model.jnt_qposadr[servo], model.jnt_dofadr[servo], play,
-                   None if play is None else model.jnt_qposadr[play],
-                   None if play is None else model.jnt_dofadr[play])
-
-    @property
-    def has_play(self) -> bool:
-        return self.play_joint is not None
-
-    def read(self, qpos: np.ndarray) -> np.ndarray:
-        """The encoders' angles (..., joints) [rad] from ``qpos`` (..., nq)."""
-        q = qpos[..., self.servo_qpos]
-        return q if self.play_qpos is None else q + qpos[..., self.play_qpos]
-
-    def speeds(self, qvel: np.ndarray) -> np.ndarray:
-        """The output shafts' speeds (..., joints) [rad/s] from ``qvel`` (..., nv)."""
-        v = qvel[..., self.servo_dof]
-        return v if self.play_dof is None else v + qvel[..., self.play_dof]
-
-    def servo(self, qpos: np.ndarray) -> np.ndarray:
-        """The servo (motor-side) joints' angles (..., joints) [rad]: what the actuator sees."""
-        return qpos[..., self.servo_qpos]
-
-    def place(self, qpos: np.ndarray, angles: np.ndarray) -> None:
-        """Put the joints at ``angles`` [rad] in ``qpos``, the gears centred in their play."""
-        qpos[..., self.servo_qpos] = angles
-        if self.play_qpos is not None:
-            qpos[..., self.play_qpos] = 0.0
 
 
 def to_mjcf(robot: RobotSpec) -> str:

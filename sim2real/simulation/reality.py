@@ -43,6 +43,7 @@ from sim2real.robot.validation import Node, load_yaml, show, show_name
 from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing
 from sim2real.simulation.model_builder import CLOSED_PLAY_RAD, JointAngles, build_model
+from sim2real.simulation.robot_model import FLOOR_GEOM
 
 # name -> (nominal value, meaning with unit)
 PERTURBATIONS: dict[str, tuple[float, str]] = {
@@ -64,6 +65,9 @@ PERTURBATIONS: dict[str, tuple[float, str]] = {
     "foot_flip": (0.0, "chance that a foot switch reads wrong at a tick"),
     "heading_drift_deg_s": (0.0, "the heading's drift, a gyro's uncorrected bias [deg/s] (drawn per episode; "
                                  "give a range about 0 for either sign)"),
+    "gyro_noise_dps": (0.0, "standard deviation of the noise on each gyro rate [deg/s]"),
+    "gyro_bias_dps": (0.0, "each gyro rate's bias [deg/s] (drawn per episode and axis; give a range about 0 "
+                           "for either sign)"),
 }
 # Effects only the simulated bus gives its robot: it steps one model in Python and can change
 # it between physics steps, which mujoco.batch (evolution, `biped eval`) cannot.  They make the
@@ -98,6 +102,11 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
     "up_noise": (0.0, 0.5),
     "foot_flip": (0.0, 0.5),
     "heading_drift_deg_s": (-180.0, 180.0),  # a calibrated gyro drifts < 1 deg/s; a broken one, tested, 90
+    # a MEMS gyro's rate noise density is 0.005 (InvenSense MPU-6050) to 0.014 (Bosch BNO055) deg/s/sqrt(Hz)
+    # by their datasheets, under 0.5 deg/s rms at a few hundred Hz; its zero-rate offset is +-1 (BNO055) to
+    # +-20 deg/s (MPU-6050, uncalibrated).  The bounds are wide enough to test a bad one.
+    "gyro_noise_dps": (0.0, 100.0),
+    "gyro_bias_dps": (-100.0, 100.0),
     "stribeck_nm": (0.0, 5.0),
     "stribeck_rad_s": (0.001, 10.0),  # it divides: never 0
     "load_friction": (0.0, 1.0),
@@ -106,7 +115,7 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
 MAX_CENTRE_CHAIN = 8  # reality files, each the centre of the one before
 SCALES = ("mass_scale", "floor_friction_scale", "kp_scale", "torque_scale", "damping_scale", "friction_scale",
           "armature_scale")
-SIGNED = ("heading_drift_deg_s",)  # may be negative: a drift either way
+SIGNED = ("heading_drift_deg_s", "gyro_bias_dps")  # may be negative: a drift either way
 PER_SERVO = ("kp_scale", "torque_scale", "damping_scale", "friction_scale", "armature_scale", "backlash_deg")
 
 
@@ -197,7 +206,7 @@ NOMINAL = Reality()
 
 def _unit(key: str) -> str:
     """The unit in a key's name, for messages ("deg" for ``backlash_deg``; "" for a scale)."""
-    for suffix, unit in (("_deg_s", "deg/s"), ("_deg", "deg"), ("_ms", "ms"), ("_nm", "N m"), ("_m", "m"),
+    for suffix, unit in (("_deg_s", "deg/s"), ("_dps", "deg/s"), ("_deg", "deg"), ("_ms", "ms"), ("_nm", "N m"), ("_m", "m"),
                          ("_rad_s", "rad/s"), ("_ticks", "ticks")):
         if key.endswith(suffix):
             return unit
@@ -345,6 +354,9 @@ class Perturbation:
     up_noise: np.ndarray  # (n, n_ticks, 3)
     foot_flip: np.ndarray  # (n, n_ticks, 2) bool
     heading_drift_rad_s: np.ndarray  # (n,)
+    gyro_noise_sd_rad_s: np.ndarray  # (n,)
+    gyro_noise_rad_s: np.ndarray  # (n, n_ticks, 3)
+    gyro_bias_rad_s: np.ndarray  # (n, 3)
 
     def __len__(self) -> int:
         return len(self.latency_s)
@@ -399,6 +411,12 @@ def sample(reality: Reality, keys: np.ndarray, model: mujoco.MjModel, n_ticks: i
                 value = lo if lo == hi else rng.uniform(lo, hi)
                 field_name, unit = ("backlash_rad", np.radians) if key == "backlash_deg" else (key, float)
                 out[field_name][-1][index] = unit(value)
+        # the gyro's, after everything else: realities without a gyro draw as they did before it
+        gyro_sd = np.radians(draw("gyro_noise_dps"))
+        out["gyro_noise_sd_rad_s"].append(gyro_sd)
+        out["gyro_noise_rad_s"].append(rng.normal(0.0, 1.0, (n_ticks, 3)) * gyro_sd if gyro_sd else
+                                       np.zeros((n_ticks, 3)))
+        out["gyro_bias_rad_s"].append(np.radians(draw("gyro_bias_dps", 3)))
     return Perturbation(**{k: np.array(v) for k, v in out.items()})
 
 
@@ -425,7 +443,7 @@ def apply(fields: dict[str, np.ndarray], nominal: mujoco.MjModel, p: Perturbatio
     if not angles.has_play and np.any(p.backlash_rad > 0):
         raise ValueError("backlash drawn for a model without backlash joints: build it with "
                          "build_model(..., backlash=needs_backlash_joints(reality))")
-    floor = nominal.geom("floor").id
+    floor = nominal.geom(FLOOR_GEOM).id
     fields["body_mass"][rows] = nominal.body_mass * p.mass_scale
     fields["body_inertia"][rows] = nominal.body_inertia * p.mass_scale[..., None]
     fields["body_ipos"][rows] = nominal.body_ipos + p.com_offset

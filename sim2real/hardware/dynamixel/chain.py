@@ -27,12 +27,23 @@ class BoardReading(NamedTuple):
     feet: np.ndarray  # (2,) bool: left, right touching
     up: np.ndarray  # (3,) world up in the torso frame, unit
     heading: float | None  # [rad] the IMU's yaw; None from a board without the register
+    gyro: np.ndarray | None = None  # (3,) [rad/s] the torso's roll, pitch, yaw rate; None without the registers
+
+
+# What a controller may read beyond feet and up-vector (a channels.Readings field) -> the
+# board register that must be there for it
+SENSOR_REGISTERS = {"heading": Reg.HEADING, "gyro": Reg.GYRO_Z}
+
+
+def board_reports(robot: RobotSpec, sensor: str) -> bool:
+    """Whether the robot's sensor board reports ``sensor`` (``heading``, ``gyro``): a
+    controller that reads it needs a board that does."""
+    board = robot.sensor_board
+    return board is not None and SENSOR_REGISTERS[sensor] in board.profile.control_table
 
 
 def board_reports_heading(robot: RobotSpec) -> bool:
-    """Whether the robot's sensor board has a heading register (controllers with a heading
-    input need one)."""
-    return robot.sensor_board is not None and Reg.HEADING in robot.sensor_board.profile.control_table
+    return board_reports(robot, "heading")
 
 
 def decode(reg: Register, raw: int) -> int:
@@ -150,13 +161,16 @@ class ServoChain:
 
     def read_board(self, attempts: int | None = None) -> BoardReading:
         """Foot switches (left, right: True touching), the torso up-vector (unit, torso frame)
-        and, from a board that reports one, the heading [rad] - in one read."""
+        and, from a board that reports them, the heading [rad] and angular rates [rad/s] - in
+        one read."""
         if self.board_id is None:
             raise ValueError(f"robot {self.robot.name} has no sensor board")
         profile = self.devices[self.board_id]
         has_heading = Reg.HEADING in profile.control_table
+        has_gyro = Reg.GYRO_Z in profile.control_table
         first = profile.register(Reg.FOOT_SWITCH_LEFT)
-        last = profile.register(Reg.HEADING if has_heading else Reg.UP_VECTOR_Z)
+        present = [Reg.UP_VECTOR_Z] + [Reg.HEADING] * has_heading + [Reg.GYRO_X, Reg.GYRO_Y, Reg.GYRO_Z] * has_gyro
+        last = max((profile.register(r) for r in present), key=lambda reg: reg.address)
         size = last.address + last.size - first.address
         raw = self.with_retries(lambda: self.bus.read(self.board_id, first.address, size), attempts)
         block = raw.to_bytes(size, "little")
@@ -171,4 +185,6 @@ class ServoChain:
         up = np.array([field(Reg.UP_VECTOR_X), field(Reg.UP_VECTOR_Y), field(Reg.UP_VECTOR_Z)], dtype=float) \
             * profile.units["up_vector_unit"]
         heading = field(Reg.HEADING) * profile.units["heading_unit"] if has_heading else None
-        return BoardReading(feet, up, heading)
+        gyro = (np.array([field(Reg.GYRO_X), field(Reg.GYRO_Y), field(Reg.GYRO_Z)], dtype=float)
+                * profile.units["gyro_unit"] if has_gyro else None)
+        return BoardReading(feet, up, heading, gyro)

@@ -40,6 +40,9 @@ class Reg(StrEnum):
     UP_VECTOR_Y = "up_vector_y"
     UP_VECTOR_Z = "up_vector_z"
     HEADING = "heading"  # [heading_unit of the profile: rad] the IMU's yaw, counter-clockwise from above
+    GYRO_X = "gyro_x"  # [gyro_unit of the profile: rad/s] the torso's roll rate
+    GYRO_Y = "gyro_y"  # [gyro_unit] pitch rate
+    GYRO_Z = "gyro_z"  # [gyro_unit] yaw rate
 
 
 POSITION_MODE = 3  # Operating Mode value of position control (X series e-manual, address 11)

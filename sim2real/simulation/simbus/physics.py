@@ -14,7 +14,7 @@ A reality profile (:mod:`sim2real.simulation.reality`) perturbs the robot behind
 friction and servo gains in the model, latency as actuator delay, backlash as the gears'
 free play (backlash joints, whose angle the encoders see and the motor does not), noise on
 what the servos and the board report; and, only here, effects the model leaves out
-(:class:`ServoEffects`).  ``suspended`` hangs the robot by its pelvis, feet off the floor,
+(:class:`ServoEffects`).  ``suspended`` hangs the robot by its root (a box robot's pelvis), feet off the floor,
 for ``biped excite``.
 """
 
@@ -35,11 +35,12 @@ from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
-from sim2real.simulation.model_builder import JointAngles, heading_rad, instability
+from sim2real.simulation.model_builder import instability
+from sim2real.simulation.robot_model import JointAngles, RobotModel
 from sim2real.simulation.reality import EFFECTS, NOMINAL, Reality, perturbed_model
 
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
-FALL_HEIGHT = 0.7  # as in evolution: pelvis below 70 % of its start height
+FALL_HEIGHT = 0.7  # as in evolution: the root (pelvis) below 70 % of its start height
 FALL_TILT_DEG = 60.0
 
 
@@ -83,16 +84,14 @@ class PhysicsChain:
         self.mapping = ServoMapping(robot)
         self.ids = [int(i) for i in self.mapping.ids]
         names = list(robot.joint_names)
-        self.angles = JointAngles.of(self.model, names)
+        self.angles = JointAngles.of(self.model, names)  # (the robot's joints: RobotModel.of reads them alike)
         self.kp = self.model.actuator_gainprm[:, 0].copy()
         self.kv = -self.model.actuator_biasprm[:, 2].copy()  # the D term, if the reality draws one
         self.stall = np.array([j.servo.profile.motor.stall_torque_nm for j in robot.joints])  # datasheet
         self.torque_limit = self.model.actuator_forcerange[:, 1].copy()  # this robot's
         self.effects = (ServoEffects(self.model, reality, seed, self.angles.servo_dof, self.stall)
                         if reality.effects else None)
-        self.touch = [self.model.sensor_adr[self.model.sensor(f"{s}_foot_touch").id] for s in ("left", "right")]
-        self.up = self.model.sensor_adr[self.model.sensor("torso_up").id]
-        self.forward = self.model.sensor_adr[self.model.sensor("torso_forward").id]
+        self.parts = RobotModel.of(self.model, robot)
         self.board = robot.sensor_board.id if robot.sensor_board else None
         self.saturated = np.zeros(len(names))
         self.overload_at: dict[int, float] = {}  # fault injection: servo id -> simulated time
@@ -100,7 +99,7 @@ class PhysicsChain:
         self.lock = threading.Lock()
         self._started = clock()
         self._publish()
-        self._start_soles, self._start_height = self.sole_x(), self.pelvis_height()
+        self._start_soles, self._start_height = self.sole_x(), self.root_height()
         self._start_heading = self.heading()
         for k, dxl_id in enumerate(self.ids):
             self.devices[dxl_id].set_named(Reg.GOAL_POSITION, int(self.devices[dxl_id].get_named(Reg.PRESENT_POSITION)))
@@ -179,34 +178,40 @@ class PhysicsChain:
                 device.set_named(Reg.PRESENT_CURRENT, int(round(self.mapping.direction[k] * amps * 1000 / lsb_ma)))
         if self.board is not None:
             board = self.devices[self.board]
-            touching = [(self.data.sensordata[a] > self.robot.foot_contact_n) != (self.rng.random() < p.foot_flip_p[0])
-                        for a in self.touch]
+            touching = [bool(closed) != (self.rng.random() < p.foot_flip_p[0])
+                        for closed in self.parts.feet_touching(self.data.sensordata)]
             board.set_named(Reg.FOOT_SWITCH_LEFT, int(touching[0]))
             board.set_named(Reg.FOOT_SWITCH_RIGHT, int(touching[1]))
-            up = self.data.sensordata[self.up:self.up + 3] + self.rng.normal(0.0, 1.0, 3) * p.up_noise_sd[0]
+            up = self.parts.up(self.data.sensordata) + self.rng.normal(0.0, 1.0, 3) * p.up_noise_sd[0]
             for reg, value in zip((Reg.UP_VECTOR_X, Reg.UP_VECTOR_Y, Reg.UP_VECTOR_Z), up):
                 board.set_named(reg, int(round(float(value) / board.profile.units["up_vector_unit"])))
             if Reg.HEADING in board.profile.control_table:  # the IMU's yaw, drifting as this robot's gyro does
                 yaw = float(turn_rad(self.heading() + p.heading_drift_rad_s[0] * self.data.time, 0.0))
                 board.set_named(Reg.HEADING, int(round(yaw / board.profile.units["heading_unit"])))
+            if Reg.GYRO_Z in board.profile.control_table:  # the torso's angular rates, with this gyro's bias and noise
+                rates = self.parts.gyro(self.data.sensordata) + p.gyro_bias_rad_s[0]
+                if p.gyro_noise_sd_rad_s[0]:  # drawn only then: a reality without it draws as before the gyro
+                    rates = rates + self.rng.normal(0.0, 1.0, 3) * p.gyro_noise_sd_rad_s[0]
+                for reg, value in zip((Reg.GYRO_X, Reg.GYRO_Y, Reg.GYRO_Z), rates):
+                    board.set_named(reg, int(round(float(value) / board.profile.units["gyro_unit"])))
 
     # -- ground truth, for dry-run reports ---------------------------------------------------------
     def sole_x(self) -> np.ndarray:
-        return np.array([self.data.site(f"{s}_sole").xpos[0] for s in ("left", "right")])
+        return self.parts.sole_positions(self.data.site_xpos)[:, 0].copy()
 
-    def pelvis_height(self) -> float:
-        return float(self.data.body("pelvis").xipos[2])
+    def root_height(self) -> float:
+        return float(self.parts.root_com(self.data.xipos)[2])
 
     def upright(self) -> float:
-        return float(self.data.sensordata[self.up + 2])
+        return float(self.parts.up(self.data.sensordata)[2])
 
     def heading(self) -> float:
         """The torso's true yaw [rad] (no drift)."""
-        return float(heading_rad(self.data.sensordata[self.forward:self.forward + 3]))
+        return float(self.parts.heading(self.data.sensordata))
 
     def ground_truth(self) -> dict[str, float | bool]:
         """Distance of the hindmost sole since the start [m], whether the robot fell (as in
-        evolution: pelvis below 70 % of its start height, or torso tilted past 60 deg) and how
+        evolution: the root body (pelvis) below 70 % of its start height, or torso tilted past 60 deg) and how
         far it faces from its start heading (wrapped to +-180 deg, left positive) - at the
         end of the run's loop if :meth:`mark_end_of_run` was called (the stop's ramp to rest
         and torque off come after it: a runner braked to rest, or a limp robot, may topple
@@ -223,7 +228,7 @@ class PhysicsChain:
 
     def _now(self) -> dict[str, float | bool]:
         with self.lock:
-            fell = (self.pelvis_height() < FALL_HEIGHT * self._start_height
+            fell = (self.root_height() < FALL_HEIGHT * self._start_height
                     or self.upright() < math.cos(math.radians(FALL_TILT_DEG)))
             turn = math.degrees(turn_rad(self.heading(), self._start_heading))
             return {"distance_m": float(np.min(self.sole_x() - self._start_soles)), "fell": bool(fell),

@@ -1,0 +1,158 @@
+"""Where a compiled robot model keeps what the simulation reads: the one owner of its names.
+
+The model builder gives every robot - a box tree or a user's MJCF or URDF - the same
+project-named parts: a site ``imu`` on the torso with the sensors ``torso_up`` (world up in the
+IMU's frame: what the sensor board's up-vector reports), ``torso_forward`` (the IMU's x axis in
+the world, whose yaw is the board's heading) and ``torso_gyro`` (the IMU's angular rate about
+its own axes [rad/s]); per foot a box site ``<side>_sole`` over its sole with a touch sensor
+``<side>_foot_touch`` (normal force [N]); the floor geom ``floor``.  The root body - the one
+that floats, whose centre of mass the fall test watches - is the robot's (``pelvis`` for a box
+robot).  :class:`RobotModel` resolves them once into ids and addresses; the evaluator, the
+simulated bus, ``compare``, ``sysid`` and the objectives read through it, over any leading
+axes (one ``MjData``'s arrays, or a batch's ``(nsim, ...)``).  :class:`JointAngles` is the one
+reader of the joint angles from ``qpos``.
+
+    parts = RobotModel.of(model, robot)
+    parts.up(data.sensordata), parts.feet_touching(data.sensordata), parts.root_com(data.xipos)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import mujoco
+import numpy as np
+
+from sim2real.robot import RobotSpec
+
+FEET = ("left", "right")  # the order of every per-foot array
+IMU_SITE = "imu"
+UP_SENSOR = "torso_up"
+FORWARD_SENSOR = "torso_forward"
+GYRO_SENSOR = "torso_gyro"
+FLOOR_GEOM = "floor"
+BACKLASH_SUFFIX = "_backlash"  # <joint>_backlash: the gears' free play behind <joint>
+
+
+def sole_site(side: str) -> str:
+    return f"{side}_sole"
+
+
+def touch_sensor(side: str) -> str:
+    return f"{side}_foot_touch"
+
+
+def joint_sensor(joint: str) -> str:
+    return f"{joint}_pos"
+
+
+def heading_rad(forward: np.ndarray) -> np.ndarray:
+    """The heading an IMU reports from the ``torso_forward`` sensor's values (..., 3): the
+    yaw of the torso's forward axis about world up, counter-clockwise seen from above [rad]."""
+    return np.arctan2(forward[..., 1], forward[..., 0])
+
+
+@dataclass(frozen=True)
+class JointAngles:
+    """Where a model keeps the robot's joint angles: the one reader of them from ``qpos``.
+
+    A joint's angle is what its encoder reports, on the servo's output shaft: the servo
+    (motor-side) joint's angle plus, in a model with backlash, the backlash joint's.
+    Index arrays are in the order of the names given (default: the actuated joints, in
+    actuator order = ``robot.joints`` order).
+    """
+
+    servo_joint: np.ndarray  # joint ids
+    servo_qpos: np.ndarray  # qpos addresses
+    servo_dof: np.ndarray  # qvel addresses
+    play_joint: np.ndarray | None  # the backlash joints' ids, or None in a model without
+    play_qpos: np.ndarray | None
+    play_dof: np.ndarray | None
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, names: Sequence[str] | None = None) -> "JointAngles":
+        if names is None:
+            names = [model.joint(model.actuator_trnid[i, 0]).name for i in range(model.nu)]
+        servo = np.array([model.joint(n).id for n in names], dtype=np.intp)
+        play_names = [n + BACKLASH_SUFFIX for n in names]
+        found = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) >= 0 for n in play_names]
+        if any(found) and not all(found):
+            raise ValueError(f"backlash joints behind only some of the joints {list(names)}")
+        play = np.array([model.joint(n).id for n in play_names], dtype=np.intp) if any(found) else None
+        return cls(servo, model.jnt_qposadr[servo], model.jnt_dofadr[servo], play,
+                   None if play is None else model.jnt_qposadr[play],
+                   None if play is None else model.jnt_dofadr[play])
+
+    @property
+    def has_play(self) -> bool:
+        return self.play_joint is not None
+
+    def read(self, qpos: np.ndarray) -> np.ndarray:
+        """The encoders' angles (..., joints) [rad] from ``qpos`` (..., nq)."""
+        q = qpos[..., self.servo_qpos]
+        return q if self.play_qpos is None else q + qpos[..., self.play_qpos]
+
+    def speeds(self, qvel: np.ndarray) -> np.ndarray:
+        """The output shafts' speeds (..., joints) [rad/s] from ``qvel`` (..., nv)."""
+        v = qvel[..., self.servo_dof]
+        return v if self.play_dof is None else v + qvel[..., self.play_dof]
+
+    def servo(self, qpos: np.ndarray) -> np.ndarray:
+        """The servo (motor-side) joints' angles (..., joints) [rad]: what the actuator sees."""
+        return qpos[..., self.servo_qpos]
+
+    def place(self, qpos: np.ndarray, angles: np.ndarray) -> None:
+        """Put the joints at ``angles`` [rad] in ``qpos``, the gears centred in their play."""
+        qpos[..., self.servo_qpos] = angles
+        if self.play_qpos is not None:
+            qpos[..., self.play_qpos] = 0.0
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """A compiled robot model's parts, resolved once; readers over any leading axes."""
+
+    root: int  # the floating root body's id (the pelvis of a box robot)
+    soles: np.ndarray  # (2,) the sole sites' ids, left and right
+    touch: np.ndarray  # (2,) the touch sensors' sensordata addresses, left and right
+    up_adr: int
+    forward_adr: int
+    gyro_adr: int
+    angles: JointAngles  # the robot's joints, robot order
+    foot_contact_n: float  # a foot switch closes above this sole force [N]
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, robot: RobotSpec) -> "RobotModel":
+        def adr(name: str) -> int:
+            return int(model.sensor_adr[model.sensor(name).id])
+
+        return cls(root=model.body(robot.root_body).id,
+                   soles=np.array([model.site(sole_site(s)).id for s in FEET]),
+                   touch=np.array([adr(touch_sensor(s)) for s in FEET]),
+                   up_adr=adr(UP_SENSOR), forward_adr=adr(FORWARD_SENSOR), gyro_adr=adr(GYRO_SENSOR),
+                   angles=JointAngles.of(model, robot.joint_names), foot_contact_n=robot.foot_contact_n)
+
+    def feet_touching(self, sensordata: np.ndarray) -> np.ndarray:
+        """(..., 2) bool: each foot switch closed (left, right), noise-free."""
+        return sensordata[..., self.touch] > self.foot_contact_n
+
+    def up(self, sensordata: np.ndarray) -> np.ndarray:
+        """(..., 3) world up in the torso frame, as the board's IMU reports it."""
+        return sensordata[..., self.up_adr:self.up_adr + 3]
+
+    def heading(self, sensordata: np.ndarray) -> np.ndarray:
+        """(...) the torso's yaw [rad], as the board's IMU reports it (drift-free)."""
+        return heading_rad(sensordata[..., self.forward_adr:self.forward_adr + 3])
+
+    def gyro(self, sensordata: np.ndarray) -> np.ndarray:
+        """(..., 3) the torso's angular rate about its x, y, z axes [rad/s], noise-free."""
+        return sensordata[..., self.gyro_adr:self.gyro_adr + 3]
+
+    def root_com(self, xipos: np.ndarray) -> np.ndarray:
+        """(..., 3) the root body's centre of mass [m] from ``xipos`` (..., nbody, 3)."""
+        return xipos[..., self.root, :]
+
+    def sole_positions(self, site_xpos: np.ndarray) -> np.ndarray:
+        """(..., 2, 3) the sole sites' centres [m] (left, right) from ``site_xpos``."""
+        return site_xpos[..., self.soles, :]
