@@ -44,7 +44,7 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
     keys = np.array([[10_000 + i, e] for i in range(n) for e in range(episodes)])
     sims = [g for g in genomes for _ in range(episodes)]
     varied = evaluator.evaluate(sims, config.neat.sigmoid_steepness, perturbation=evaluator.sample(keys))
-    leg, seconds = run.robot.body.leg_length, evaluator.episode_s
+    leg, seconds = run.robot.leg_length, evaluator.episode_s
     share = (nominal.walked(leg, seconds)[:, None].astype(float)
              + varied.walked(leg, seconds).reshape(n, episodes).sum(axis=1, keepdims=True)) / (episodes + 1)
     worst = np.minimum(nominal.distance_m, varied.distance_m.reshape(n, episodes).min(axis=1))

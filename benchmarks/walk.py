@@ -33,7 +33,7 @@ def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: i
         config = config.replace(threads=threads)
     run = Run.create(config, out, log=lambda line: progress(line, quiet))
     judge = LocomotionEvaluator(run.robot, config.task, 1, threads=1)
-    leg = run.robot.body.leg_length
+    leg = run.robot.leg_length
     budget = minutes * 60.0
     start = time.perf_counter()
     state = {"walked": False, "minutes_to_walk": None, "best_distance_m": 0.0, "generation": None}

@@ -83,7 +83,7 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
     result = evaluator.evaluate([genome] * episodes, data.sigmoid_steepness, harness=0.0,
                                 disabled_modules=disabled_modules, perturbation=perturbation, on_tick=turn)
     _refuse_unstable(result.unstable, reality)
-    leg = spec.body.leg_length
+    leg = spec.leg_length
     walked = result.walked(leg, evaluator.episode_s)
     return {
         "distance_m": float(np.mean(result.distance_m)),
@@ -234,7 +234,7 @@ def strip(paths: list[Path | str], columns: int = 6, seconds: float | None = Non
     from sim2real.simulation.rendering import open_renderer
 
     setups = [_setup(p, None, seconds, keep_going=True) for p in paths]
-    tallest = max(spec.body.height for _, spec, _, _ in setups)
+    tallest = max(spec.height for _, spec, _, _ in setups)
     length = min(ev.episode_s for _, _, ev, _ in setups)
     tick_s = setups[0][2].tick_s  # the moments in the first controller's ticks
     ticks = np.unique(np.round(np.linspace(0, length / tick_s - 1, columns)).astype(int))
@@ -259,5 +259,5 @@ def strip(paths: list[Path | str], columns: int = 6, seconds: float | None = Non
         rows.append(images)
         preset = spec.anthropometry.get("preset") if spec.anthropometry else None
         labels.append(f"{Path(path).stem}\n{spec.name}" + (f":{preset}" if preset else "")
-                      + f", {spec.body.height:.2f} m")
+                      + f", {spec.height:.2f} m")
     return rows, ticks * tick_s, labels

@@ -324,7 +324,7 @@ class Run:
                                      steepness=self.config.neat.sigmoid_steepness, stage=self.stage, draws=v.draws,
                                      seed=self.config.seed, stage_index=stage_index, capacity=self.capacity)
         e = episodes()
-        leg, episode_s = self.robot.body.leg_length, self.evaluator.episode_s
+        leg, episode_s = self.robot.leg_length, self.evaluator.episode_s
         walked = e.walked(leg, episode_s).reshape(len(top), v.draws)
         if v.consistency:
             model = episodes(on_model=True)

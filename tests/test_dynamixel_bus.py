@@ -41,8 +41,11 @@ def test_the_sensor_board_is_read_in_one_block_and_decoded(served):
     devices[200].set_named("foot_switch_left", 1)
     devices[200].set_named("up_vector_x", -1000)
     devices[200].set_named("heading", -8192)
-    feet, up, heading = ServoChain(bus, ROBOT).read_board()
+    devices[200].set_named("gyro_x", -450)  # rolling left at half a radian a second
+    devices[200].set_named("gyro_z", 900)
+    feet, up, heading, gyro = ServoChain(bus, ROBOT).read_board()
     assert feet.tolist() == [True, False] and up == pytest.approx([-1000 / 16384, 0, 1]) and heading == -1.0
+    assert gyro.tolist() == [-0.5, 0.0, 1.0]
 
 
 def test_timeouts_follow_the_wire_not_the_sdk_floor_and_do_not_spin(served):

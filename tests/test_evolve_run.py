@@ -277,7 +277,7 @@ def test_with_consistency_a_draw_counts_only_if_it_keeps_the_share_of_the_walk_o
     draws, model = episodes(), episodes(on_model=True)
     assert model.distance_m.size == 1 and model.distance_m[0] == pytest.approx(best["model_distance_m"])
     assert model.distance_m[0] != pytest.approx(draws.distance_m[0])  # the model is not one of the draws
-    leg, seconds = run.robot.body.leg_length, run.evaluator.episode_s
+    leg, seconds = run.robot.leg_length, run.evaluator.episode_s
     counted = draws.walked(leg, seconds) & (draws.distance_m >= 0.5 * model.distance_m[0]) & model.walked(leg, seconds)
     assert best["walked"] == int(counted.sum())
     doc["randomize"]["validation"]["consistency"] = 1.5

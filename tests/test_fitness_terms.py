@@ -113,7 +113,7 @@ def test_a_walk_bonus_counts_in_selection_for_the_episodes_that_walked():
     evaluator = LocomotionEvaluator(ROBOT, task, 2, threads=1)
     stander = Genome(0, evaluator.neat_layout)  # no links: it holds its pose
     e = evaluator.evaluate([genome_from_controller(walker), stander], 1.0, harness=0.0)
-    walked = e.walked(ROBOT.body.leg_length, evaluator.episode_s)
+    walked = e.walked(ROBOT.leg_length, evaluator.episode_s)
     assert walked.tolist() == [True, False]
     assert np.array_equal(e.selection - e.fitness, 5.0 * walked)  # eq. 3 itself as reported
 
@@ -133,7 +133,7 @@ def test_with_a_heading_limit_only_walks_that_kept_their_heading_earn_the_bonus(
         evaluator = LocomotionEvaluator(ROBOT, task, 1, threads=1)
         e = evaluator.evaluate([genome_from_controller(walker)], 1.0, harness=0.0,
                                on_tick=lambda ev, alive: headings.append(np.degrees(ev.heading(alive, 0, None)[0])))
-        assert e.walked(ROBOT.body.leg_length, evaluator.episode_s).tolist() == [True]
+        assert e.walked(ROBOT.leg_length, evaluator.episode_s).tolist() == [True]
         bonus[limit] = float(e.selection[0] - e.fitness[0])
     assert 30.0 < np.abs(headings).max() < 150.0
     assert bonus == {150.0: 5.0, 30.0: 0.0}
@@ -143,8 +143,8 @@ def test_with_a_heading_limit_only_walks_that_kept_their_heading_earn_the_bonus(
 
 @pytest.mark.parametrize("values, problem", [
     ({"heading_scale_deg": 45.0}, "heading_scale_deg: is the heading input's setting: give it only with heading_input"),
-    ({"heading_input": True, "heading_scale_deg": 0.0}, r"heading_scale_deg: must be within \(0, 180\], got 0"),
-    ({"heading_input": True, "heading_scale_deg": 200.0}, r"heading_scale_deg: must be within \(0, 180\], got 200"),
+    ({"heading_input": True, "heading_scale_deg": 0.0}, r"heading_scale_deg: must be within \(0, 180\] deg, got 0"),
+    ({"heading_input": True, "heading_scale_deg": 200.0}, r"heading_scale_deg: must be within \(0, 180\] deg, got 200"),
 ])
 def test_a_heading_scale_is_a_turn_within_half_a_turn_and_needs_the_input(values, problem):
     with pytest.raises(ConfigError, match=problem):

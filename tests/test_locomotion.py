@@ -121,7 +121,7 @@ def test_a_network_without_connections_stands_still_and_stops_for_stagnation():
     result = LocomotionEvaluator(ROBOT, task, 1, threads=1).evaluate([still], 1.0)
     assert not result.fell[0]
     assert 1.9 < result.upright_s[0] < 3.0  # ended by stagnation, not by the clock
-    expected = task.distance_coeff * max(result.distance_m[0] / ROBOT.body.leg_length, task.epsilon) \
+    expected = task.distance_coeff * max(result.distance_m[0] / ROBOT.leg_length, task.epsilon) \
         + task.time_coeff * result.upright_s[0]
     assert result.fitness[0] == pytest.approx(expected)
 

@@ -42,7 +42,7 @@ def test_robot_held_at_home_by_its_servos_stands_for_5_s(robot_and_model):
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     start_height = data.qpos[2]
-    weight = robot.body.mass * 9.81
+    weight = robot.mass * 9.81
     for _ in range(int(5.0 / model.opt.timestep)):
         mujoco.mj_step(model, data)
         assert data.qpos[2] > 0.9 * start_height, f"fell at t={data.time:.2f} s"
@@ -106,7 +106,7 @@ def test_holding_torque_of_a_stance_hip_roll_is_body_weight_times_half_hip_spaci
     robot = load_robot()
     model = build_model(robot)
     torques = {t.joint: t for t in holding_torques(robot, model)}
-    expected = robot.body.mass * 9.81 * robot.body.hip_spacing / 2  # roll axis at the hip
+    expected = robot.mass * 9.81 * robot.body.hip_spacing / 2  # roll axis at the hip
     assert torques["right_hip_roll"].torque_nm == pytest.approx(expected, rel=1e-6)
     assert torques["waist_yaw"].margin is None  # a yaw axis carries no gravity load
     assert all(t.margin is None or t.margin > 1.5 for t in torques.values())

@@ -14,7 +14,7 @@ from sim2real.robot import load_robot, parse_robot
 @pytest.mark.parametrize("name", all_robot_names())
 def test_every_robot_and_preset_loads(name):
     robot = load_robot(name)
-    assert robot.body.mass > 0 and robot.body.height > 0
+    assert robot.mass > 0 and robot.height > 0
     for joint in robot.joints:
         lo, hi = joint.range_rad
         assert lo <= joint.home_rad <= hi
@@ -25,9 +25,9 @@ def test_default_robot_is_the_11_servo_xl430_biped():
     assert robot.name == "xl430_biped"
     assert len(robot.joints) == 11
     assert {j.servo.profile.model for j in robot.joints} == {"XL430-W250-T"}
-    assert 0.35 <= robot.body.height <= 0.45
+    assert 0.35 <= robot.height <= 0.45
     # at least the servos' own 57.2 g each, plus frame, battery and controller
-    assert robot.body.mass > 11 * 0.0572 * 1.3
+    assert robot.mass > 11 * 0.0572 * 1.3
 
 
 def test_op3_legs_adds_hip_yaw_on_xm430():

@@ -18,7 +18,7 @@ from sim2real.robot.timing import (
 def test_default_robot_tick_is_scaled_by_sqrt_of_leg_length():
     robot = load_robot()
     timing = control_timing(robot)
-    expected = HUMAN_TICK_S * math.sqrt(robot.body.leg_length / timing.human_leg_length_m)
+    expected = HUMAN_TICK_S * math.sqrt(robot.leg_length / timing.human_leg_length_m)
     assert timing.scaled_tick_s == pytest.approx(expected)
     # rounded to a whole number of physics steps
     assert abs(timing.tick_s - expected) <= timing.physics_dt_s / 2 + 1e-12

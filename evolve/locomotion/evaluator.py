@@ -87,8 +87,8 @@ class LocomotionEvaluator:
         self.wiring = InputWiring(self.layout, self.low, self.high)
         self.parts = parts = RobotModel.of(model, robot)
         self.angles, self.root = parts.angles, parts.root
-        self.leg = robot.body.leg_length
-        self.mass = robot.body.mass
+        self.leg = robot.leg_length
+        self.mass = robot.mass
 
         self.batch = Batch(model, max_population, threads)
         self.qpos, self.qvel = self.batch.bind("qpos"), self.batch.bind("qvel")

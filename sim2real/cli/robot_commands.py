@@ -148,9 +148,9 @@ def describe(robot: RobotSpec) -> dict:
         "description": robot.description,
         "source": robot.source,
         "actuation": "servo" if robot.is_servo_robot else "pd",
-        "height_m": robot.body.height,
-        "mass_kg": robot.body.mass,
-        "leg_length_m": robot.body.leg_length,
+        "height_m": robot.height,
+        "mass_kg": robot.mass,
+        "leg_length_m": robot.leg_length,
         "tick_s": timing.tick_s,
         "bus_cycle_s": timing.bus_cycle_s,
         "tick_derivation": {

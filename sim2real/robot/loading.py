@@ -19,6 +19,7 @@ from sim2real.robot.paths import robots_dir
 from sim2real.robot.profiles import DeviceProfile, load_profile
 from sim2real.robot.spec import (
     AXES,
+    CENTER_LOCATIONS,
     CONTROL_TICK_S,
     DEFAULT_CONTACT_SHARE,
     DEFAULT_ROBOT,
@@ -37,6 +38,8 @@ from sim2real.robot.spec import (
     BusSettings,
     Foot,
     Joint,
+    ModelFoot,
+    ModelSource,
     PDGains,
     RobotSpec,
     SensorBoard,
@@ -54,10 +57,10 @@ MAX_JOINTS = 64  # a biped's joints (the shipped robots have 11 and 15; a bus ha
 ANGLE = dict(lo=JOINT_ANGLE_DEG[0], hi=JOINT_ANGLE_DEG[1], unit="deg")
 
 _ROBOT_KEYS = dict(
-    required=("name", "description", "body", "joints", "control_sets"),
+    required=("name", "description", "joints", "control_sets"),
     optional=(
-        "actuation", "servo_model", "bus", "sensor_board", "pd_gains", "control_tick_s", "physics_dt_s",
-        "anthropometry", "proportions", "shape",
+        "body", "model", "actuation", "servo_model", "bus", "sensor_board", "pd_gains", "control_tick_s",
+        "physics_dt_s", "anthropometry", "proportions", "shape",
     ),
 )
 
@@ -116,11 +119,18 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         for key in ("anthropometry", "proportions", "shape", "pd_gains"):
             if root.has(key):
                 raise root.error("only allowed with actuation: pd", key=key)
-        body, measures, pd = _read_body(root["body"]), {}, None
+        if root.has("body") == root.has("model"):
+            raise root.error("give the robot's body (the box tree) or its model (an MJCF or URDF file), one of them",
+                             key="model" if root.has("model") else "body")
+        body, measures, pd = (_read_body(root["body"]) if root.has("body") else None), {}, None
+    model = _read_model(root["model"], Path(source)) if root.has("model") else None
+    if model is not None and actuation != "servo":
+        raise root.error("a robot from a model file is driven by servos (actuation: servo)", key="actuation")
 
     default_model = root["servo_model"].string() if root.has("servo_model") else None
     joints = tuple(
-        _read_joint(node, actuation == "servo", default_model) for node in root["joints"].list(1, MAX_JOINTS)
+        _read_joint(node, actuation == "servo", default_model, model is not None)
+        for node in root["joints"].list(1, MAX_JOINTS)
     )
     _check_joints(root, joints)
     board = _read_sensor_board(root["sensor_board"]) if root.has("sensor_board") else None
@@ -161,6 +171,45 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         control_tick_s=root["control_tick_s"].number(*CONTROL_TICK_S, unit="s") if root.has("control_tick_s") else None,
         physics_dt_s=root["physics_dt_s"].number(*PHYSICS_DT_S, unit="s") if root.has("physics_dt_s") else None,
         anthropometry={k: v for k, v in measures.items() if k != "preset"},
+        model=model,
+    )
+
+
+def _read_model(node: Node, config: Path) -> ModelSource:
+    """The ``model:`` block: the file (relative to the robot config), where its parts are.
+    That the names exist in the file is checked when the model is built (MuJoCo reads it)."""
+    node.mapping(required=("file", "root", "imu", "feet"),
+                 optional=("package_dirs", "hands", "inertias", "visuals"))
+
+    def path(item: Node) -> Path:
+        text = item.string()
+        found = Path(text) if Path(text).is_absolute() else config.parent / text
+        return found
+
+    file = path(node["file"])
+    if not exists(file):
+        raise node.error(f"{show(str(file))} does not exist (paths are relative to the robot config)", key="file")
+    dirs = tuple(path(item) for item in node["package_dirs"].list()) if node.has("package_dirs") else ()
+    imu = node["imu"].mapping(required=("body",), optional=("pos",))
+    pos = imu["pos"].vector(3, lo=-SEGMENT_SIZE_M[1], hi=SEGMENT_SIZE_M[1], unit="m") if imu.has("pos") else (0.0, 0.0, 0.0)
+    feet = node["feet"].mapping(required=("left", "right"))
+    parts = {}
+    for side in ("left", "right"):
+        foot = feet[side].mapping(required=("body",), optional=("geoms",))
+        geoms = tuple(g.string() for g in foot["geoms"].list(1)) if foot.has("geoms") else ()
+        parts[side] = ModelFoot(foot["body"].string(), geoms)
+    hands = {}
+    if node.has("hands"):
+        hand_node = node["hands"].mapping(optional=("left", "right"))
+        for side in ("left", "right"):
+            if hand_node.has(side):
+                item = hand_node[side]
+                hands[side] = item["body"].string() if isinstance(item.value, dict) else item.string()
+    return ModelSource(
+        path=file, package_dirs=dirs, root=node["root"].string(), imu_body=imu["body"].string(), imu_pos=tuple(pos),
+        feet=parts, hands=hands,
+        inertias=node.get("inertias", "as_given").string(("as_given", "from_geometry")),
+        drop_visuals=node.get("visuals", "drop").string(("drop", "keep")) == "drop",
     )
 
 
@@ -221,9 +270,9 @@ def _read_pd(node: Node, mass_kg: float) -> PDGains:
                    max_torque_nm=cap * mass_kg if caps[0] == "max_torque_nm_per_kg" else cap)
 
 
-def _read_joint(node: Node, servo_robot: bool, default_model: str | None) -> Joint:
+def _read_joint(node: Node, servo_robot: bool, default_model: str | None, model_robot: bool = False) -> Joint:
     node.mapping(
-        required=("name", "location", "axis", "range_deg"), optional=("side", "home_deg", "servo")
+        required=("name", "location", "axis", "range_deg"), optional=("side", "home_deg", "servo", "sign")
     )
     name = node["name"].string()
     if len(name) > MAX_NAME or not name.isprintable():
@@ -231,8 +280,17 @@ def _read_joint(node: Node, servo_robot: bool, default_model: str | None) -> Joi
                          f"a trace column and a controller's input), got {show(name)}", key="name")
     side = node.get("side", "center").string(SIDES)
     location = node["location"].string(LOCATIONS)
-    if (location == "waist") != (side == "center"):
-        raise node.error("waist joints are side: center, leg joints left or right", key="side")
+    if (location in CENTER_LOCATIONS) != (side == "center"):
+        raise node.error(f"{' and '.join(CENTER_LOCATIONS)} joints are side: center, the others (legs, arms) left "
+                         f"or right; got a {location} joint on side {side}", key="side")
+    sign = 1
+    if node.has("sign"):
+        if not model_robot:
+            raise node.error("a joint's sign relates it to a model file's joint: only for a robot with a model",
+                             key="sign")
+        sign = node["sign"].integer()
+        if sign not in (1, -1):
+            raise node.error(f"must be 1 or -1, got {sign}", key="sign")
     axis = node["axis"].string(AXES)
     if location == "knee" and axis != "pitch":
         raise node.error("a knee is a pitch joint", key="axis")
@@ -255,6 +313,7 @@ def _read_joint(node: Node, servo_robot: bool, default_model: str | None) -> Joi
         range_rad=(math.radians(lo), math.radians(hi)),
         home_rad=math.radians(home),
         servo=servo,
+        sign=sign,
     )
 
 

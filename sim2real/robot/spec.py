@@ -21,11 +21,15 @@ forward, roll leans it right and yaw turns it left.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
 
 from sim2real.robot.profiles import DeviceProfile
 
 SIDES = ("left", "right", "center")
-LOCATIONS = ("waist", "hip", "knee", "ankle")
+LOCATIONS = ("waist", "hip", "knee", "ankle", "shoulder", "elbow", "wrist", "neck")
+CENTER_LOCATIONS = ("waist", "neck")  # on the body's midline: side center; every other location is sided
+LEG_LOCATIONS = ("hip", "knee", "ankle")  # what a stance leg is made of
 AXES = ("yaw", "roll", "pitch")
 DEFAULT_ROBOT = "xl430_biped"
 GRAVITY = 9.81  # [m/s^2], as in the MuJoCo model (its default)
@@ -95,6 +99,36 @@ class Body:
 
 
 @dataclass(frozen=True)
+class Physique:
+    """A robot's size, measured on its compiled model (for a robot from an MJCF or URDF)."""
+
+    mass: float  # [kg]
+    height: float  # sole to the top of the highest part, at the model's zero pose [m]
+    leg_length: float  # hip joint to sole, legs straight [m]
+
+
+@dataclass(frozen=True)
+class ModelFoot:
+    body: str  # the model's body the foot is
+    geoms: tuple[str, ...] = ()  # its sole's collision geoms (empty: every collision geom of the body)
+
+
+@dataclass(frozen=True)
+class ModelSource:
+    """A robot described by a MuJoCo model file (MJCF or URDF) rather than the box tree."""
+
+    path: Path  # the MJCF or URDF file
+    package_dirs: tuple[Path, ...]  # where a URDF's package:// meshes are looked for
+    root: str  # the body that floats (its centre of mass is what the fall test watches)
+    imu_body: str  # the body the sensor board's IMU sits on: the torso
+    imu_pos: tuple[float, float, float]  # [m] in that body's frame; the IMU's axes are the body's
+    feet: dict[str, ModelFoot]  # side -> foot
+    hands: dict[str, str]  # side -> body (arms' end effectors), maybe empty
+    inertias: str = "as_given"  # or "from_geometry": each body's inertia from its collision geometry
+    drop_visuals: bool = True  # the geoms that only show are not loaded (nor their meshes)
+
+
+@dataclass(frozen=True)
 class ServoMap:
     """How a joint angle maps onto its servo: ``servo = direction * joint + zero_offset``."""
 
@@ -113,6 +147,7 @@ class Joint:
     range_rad: tuple[float, float]
     home_rad: float
     servo: ServoMap | None = None
+    sign: int = 1  # a model robot's joint: anatomical angle = sign * the model joint's angle
 
     @property
     def center_rad(self) -> float:
@@ -146,7 +181,7 @@ class RobotSpec:
     name: str
     description: str
     source: str  # file it was read from (and preset, if any)
-    body: Body
+    body: Body | None  # the box tree; None for a robot from a model file
     joints: tuple[Joint, ...]
     control_sets: dict[str, tuple[str, ...]]
     bus: BusSettings | None = None
@@ -155,6 +190,7 @@ class RobotSpec:
     control_tick_s: float | None = None  # overrides the derived tick when set
     physics_dt_s: float | None = None  # MuJoCo's timestep [s]; None: timing.PHYSICS_DT_S
     anthropometry: dict[str, float] = field(default_factory=dict)
+    model: ModelSource | None = None  # a robot from an MJCF or URDF file (then body is None)
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -169,7 +205,35 @@ class RobotSpec:
     @property
     def root_body(self) -> str:
         """The model's floating root body, whose centre of mass the fall test watches."""
-        return BOX_ROOT_BODY
+        return self.model.root if self.model is not None else BOX_ROOT_BODY
+
+    @cached_property
+    def physique(self) -> Physique:
+        """Mass, height and leg length: the box tree's, or measured on the compiled model of a
+        robot from a model file (which needs MuJoCo)."""
+        if self.body is not None:
+            return Physique(self.body.mass, self.body.height, self.body.leg_length)
+        try:
+            from sim2real.simulation.model_robot import measure_physique  # MuJoCo: only for model robots
+        except ImportError as exc:  # a robot computer without MuJoCo
+            raise RuntimeError(f"robot {self.name} is described by a MuJoCo model ({self.model.path}): measuring "
+                               f"its leg length and mass needs MuJoCo ({exc}; pip install mujoco)") from None
+        return measure_physique(self)
+
+    @property
+    def mass(self) -> float:
+        """Total mass [kg]."""
+        return self.physique.mass
+
+    @property
+    def leg_length(self) -> float:
+        """Hip joint to sole with straight legs [m]."""
+        return self.physique.leg_length
+
+    @property
+    def height(self) -> float:
+        """Sole to the top, standing straight [m]."""
+        return self.physique.height
 
     @property
     def is_servo_robot(self) -> bool:
@@ -184,7 +248,7 @@ class RobotSpec:
     def foot_contact_n(self) -> float:
         """Sole force at which a foot switch closes [N]: what evolution, the simulated bus
         and compare all compare a foot's touch sensor with."""
-        return self.contact_share * self.body.mass * GRAVITY
+        return self.contact_share * self.mass * GRAVITY
 
     @property
     def devices(self) -> dict[int, str]:

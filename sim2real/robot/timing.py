@@ -73,7 +73,7 @@ def human_leg_length_m() -> float:
 
 def control_timing(robot: RobotSpec, physics_dt_s: float | None = None) -> ControlTiming:
     physics_dt_s = physics_dt_s or robot.physics_dt_s or PHYSICS_DT_S
-    leg = robot.body.leg_length
+    leg = robot.leg_length
     human_leg = human_leg_length_m()
     scaled = HUMAN_TICK_S * math.sqrt(leg / human_leg)
     cycle = bus_cycle_s(robot)
