@@ -3,6 +3,7 @@
 checks, and the YAML the command writes."""
 
 import math
+import os
 import re
 
 import mujoco
@@ -242,7 +243,8 @@ def test_robot_import_writes_the_yaml_of_the_humanoid(tmp_path, capsys):
     assert set(joints) == set(files.expected)  # every hinge; the gripper's slides left out
     for name, role in files.expected.items():
         j = joints[name]
-        assert (j["side"], j["location"], j["axis"], j["sign"]) == (role.side, role.location, role.axis, role.sign), name
+        assert (j["side"], j["location"], j["axis"], j["sign"]) == \
+            (role.side, role.location, role.axis, role.sign), name
     for left, right, sign in files.pairs:
         assert joints[left]["sign"] * joints[right]["sign"] == sign
     assert [j["servo"]["id"] for j in doc["joints"]] == list(range(1, 21))
@@ -276,3 +278,72 @@ def test_robot_import_refuses_with_one_clear_line_and_exit_2(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["robot", "import", str(files.urdf), "--servo", "BIPED-FOOT-BOARD", "-o", str(out)])
     assert exc.value.code == 2 and "is no servo profile" in capsys.readouterr().err
+
+
+def humanoid_mjcf(files, folder, quat=(1.0, 0.0, 0.0, 0.0), pos=(0.0, 0.0, 0.0), home=None):
+    """The humanoid as MJCF (meshes by absolute path), its base turned by ``quat`` and placed
+    at ``pos`` [m], with a keyframe 'home' setting the hinges in ``home`` [rad]."""
+    spec = load_model_spec(files.urdf)
+    base = spec.body("base_link")
+    base.quat, base.pos = list(quat), list(pos)
+    add_free_joint(spec)
+    if home is not None:
+        model = compile_model(spec)
+        qpos = model.qpos0.copy()
+        for name, angle in home.items():
+            qpos[model.jnt_qposadr[model.joint(name).id]] = angle
+        spec.add_key(name="home", qpos=qpos)
+    path = folder / "humanoid.xml"
+    path.write_text(spec.copy().to_xml())
+    return path
+
+
+def test_mirror_pairs_do_not_depend_on_where_the_robot_stands(tmp_path, humanoid):
+    path = humanoid_mjcf(humanoid, tmp_path, pos=(1.0, 2.0, 0.3))
+    mirror = mirror_pairs(compile_model(load_model_spec(path)))
+    assert sorted((p.left, p.right, p.sign) for p in mirror.pairs) == sorted(humanoid.pairs)
+    assert mirror.notes == ()
+
+
+def test_a_model_facing_along_y_is_noted(tmp_path, humanoid):
+    s = math.sqrt(0.5)
+    path = humanoid_mjcf(humanoid, tmp_path, quat=(s, 0.0, 0.0, s))
+    mirror = mirror_pairs(compile_model(load_model_spec(path)))
+    assert len(mirror.pairs) < 9
+    assert any("the model seems to face along y" in n for n in mirror.notes)
+
+
+def test_robot_import_of_an_mjcf_reads_its_home_keyframe(tmp_path, humanoid, capsys):
+    path = humanoid_mjcf(humanoid, tmp_path, home={"r_knee_joint": 0.5, "l_knee_joint": -0.5})
+    assert main(["robot", "import", str(path), "-o", str(tmp_path / "m.yaml")]) == 0
+    doc = load_yaml(tmp_path / "m.yaml")
+    joints = {j["name"]: j for j in doc["joints"]}
+    assert joints["r_knee_joint"]["home_deg"] == joints["l_knee_joint"]["home_deg"] == 28.6
+    assert doc["model"]["file"] == "humanoid.xml" and doc["model"]["root"] == "base_link"
+    assert "package_dirs" not in doc["model"]
+
+
+def test_robot_import_of_a_model_facing_backwards_says_so(tmp_path, humanoid, capsys):
+    path = humanoid_mjcf(humanoid, tmp_path, quat=(0.0, 0.0, 0.0, 1.0))  # turned 180 deg about z
+    assert main(["robot", "import", str(path), "-o", str(tmp_path / "b.yaml")]) == 0
+    report = capsys.readouterr().out
+    assert "r_knee_joint: its name says right, its anchor is on the left" in report
+    assert "a knee bending backwards: does the model face -x" in report
+
+
+@pytest.mark.parametrize("kind", ["fifo", "directory", "missing", "empty", "binary"])
+def test_robot_import_refuses_what_is_no_model_file_at_once(tmp_path, capsys, kind):
+    path = tmp_path / "robot.urdf"
+    if kind == "fifo":
+        os.mkfifo(path)  # opening it for reading would wait for a writer: refused unopened
+    elif kind == "directory":
+        path.mkdir()
+    elif kind == "empty":
+        path.write_text("\n")
+    elif kind == "binary":
+        path.write_bytes(bytes(range(200, 256)) * 4)
+    assert main(["robot", "import", str(path), "-o", str(tmp_path / "robot.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"biped: error: {path}: ") and err.count("\n") == 1
+    assert {"fifo": "named pipe", "directory": "is a directory", "missing": "No such file", "empty": "is empty",
+            "binary": "not UTF-8"}[kind] in err

@@ -292,7 +292,8 @@ def _servo_model(text: str) -> str:
 
 
 def cmd_robot_import(args: argparse.Namespace) -> int:
-    from sim2real.robot.importer import import_robot, write_robot_yaml
+    from sim2real.robot.import_yaml import write_robot_yaml
+    from sim2real.robot.importer import import_robot
 
     result = import_robot(args.model, args.output, servo=args.servo, package_dirs=args.package_dir,
                           recompute_inertias=args.recompute_inertias)

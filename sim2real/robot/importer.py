@@ -2,7 +2,7 @@
 
     result = import_robot("op3.xml", "configs/robots/op3.yaml", servo="XM430-W350")
     print("\\n".join(result.report()))
-    write_robot_yaml(result)          # atomically; every guess commented "guessed: check"
+    write_robot_yaml(result)          # sim2real.robot.import_yaml: every guess commented
 
 What it infers, at the model's zero pose (``qpos0``):
 
@@ -28,10 +28,7 @@ package still imports without MuJoCo.
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterable, Sequence
@@ -161,7 +158,7 @@ class ImportResult:
         lines.append("roles (anatomical angle = sign * model angle):")
         for j in self.joints:
             lines.append(f"  {j.name}: {j.side} {j.location} {j.axis}, sign {j.sign:+d}, range "
-                         f"[{_num(j.range_deg[0])}, {_num(j.range_deg[1])}] deg, servo id {j.servo_id}"
+                         f"[{number_text(j.range_deg[0])}, {number_text(j.range_deg[1])}] deg, servo id {j.servo_id}"
                          + "".join(f"; {n}" for n in j.notes))
         for name, why in self.held:
             lines.append(f"held (not mapped): {name}: {why}")
@@ -247,9 +244,18 @@ def _range_and_home(hinge: Hinge, sign: int) -> tuple[float, float, float, list[
         lo, hi = sorted(round(math.degrees(sign * r), 1) for r in hinge.range_rad)
     home = round(math.degrees(sign * hinge.home_rad), 1)
     if not lo <= home <= hi:
-        notes.append(f"home {_num(home)} deg is outside the range: set to {_num(min(max(home, lo), hi))}")
+        notes.append(f"home {number_text(home)} deg is outside the range: set to {number_text(min(max(home, lo), hi))}")
         home = min(max(home, lo), hi)
     return lo, hi, home + 0.0, notes
+
+
+def number_text(value: float) -> str:
+    """A number as a person writes it: ``30``, ``-12.5``."""
+    return f"{value:g}" if value != int(value) else str(int(value))
+
+
+def _vec(values) -> str:
+    return ", ".join(f"{v:.3f}" for v in values)
 
 
 def _with_note(j: JointGuess, note: str) -> JointGuess:
@@ -298,110 +304,11 @@ def _subtrees(bodies: dict[str, Body], roots: Iterable[str]) -> list[str]:
     return found
 
 
-# -- the YAML -----------------------------------------------------------------------------------
-_PLAIN = re.compile(r"[A-Za-z_.][A-Za-z0-9_.\-/]*")
-_YAML_WORDS = {"true", "false", "yes", "no", "on", "off", "null", "y", "n", "~"}
-
-
-def _scalar(text: str) -> str:
-    """A YAML scalar for a name: plain when safe, else JSON-quoted (valid YAML)."""
-    if _PLAIN.fullmatch(text) and text.lower() not in _YAML_WORDS:
-        return text
-    return json.dumps(text)
-
-
-def _num(value: float) -> str:
-    return f"{value:g}" if value != int(value) else str(int(value))
-
-
-def _vec(values) -> str:
-    return ", ".join(f"{v:.3f}" for v in values)
-
-
-def _relative(path: Path, start: Path) -> str:
-    return Path(os.path.relpath(Path(path).resolve(), Path(start).resolve())).as_posix()
-
-
-def robot_yaml(result: ImportResult) -> str:
-    """The robot YAML for ``result.output``: paths relative to it, every guess commented."""
-    r = result
-    here = r.output.parent
-    out = [f"# Imported by `biped robot import` from {r.model_file.name} ({r.kind.upper()}).",
-           f"# Lines marked \"{GUESSED}\" are guesses from the model's names and geometry: check each",
-           "# against the real robot before evolving a controller, and before powering a servo.",
-           "# Angles are anatomical: anatomical angle = sign * model angle, the sign from each joint's",
-           "# world axis at the model's zero pose (right side: hip/ankle/shoulder/wrist yaw -z, roll -x,",
-           "# pitch -y; knee pitch +y; waist/neck yaw +z, roll +x, pitch +y; the left mirrors roll and yaw).",
-           f"# Mirror pairs found from the geometry ({len(r.mirror.pairs)}; +1: axes mirrored, -1: the same way):"]
-    out += [f"#   {p.left} <-> {p.right} ({p.sign:+d})" for p in r.mirror.pairs]
-    if r.mirror.centre:
-        out.append(f"# On the sagittal plane: {', '.join(r.mirror.centre)}")
-    for name in r.mirror.unpaired:
-        out.append(f"# UNPAIRED ({GUESSED}): {name} has no mirror partner in the geometry")
-    for c in r.mirror.conflicts:
-        out.append(f"# NAMES DISAGREE ({GUESSED}): {c}")
-    if r.held:
-        out.append("# Not mapped, so held (welded) at their home pose:")
-        out += [f"#   {name}: {why}" for name, why in r.held]
-    out += [f"name: {_scalar(r.output.stem)}",
-            f"description: {json.dumps(f'imported from {r.model_file.name}: {len(r.joints)} servos')}",
-            "actuation: servo",
-            f"servo_model: {_scalar(r.servo_model)}",
-            f"bus: {{port: {DEFAULT_BUS[0]}, baud: {DEFAULT_BUS[1]}}}  # {GUESSED} the adapter's port and the servos' baud",
-            f"sensor_board: {{profile: {DEFAULT_SENSOR_BOARD[0]}, id: {DEFAULT_SENSOR_BOARD[1]}}}  # {GUESSED}",
-            "model:",
-            f"  file: {_scalar(_relative(r.model_file, here))}"]
-    if r.package_dirs:
-        out.append(f"  package_dirs: [{', '.join(_scalar(_relative(d, here)) for d in r.package_dirs)}]")
-    base = "the URDF's base link: it gets a free joint" if r.kind == "urdf" else "the body that floats"
-    out += [f"  root: {_scalar(r.root)}  # {base}",
-            f"  imu: {{body: {_scalar(r.root)}, pos: [0.0, 0.0, 0.0]}}  # {GUESSED} where the IMU sits, "
-            "in this body's frame [m]",
-            "  feet:"]
-    for side in ("left", "right"):
-        if side in r.feet:
-            out.append(f"    {side}: {{body: {_scalar(r.feet[side])}}}  # {GUESSED} the lowest body of the "
-                       f"{side} leg; its collision geoms are the sole")
-        else:
-            out.append(f"    # {side}: {{body: ...}}  NOT FOUND: no {side} leg joint was recognised; name the foot body")
-    if r.hands:
-        hands = ", ".join(f"{s}: {_scalar(b)}" for s, b in r.hands.items())
-        out.append(f"  hands: {{{hands}}}  # {GUESSED} the distal bodies of the arms")
-    why = f"  # {r.inertias_why}" if r.inertias_why else ""
-    out.append(f"  inertias: {r.inertias}{why}")
-    out += ["joints:", f"  # servo ids numbered 1.. in model order ({GUESSED}): set each to its servo's ID"]
-    for j in r.joints:
-        note = f"  # {'; '.join(j.notes)}" if j.notes else ""
-        out.append(f"  - {{name: {_scalar(j.name)}, side: {j.side}, location: {j.location}, axis: {j.axis}, "
-                   f"sign: {j.sign}, range_deg: [{_num(j.range_deg[0])}, {_num(j.range_deg[1])}], "
-                   f"home_deg: {_num(j.home_deg)}, servo: {{id: {j.servo_id}}}}}{note}")
-    legs = [j.name for j in r.joints if j.location in LEG_LOCATIONS or j.location == "waist"]
-    out.append("control_sets:")
-    if legs:
-        out.append(f"  legs: [{', '.join(_scalar(n) for n in legs)}]")
-    out.append(f"  all: [{', '.join(_scalar(j.name) for j in r.joints)}]")
-    return "\n".join(out) + "\n"
-
-
-def write_robot_yaml(result: ImportResult) -> str:
-    """The YAML written to ``result.output`` atomically, after reading it back (it must parse
-    as the project's bounded YAML reader reads it); its text."""
-    from sim2real.atomic_json import write_text_atomic
-    from sim2real.robot.validation import parse_yaml
-
-    text = robot_yaml(result)
-    parse_yaml(text, str(result.output))  # a name YAML would misread shows here, not at load
-    write_text_atomic(result.output, text)
-    return text
-
-
 # -- from a model file ---------------------------------------------------------------------------
 def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEFAULT_SERVO,
                  package_dirs: Iterable[Path | str] = (), recompute_inertias: bool = False) -> ImportResult:
     """Read ``model_file`` (MJCF or URDF) and infer the robot YAML for ``output`` (not written:
     :func:`write_robot_yaml`).  Refusals are :class:`~sim2real.errors.ConfigError` naming the file."""
-    import mujoco
-
     from sim2real.simulation import model_files as mf
 
     model_file, output = Path(model_file), Path(output)
@@ -418,13 +325,14 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
         inertias, why = "from_geometry", (f"{GUESSED}: some inertias break A + B >= C, which MuJoCo refuses; "
                                           "as_given would not compile")
     elif problems:
-        why = f"{len(problems)} implausible (see the import's report): consider from_geometry"
+        names = ", ".join(p.body for p in problems[:4]) + (", ..." if len(problems) > 4 else "")
+        why = f"implausible inertias on {names} (see the report): consider from_geometry"
     if inertias == "from_geometry":
         mf.recompute_inertias(spec)
     mf.add_free_joint(spec, root)
     model = mf.compile_model(spec, str(model_file))
     mirror = mf.mirror_pairs(model)
-    hinges, bodies, moved, others = _model_facts(model, mujoco)
+    hinges, bodies, moved, others = _model_facts(model)
     joints, held = infer_joints(hinges, mirror)
     if not joints:
         from sim2real.errors import ConfigError
@@ -437,12 +345,22 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
                           problems, inertias, why, mf.missing_meshes(model_file, dirs))
     if not any(j.location in LEG_LOCATIONS for j in joints):
         result.notes.append("no leg joint (hip, knee, ankle) was recognised: name them in the YAML by hand")
+    result.notes += _backward_knees(joints)
     return result
 
 
-def _model_facts(model, mujoco) -> tuple[list[Hinge], dict[str, Body], dict[str, str], list[tuple[str, str]]]:
+def _backward_knees(joints: Sequence[JointGuess]) -> list[str]:
+    """A knee whose anatomical range is mostly negative bends backwards: the model faces -x, or
+    the knee's name or axis is off (a robot's knee flexes, pitch > 0, far more than it extends)."""
+    return [f"{j.name}: its range [{number_text(j.range_deg[0])}, {number_text(j.range_deg[1])}] deg is mostly "
+            "negative, a knee bending backwards: does the model face -x (the convention is +x)?"
+            for j in joints if j.location == "knee" and -j.range_deg[0] > j.range_deg[1]]
+
+
+def _model_facts(model) -> tuple[list[Hinge], dict[str, Body], dict[str, str], list[tuple[str, str]]]:
     """Hinges and bodies of the compiled model at qpos0; joint -> body it moves; the other
     joints (slide, ball) with why they are held."""
+    import mujoco
     import numpy as np
 
     data = mujoco.MjData(model)

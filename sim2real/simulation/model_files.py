@@ -158,6 +158,8 @@ def _read_model_xml(path: Path) -> tuple[ET.Element, str]:
     except UnicodeDecodeError as exc:
         raise ConfigError(source, "", f"not an XML model file: binary, or not UTF-8 text (byte "
                           f"0x{raw[exc.start]:02x} at offset {exc.start})") from None
+    if not text.strip():
+        raise ConfigError(source, "", "the file is empty: it must hold an MJCF or URDF model")
     xacro = _xacro_sign(path, text)
     if xacro:
         raise ConfigError(source, "", _xacro_problem(path, xacro))

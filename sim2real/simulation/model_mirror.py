@@ -8,7 +8,8 @@
     mirror.conflicts   # where the names and the geometry disagree, one sentence each
 
 Method (DESIGN.md 11): at qpos0 (``mj_kinematics``) each hinge has a world anchor ``p`` and
-axis ``u``.  Mirroring across the sagittal plane (x-z) maps a point ``(x, y, z)`` to
+axis ``u``.  Mirroring across the sagittal plane (x-z, through the root body's origin: the
+robot faces +x with its left at +y, wherever it stands) maps a point ``(x, y, z)`` to
 ``(x, -y, z)`` and an axis of rotation ``(x, y, z)`` to ``-(x, -y, z)`` (a rotation's axis is
 a pseudo-vector: the mirror turns its sense).  A hinge's partner has its anchor within
 ``tolerance`` of the mirrored anchor and its axis parallel or antiparallel to the mirrored
@@ -23,7 +24,8 @@ the plane, as ROBOTIS OP3's).  Any other is unpaired, on the side of its anchor.
 
 Names are read for their side (``l_``, ``_right``, ``LHip`` ...: :mod:`sim2real.robot.joint_names`)
 and checked: a pair whose names differ once the side is taken out, a name that says left on a
-hinge right of the plane, two names that pair but whose geometry does not.
+hinge right of the plane, two names that pair but whose geometry does not.  A model that pairs
+better across the y-z plane faces along y, against the convention: ``notes`` says so.
 """
 
 from __future__ import annotations
@@ -64,6 +66,7 @@ class MirrorInference:
     sides: dict[str, str]  # hinge -> left | right | center, from the geometry
     conflicts: tuple[str, ...]  # sentences: names against geometry
     tolerance: float  # [m] the anchor tolerance used
+    notes: tuple[str, ...] = ()  # about the model as a whole (e.g. it faces along y)
     anchors: dict[str, tuple[float, float, float]] = field(repr=False, default_factory=dict)  # [m] world, qpos0
     axes: dict[str, tuple[float, float, float]] = field(repr=False, default_factory=dict)  # world, qpos0
 
@@ -86,6 +89,7 @@ class MirrorInference:
             lines.append(f"unpaired: {name} ({self.sides[name]}, anchor ({x:.3f}, {y:.3f}, {z:.3f}) m): no hinge "
                          f"at its mirror image ({x:.3f}, {-y:.3f}, {z:.3f}) m with a mirrored axis")
         lines += [f"names disagree: {c}" for c in self.conflicts]
+        lines += [f"note: {n}" for n in self.notes]
         return lines
 
 
@@ -96,40 +100,28 @@ def mirror_pairs(model: mujoco.MjModel) -> MirrorInference:
     mujoco.mj_comPos(model, data)  # subtree centres of mass
     hinges = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
     names = [model.joint(j).name or f"joint{j}" for j in hinges]
-    anchors = np.array([data.xanchor[j] for j in hinges]).reshape(-1, 3)
+    origin = data.xpos[_root(model)].copy()  # the mirror plane runs through the root's origin
+    anchors = np.array([data.xanchor[j] - origin for j in hinges]).reshape(-1, 3)
     axes = np.array([data.xaxis[j] / np.linalg.norm(data.xaxis[j]) for j in hinges]).reshape(-1, 3)
     size = _robot_size(model, data, anchors)
     tol = max(MIN_TOLERANCE_M, SIZE_FRACTION * size)
     cos_tol = math.cos(math.radians(AXIS_TOLERANCE_DEG))
 
-    def mirrors(i: int, k: int) -> tuple[float, float] | None:
-        """(anchor error, axis dot) when hinge k sits at hinge i's mirror image, else None."""
-        error = float(np.linalg.norm(anchors[k] - anchors[i] * _MIRROR_POINT))
-        dot = float(axes[k] @ (axes[i] * _MIRROR_AXIS))
-        return (error, dot) if error <= tol and abs(dot) >= cos_tol else None
-
-    off_plane = [i for i in range(len(hinges)) if abs(anchors[i, 1]) > tol]
-    candidates: dict[int, list[tuple[float, int, float]]] = {}
-    for i in off_plane:
-        for k in off_plane:
-            if anchors[k, 1] * anchors[i, 1] < 0 and (found := mirrors(i, k)) is not None:
-                # names that pair break a tie between hinges at one place (a 2-axis hip)
-                penalty = 0.0 if base_of(names[i]) == base_of(names[k]) else 1e-9
-                candidates.setdefault(i, []).append((found[0] + penalty, k, found[1]))
-    best = {i: min(c) for i, c in candidates.items()}
-    pairs, paired = [], set()
-    for i in sorted(best, key=lambda i: hinges[i]):
-        error, k, dot = best[i]
-        if anchors[i, 1] > 0 and k in best and best[k][1] == i:  # each the other's best
-            pairs.append(MirrorPair(names[i], names[k], 1 if dot > 0 else -1, float(np.linalg.norm(
-                anchors[k] - anchors[i] * _MIRROR_POINT)), dot))
-            paired |= {i, k}
+    pairs = _pairs(names, anchors, axes, tol, cos_tol, plane_normal=1)
+    paired = {names.index(n) for p in pairs for n in (p.left, p.right)}
+    notes = []
+    sideways = _pairs(names, anchors, axes, tol, cos_tol, plane_normal=0)
+    if len(sideways) > len(pairs):  # a model that faces +-y pairs across the y-z plane instead
+        notes.append(f"{len(sideways)} hinges pair across the y-z plane against {len(pairs)} across the x-z "
+                     "plane: the model seems to face along y, but the project's convention is facing +x with "
+                     "left at +y (rotate the root body 90 deg about z in the model file)")
 
     sides, centre, unpaired = {}, [], []
+    com_tol = max(tol, CENTRED_COM_FRACTION * size)
     for i, name in enumerate(names):
         on_plane = abs(anchors[i, 1]) <= tol
         if i not in paired and _line_is_symmetric(anchors[i], axes[i], tol, cos_tol) and (
-                on_plane or abs(data.subtree_com[model.jnt_bodyid[hinges[i]], 1]) <= max(tol, CENTRED_COM_FRACTION * size)):
+                on_plane or abs(data.subtree_com[model.jnt_bodyid[hinges[i]], 1] - origin[1]) <= com_tol):
             sides[name] = "center"
             centre.append(name)
             continue
@@ -137,9 +129,45 @@ def mirror_pairs(model: mujoco.MjModel) -> MirrorInference:
         if i not in paired:
             unpaired.append(name)
     return MirrorInference(tuple(pairs), tuple(centre), tuple(unpaired), sides,
-                           tuple(_name_conflicts(pairs, sides, names)), tol,
+                           tuple(_name_conflicts(pairs, sides, names)), tol, tuple(notes),
                            {n: tuple(float(v) for v in a) for n, a in zip(names, anchors)},
                            {n: tuple(float(v) for v in u) for n, u in zip(names, axes)})
+
+
+def _pairs(names: list[str], anchors: np.ndarray, axes: np.ndarray, tol: float, cos_tol: float,
+           plane_normal: int) -> list[MirrorPair]:
+    """Mirror pairs across the plane through the origin normal to coordinate ``plane_normal``
+    (1: the sagittal x-z plane); "left" is the + side of that coordinate."""
+    point = np.ones(3)
+    point[plane_normal] = -1.0
+    axis_mirror = -point  # a rotation axis is a pseudo-vector: the mirror turns its sense
+    n = plane_normal
+    off_plane = [i for i in range(len(names)) if abs(anchors[i, n]) > tol]
+    candidates: dict[int, list[tuple[float, int, float]]] = {}
+    for i in off_plane:
+        for k in off_plane:
+            if anchors[k, n] * anchors[i, n] >= 0:
+                continue
+            error = float(np.linalg.norm(anchors[k] - anchors[i] * point))
+            dot = float(axes[k] @ (axes[i] * axis_mirror))
+            if error <= tol and abs(dot) >= cos_tol:
+                # names that pair break a tie between hinges at one place (a 2-axis hip)
+                penalty = 0.0 if base_of(names[i]) == base_of(names[k]) else 1e-9
+                candidates.setdefault(i, []).append((error + penalty, k, dot))
+    best = {i: min(c) for i, c in candidates.items()}
+    pairs = []
+    for i in sorted(best):
+        error, k, dot = best[i]
+        if anchors[i, n] > 0 and k in best and best[k][1] == i:  # each the other's best
+            pairs.append(MirrorPair(names[i], names[k], 1 if dot > 0 else -1,
+                                    float(np.linalg.norm(anchors[k] - anchors[i] * point)), dot))
+    return pairs
+
+
+def _root(model: mujoco.MjModel) -> int:
+    """The body with the free joint, else the first body under the world."""
+    free = [int(model.jnt_bodyid[j]) for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
+    return free[0] if free else (1 if model.nbody > 1 else 0)
 
 
 def _robot_size(model: mujoco.MjModel, data: mujoco.MjData, anchors: np.ndarray) -> float:
@@ -161,7 +189,8 @@ def _name_conflicts(pairs: list[MirrorPair], sides: dict[str, str], names: list[
     for name in names:
         said = side_of(name)
         if said is not None and sides[name] != said:
-            where = "on the sagittal plane" if sides[name] == "center" else f"on the {sides[name]} (y {'>' if sides[name] == 'left' else '<'} 0)"
+            where = {"center": "on the sagittal plane", "left": "on the left (y > 0)",
+                     "right": "on the right (y < 0)"}[sides[name]]
             conflicts.append(f"{name}: its name says {said}, its anchor is {where}")
     for pair in pairs:
         if base_of(pair.left) != base_of(pair.right):

@@ -271,7 +271,8 @@ def _link_xml(link: _Link, mesh_ref: str, scale: float, unbalanced: bool) -> lis
         f'    <inertial>\n      <origin xyz="{_fmt(link.center)}" rpy="0 0 0"/>\n'
         f'      <mass value="{link.mass:.6g}"/>\n'
         f'      <inertia ixx="{ixx:.6g}" ixy="0" ixz="0" iyy="{iyy:.6g}" iyz="0" izz="{izz:.6g}"/>\n    </inertial>',
-        f'    <visual>\n      <origin xyz="{visual_origin}" rpy="0 0 0"/>\n      <geometry>{visual}</geometry>\n    </visual>',
+        f'    <visual>\n      <origin xyz="{visual_origin}" rpy="0 0 0"/>\n'
+        f'      <geometry>{visual}</geometry>\n    </visual>',
         f'    <collision>\n      <origin xyz="{origin}" rpy="0 0 0"/>\n      <geometry>{geometry}</geometry>\n'
         f'    </collision>',
         "  </link>",
