@@ -254,7 +254,7 @@ def test_robot_import_writes_the_yaml_of_the_humanoid(tmp_path, capsys):
     text = out.read_text()
     assert "guessed: check" in text and "unlimited in the model" in text
     assert "r_gripper_finger1_joint: a slide (prismatic) joint" in text
-    assert "9 mirror pairs" in report and "l_knee_joint <-> r_knee_joint: axes the same way (-1)" in report
+    assert "9 mirror pairs" in report and "l_knee_joint <-> r_knee_joint: opposed (-1)" in report
     assert "held (not mapped): l_gripper_finger2_joint" in report
     assert "implausible inertia: body r_thigh_link" in report
 
@@ -347,3 +347,9 @@ def test_robot_import_refuses_what_is_no_model_file_at_once(tmp_path, capsys, ki
     assert err.startswith(f"biped: error: {path}: ") and err.count("\n") == 1
     assert {"fifo": "named pipe", "directory": "is a directory", "missing": "No such file", "empty": "is empty",
             "binary": "not UTF-8"}[kind] in err
+
+
+def test_the_anchor_tolerance_grows_with_the_robot_not_with_where_it_stands(tmp_path, humanoid):
+    here = mirror_pairs(floating(humanoid.urdf)).tolerance
+    away = mirror_pairs(compile_model(load_model_spec(humanoid_mjcf(humanoid, tmp_path, pos=(5.0, 5.0, 5.0)))))
+    assert 0.003 < here < 0.006 and math.isclose(away.tolerance, here)

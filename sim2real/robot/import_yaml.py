@@ -51,7 +51,8 @@ def robot_yaml(result: ImportResult) -> str:
            "# Angles are anatomical: anatomical angle = sign * model angle, the sign from each joint's",
            "# world axis at the model's zero pose (right side: hip/ankle/shoulder/wrist yaw -z, roll -x,",
            "# pitch -y; knee pitch +y; waist/neck yaw +z, roll +x, pitch +y; the left mirrors roll and yaw).",
-           f"# Mirror pairs found from the geometry ({len(r.mirror.pairs)}; +1: axes mirrored, -1: the same way):"]
+           f"# Mirror pairs found from the geometry ({len(r.mirror.pairs)}; +1: equal model angles make "
+           "mirror-image poses, -1: opposite motions):"]
     out += [f"#   {p.left} <-> {p.right} ({p.sign:+d})" for p in r.mirror.pairs]
     if r.mirror.centre:
         out.append(f"# On the sagittal plane: {', '.join(r.mirror.centre)}")

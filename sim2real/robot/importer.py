@@ -157,9 +157,9 @@ class ImportResult:
         lines += self.mirror.report()
         lines.append("roles (anatomical angle = sign * model angle):")
         for j in self.joints:
-            lines.append(f"  {j.name}: {j.side} {j.location} {j.axis}, sign {j.sign:+d}, range "
-                         f"[{number_text(j.range_deg[0])}, {number_text(j.range_deg[1])}] deg, servo id {j.servo_id}"
-                         + "".join(f"; {n}" for n in j.notes))
+            lo, hi = (number_text(a) for a in j.range_deg)
+            lines.append(f"  {j.name}: {j.side} {j.location} {j.axis}, sign {j.sign:+d}, range [{lo}, {hi}] deg, "
+                         f"servo id {j.servo_id}" + "".join(f"; {n}" for n in j.notes))
         for name, why in self.held:
             lines.append(f"held (not mapped): {name}: {why}")
         for side in ("left", "right"):
@@ -244,8 +244,9 @@ def _range_and_home(hinge: Hinge, sign: int) -> tuple[float, float, float, list[
         lo, hi = sorted(round(math.degrees(sign * r), 1) for r in hinge.range_rad)
     home = round(math.degrees(sign * hinge.home_rad), 1)
     if not lo <= home <= hi:
-        notes.append(f"home {number_text(home)} deg is outside the range: set to {number_text(min(max(home, lo), hi))}")
-        home = min(max(home, lo), hi)
+        inside = min(max(home, lo), hi)
+        notes.append(f"home {number_text(home)} deg is outside the range: set to {number_text(inside)}")
+        home = inside
     return lo, hi, home + 0.0, notes
 
 
@@ -321,7 +322,7 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     inertias, why = "as_given", ""
     if recompute_inertias:
         inertias, why = "from_geometry", "from --recompute-inertias"
-    elif any("A + B < C" in p.problem for p in problems):
+    elif any(p.unbalanced for p in problems):
         inertias, why = "from_geometry", (f"{GUESSED}: some inertias break A + B >= C, which MuJoCo refuses; "
                                           "as_given would not compile")
     elif problems:
@@ -332,7 +333,8 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     mf.add_free_joint(spec, root)
     model = mf.compile_model(spec, str(model_file))
     mirror = mf.mirror_pairs(model)
-    hinges, bodies, moved, others = _model_facts(model)
+    hinges, bodies, others = _model_facts(model)
+    moved = {h.name: h.body for h in hinges}
     joints, held = infer_joints(hinges, mirror)
     if not joints:
         from sim2real.errors import ConfigError
@@ -357,9 +359,9 @@ def _backward_knees(joints: Sequence[JointGuess]) -> list[str]:
             for j in joints if j.location == "knee" and -j.range_deg[0] > j.range_deg[1]]
 
 
-def _model_facts(model) -> tuple[list[Hinge], dict[str, Body], dict[str, str], list[tuple[str, str]]]:
-    """Hinges and bodies of the compiled model at qpos0; joint -> body it moves; the other
-    joints (slide, ball) with why they are held."""
+def _model_facts(model) -> tuple[list[Hinge], dict[str, Body], list[tuple[str, str]]]:
+    """Hinges and bodies of the compiled model at qpos0, and the other joints (slide, ball)
+    with why they are held."""
     import mujoco
     import numpy as np
 
@@ -382,19 +384,18 @@ def _model_facts(model) -> tuple[list[Hinge], dict[str, Body], dict[str, str], l
         depth[b] = depth[parent] + 1
         bodies[model.body(b).name] = Body(model.body(b).name, model.body(parent).name if parent else None,
                                           depth[b], lowest.get(b))
-    hinges, moved, others = [], {}, []
+    hinges, others = [], []
     kinds = {int(mujoco.mjtJoint.mjJNT_SLIDE): "a slide (prismatic) joint, e.g. a gripper's: not a servo's hinge",
              int(mujoco.mjtJoint.mjJNT_BALL): "a ball joint: not a servo's hinge"}
     for j in range(model.njnt):
         name = model.joint(j).name
-        moved[name] = model.body(int(model.jnt_bodyid[j])).name
         if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
             limited = bool(model.jnt_limited[j])
             hinges.append(Hinge(name, tuple(float(v) for v in data.xanchor[j]),
                                 tuple(float(v) for v in data.xaxis[j] / np.linalg.norm(data.xaxis[j])),
                                 (float(model.jnt_range[j, 0]), float(model.jnt_range[j, 1])) if limited else None,
                                 float(home_qpos[model.jnt_qposadr[j]]) if key is not None else 0.0,
-                                moved[name]))
+                                model.body(int(model.jnt_bodyid[j])).name))
         elif int(model.jnt_type[j]) in kinds:
             others.append((name, kinds[int(model.jnt_type[j])]))
-    return hinges, bodies, moved, others
+    return hinges, bodies, others

@@ -139,11 +139,6 @@ def compile_model(spec: mujoco.MjSpec, source: str | None = None) -> mujoco.MjMo
         raise ConfigError(source or _name(spec), "", f"MuJoCo cannot compile the model: {_one_line(exc)}") from None
 
 
-def hinge_names(model: mujoco.MjModel) -> list[str]:
-    """The model's hinge joints, in model order."""
-    return [model.joint(j).name for j in range(model.njnt) if model.jnt_type[j] == HINGE]
-
-
 def is_collision_geom(contype: int, conaffinity: int) -> bool:
     """Whether a geom takes part in contacts (a visual-only geom has both bitmasks 0)."""
     return bool(contype) or bool(conaffinity)
@@ -199,15 +194,15 @@ def _xacro_problem(path: Path, sign: str) -> str:
 
 
 def _urdf_text(root: ET.Element, keep_visuals: bool) -> str:
-    """The URDF as MuJoCo should parse it: ``discardvisual`` off to keep the visuals."""
-    if keep_visuals:
-        ext = root.find("mujoco")
-        if ext is None:
-            ext = ET.SubElement(root, "mujoco")
-        compiler = ext.find("compiler")
-        if compiler is None:
-            compiler = ET.SubElement(ext, "compiler")
-        compiler.set("discardvisual", "false")
+    """The URDF as MuJoCo should parse it: its ``<mujoco><compiler discardvisual>`` set as
+    asked, whatever the file says (MuJoCo discards a URDF's visuals at parse by default)."""
+    ext = root.find("mujoco")
+    if ext is None:
+        ext = ET.SubElement(root, "mujoco")
+    compiler = ext.find("compiler")
+    if compiler is None:
+        compiler = ET.SubElement(ext, "compiler")
+    compiler.set("discardvisual", "false" if keep_visuals else "true")
     return ET.tostring(root, encoding="unicode")
 
 
@@ -322,5 +317,5 @@ from sim2real.simulation.model_inertias import InertiaProblem, implausible_inert
 from sim2real.simulation.model_mirror import MirrorInference, MirrorPair, mirror_pairs  # noqa: E402
 
 __all__ = ["MAX_MODEL_BYTES", "InertiaProblem", "MirrorInference", "MirrorPair", "add_free_joint",
-           "compile_model", "hinge_names", "implausible_inertias", "is_collision_geom", "load_model_spec",
+           "compile_model", "implausible_inertias", "is_collision_geom", "load_model_spec",
            "mirror_pairs", "missing_meshes", "model_format", "recompute_inertias", "root_body"]

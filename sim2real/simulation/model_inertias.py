@@ -44,6 +44,7 @@ class InertiaProblem:
     given: tuple[float, float, float]
     geometry: tuple[float, float, float] | None
     problem: str
+    unbalanced: bool = False  # breaks A + B >= C: MuJoCo will not compile it as given
 
     def __str__(self) -> str:
         return f"body {self.body} ({self.mass:.3g} kg): {self.problem}"
@@ -81,7 +82,8 @@ def implausible_inertias(spec: mujoco.MjSpec, factor: float = FACTOR) -> list[In
                 issues.append(f"principal moments {_moments(given)} kg m^2 are {how} those of its collision "
                               f"geometry at its mass ({_moments(scaled)})")
         if issues:
-            problems.append(InertiaProblem(body.name, float(body.mass), given, scaled, "; ".join(issues)))
+            problems.append(InertiaProblem(body.name, float(body.mass), given, scaled, "; ".join(issues),
+                                           unbalanced=a + b < c * (1 - _TRIANGLE_SLACK)))
     return problems
 
 

@@ -13,8 +13,10 @@ robot faces +x with its left at +y, wherever it stands) maps a point ``(x, y, z)
 ``(x, -y, z)`` and an axis of rotation ``(x, y, z)`` to ``-(x, -y, z)`` (a rotation's axis is
 a pseudo-vector: the mirror turns its sense).  A hinge's partner has its anchor within
 ``tolerance`` of the mirrored anchor and its axis parallel or antiparallel to the mirrored
-axis; their dot product is the pair's sign: +1 when the CAD author mirrored the axis (equal
-angles make mirror-image poses), -1 when both point the same way.  The tolerance grows with
+axis; their dot product is the pair's sign: +1 "mirrored" when equal angles make mirror-image
+poses (the author mirrored the axis: a pitch axis the same world vector on both sides, a roll
+or yaw axis opposite), -1 "opposed" when equal angles make opposite motions (ROBOTIS OP3's
+nine pairs all are).  The tolerance grows with
 the robot (1 % of its size, at least 1 mm): a few mm for a 0.5 m humanoid.
 
 A hinge with no partner is a centre joint when the mirror maps its axis *line* onto itself
@@ -43,13 +45,14 @@ MIN_TOLERANCE_M = 0.001
 AXIS_TOLERANCE_DEG = 10.0  # mirrored axes this close to (anti)parallel are one line
 CENTRED_COM_FRACTION = 0.03  # a subtree's centre of mass this near the plane (of the size) is centred
 _MIRROR_POINT = np.array([1.0, -1.0, 1.0])
-_MIRROR_AXIS = np.array([-1.0, 1.0, -1.0])
+_MIRROR_AXIS = -_MIRROR_POINT  # a rotation axis is a pseudo-vector: the mirror turns its sense
 
 
 @dataclass(frozen=True)
 class MirrorPair:
     """A left hinge (anchor at +y) and its right partner; ``sign`` is the dot product of the
-    right axis with the mirrored left one, rounded: +1 mirrored by convention, -1 not."""
+    right axis with the mirrored left one, rounded: +1 when equal angles make mirror-image
+    poses, -1 when they make opposite motions."""
 
     left: str
     right: str
@@ -67,7 +70,7 @@ class MirrorInference:
     conflicts: tuple[str, ...]  # sentences: names against geometry
     tolerance: float  # [m] the anchor tolerance used
     notes: tuple[str, ...] = ()  # about the model as a whole (e.g. it faces along y)
-    anchors: dict[str, tuple[float, float, float]] = field(repr=False, default_factory=dict)  # [m] world, qpos0
+    anchors: dict[str, tuple[float, float, float]] = field(repr=False, default_factory=dict)  # [m] from the root, qpos0
     axes: dict[str, tuple[float, float, float]] = field(repr=False, default_factory=dict)  # world, qpos0
 
     def partner(self, name: str) -> str | None:
@@ -80,14 +83,14 @@ class MirrorInference:
         """The inference in sentences, for a person."""
         lines = [f"{len(self.pairs)} mirror pair{'s' if len(self.pairs) != 1 else ''} (anchor tolerance "
                  f"{self.tolerance * 1e3:.1f} mm):"]
-        lines += [f"  {p.left} <-> {p.right}: axes {'mirrored (+1)' if p.sign > 0 else 'the same way (-1)'}"
+        lines += [f"  {p.left} <-> {p.right}: {'mirrored (+1)' if p.sign > 0 else 'opposed (-1)'}"
                   for p in self.pairs]
         if self.centre:
             lines.append(f"centre (on the sagittal plane): {', '.join(self.centre)}")
         for name in self.unpaired:
             x, y, z = self.anchors[name]
-            lines.append(f"unpaired: {name} ({self.sides[name]}, anchor ({x:.3f}, {y:.3f}, {z:.3f}) m): no hinge "
-                         f"at its mirror image ({x:.3f}, {-y:.3f}, {z:.3f}) m with a mirrored axis")
+            lines.append(f"unpaired: {name} ({self.sides[name]}, anchor ({x:.3f}, {y:.3f}, {z:.3f}) m from the root): "
+                         f"no hinge at its mirror image ({x:.3f}, {-y:.3f}, {z:.3f}) m with a mirrored axis")
         lines += [f"names disagree: {c}" for c in self.conflicts]
         lines += [f"note: {n}" for n in self.notes]
         return lines
@@ -103,7 +106,7 @@ def mirror_pairs(model: mujoco.MjModel) -> MirrorInference:
     origin = data.xpos[_root(model)].copy()  # the mirror plane runs through the root's origin
     anchors = np.array([data.xanchor[j] - origin for j in hinges]).reshape(-1, 3)
     axes = np.array([data.xaxis[j] / np.linalg.norm(data.xaxis[j]) for j in hinges]).reshape(-1, 3)
-    size = _robot_size(model, data, anchors)
+    size = _robot_size(model, data, anchors + origin)  # both in world coordinates
     tol = max(MIN_TOLERANCE_M, SIZE_FRACTION * size)
     cos_tol = math.cos(math.radians(AXIS_TOLERANCE_DEG))
 
@@ -112,7 +115,7 @@ def mirror_pairs(model: mujoco.MjModel) -> MirrorInference:
     notes = []
     sideways = _pairs(names, anchors, axes, tol, cos_tol, plane_normal=0)
     if len(sideways) > len(pairs):  # a model that faces +-y pairs across the y-z plane instead
-        notes.append(f"{len(sideways)} hinges pair across the y-z plane against {len(pairs)} across the x-z "
+        notes.append(f"{len(sideways)} pairs form across the y-z plane against {len(pairs)} across the x-z "
                      "plane: the model seems to face along y, but the project's convention is facing +x with "
                      "left at +y (rotate the root body 90 deg about z in the model file)")
 

@@ -9,8 +9,8 @@ head (pan, tilt), two arms (shoulder pitch, shoulder roll, elbow) ending in a tw
 gripper on prismatic joints, and two legs (hip yaw, roll, pitch, knee, ankle pitch, roll)
 standing on flat box feet.  It reads like a CAD export rather than a textbook: every joint
 axis is written in its own link's frame as the CAD tool had it, so some left axes are
-antiparallel to the mirror image of the right's (the hip yaw and roll, and the knee, of
-both sides point the same way), links are named ``r_thigh_link``, ``l_foot_link``, joints
+antiparallel to the mirror image of the right's (hip yaw and roll, knee, elbow: equal angles
+turn the two sides opposite ways), links are named ``r_thigh_link``, ``l_foot_link``, joints
 ``r_knee_joint``, and the head tilt sits 12 mm off the sagittal plane as a servo horn does.
 
 Collision geometry is boxes and cylinders plus a binary STL prism for each thigh (written
