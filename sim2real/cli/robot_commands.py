@@ -12,6 +12,7 @@ import json
 import math
 import os
 import sys
+import textwrap
 from pathlib import Path
 from typing import Callable, Mapping
 
@@ -63,7 +64,7 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
     controller file (keys "view", "render"); without it those refuse one."""
     robot = sub.add_parser("robot", help="describe a robot or export its MuJoCo model",
                            description="Describe a robot config or export its MuJoCo model.")
-    rsub = robot.add_subparsers(dest="robot_command", required=True, metavar="{show,mjcf}")
+    rsub = robot.add_subparsers(dest="robot_command", required=True, metavar="{show,mjcf,import}")
     show = rsub.add_parser("show", help="joints, servos, masses, control tick and torque margins",
                            description="Print the robot's joints, servos, masses, height, the control "
                            "tick with its derivation, and each joint's torque margin in a half crouch.")
@@ -77,6 +78,7 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
     mjcf.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
     mjcf.add_argument("-o", "--output", type=output_file(), help="output file (default: stdout)")
     mjcf.set_defaults(func=cmd_robot_mjcf)
+    _add_import(rsub)
 
     view = sub.add_parser("view", help="open the MuJoCo viewer on a robot or a controller",
                           description="Open the interactive MuJoCo viewer on the robot standing at "
@@ -224,6 +226,81 @@ def cmd_robot_mjcf(args: argparse.Namespace) -> int:
 
         write_text_atomic(args.output, xml)  # a full disk leaves no 0-byte file
         print(f"wrote {args.output}", file=sys.stderr)
+    return 0
+
+
+# -- robot import -------------------------------------------------------------------------------
+IMPORT_EPILOG = """\
+what it infers (at the model's zero pose; every guess is commented "guessed: check"):
+  sides and mirror pairs   from the geometry: a hinge's partner sits at its mirror image across
+                           the x-z plane with a mirrored axis; names (l_/r_, _left, LHip...) are
+                           checked against it and disagreements reported
+  location                 from the joint's name: hip, knee/kn, ankle/ank, shoulder/sho,
+                           elbow/el, wrist, head/neck, waist/torso
+  axis and sign            the principal axis nearest the joint's (yaw z, roll x, pitch y), and
+                           anatomical angle = sign * model angle
+  range, home              the model's range made anatomical (+-90 deg if unlimited); a keyframe
+                           'home' or 0
+  servo ids                1, 2, ... in model order: set them to your servos' IDs
+  root, imu, feet, hands   the floating body (a URDF's base), the IMU at its origin, the lowest
+                           body of each leg, the distal body of each arm
+joints it cannot place (no location in the name, an axis far from x, y and z, slide and ball
+joints such as a gripper's) are left out, so the model builder holds them at their home pose.
+
+examples:
+  biped robot import op3.xml --servo XM430-W350 -o configs/robots/op3.yaml
+  biped robot import robot.urdf --package-dir ~/ws/src -o robot.yaml
+"""
+
+
+def _add_import(rsub: argparse._SubParsersAction) -> None:
+    from sim2real.robot.importer import DEFAULT_SERVO
+
+    imp = rsub.add_parser(
+        "import", help="write a starting robot YAML from an MJCF or URDF model",
+        description=textwrap.fill(
+            "Read a robot's MJCF (.xml) or URDF (.urdf) and write a robot YAML that maps its joints "
+            "(side, location, axis, sign, range, servo id), its root, IMU, feet and hands, with what it "
+            "guessed commented; print what it inferred and what it could not (unmapped joints, unpaired "
+            "hinges, missing visual meshes, implausible inertias).", 90),
+        epilog=IMPORT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    imp.add_argument("model", type=Path, metavar="MODEL",
+                     help="the robot's MJCF or URDF file (told apart by its root element; expand a "
+                     ".xacro first: `xacro robot.urdf.xacro > robot.urdf`, or `pip install xacrodoc`)")
+    imp.add_argument("-o", "--output", type=output_file(".yaml", ".yml"), required=True,
+                     help="the robot YAML to write (its name is the file's stem; paths in it are relative to it)")
+    imp.add_argument("--servo", type=_servo_model, default=DEFAULT_SERVO, metavar="MODEL",
+                     help=f"the Dynamixel model of the servos (default {DEFAULT_SERVO}; any model in "
+                     "firmware_profiles/, e.g. XM430-W350, XL330-M288-T)")
+    imp.add_argument("--package-dir", action="append", default=[], type=Path, metavar="DIR",
+                     help="a folder holding the packages of a URDF's package://PKG/PATH meshes (tried as "
+                     "DIR/PKG/PATH and DIR/PATH); repeatable")
+    imp.add_argument("--recompute-inertias", action="store_true",
+                     help="write 'inertias: from_geometry': each body's inertia from its collision "
+                     "geometry, its mass kept (for a model whose inertias are wrong)")
+    imp.set_defaults(func=cmd_robot_import)
+
+
+def _servo_model(text: str) -> str:
+    """A servo model name from ``firmware_profiles/`` (its canonical spelling)."""
+    from sim2real.robot.importer import servo_model_name
+
+    try:
+        return servo_model_name(text)
+    except KeyError as exc:
+        raise argparse.ArgumentTypeError(exc.args[0]) from None
+
+
+def cmd_robot_import(args: argparse.Namespace) -> int:
+    from sim2real.robot.import_yaml import write_robot_yaml
+    from sim2real.robot.importer import import_robot
+
+    result = import_robot(args.model, args.output, servo=args.servo, package_dirs=args.package_dir,
+                          recompute_inertias=args.recompute_inertias)
+    print("\n".join(result.report()))
+    write_robot_yaml(result)
+    print(f"wrote {args.output}: check every line marked 'guessed: check' (servo ids, signs, feet, IMU) "
+          f"before a controller drives the robot")
     return 0
 
 
