@@ -13,7 +13,7 @@ from robots.urdf_humanoid import STANDING_BASE_HEIGHT, write_humanoid
 
 from evolve.cli import main
 from sim2real.errors import ConfigError
-from sim2real.robot.importer import ANATOMICAL_AXES, anatomical_axis
+from sim2real.robot.anatomy import ANATOMICAL_AXES, anatomical_axis
 from sim2real.robot.joint_names import base_of, location_of, side_of, words
 from sim2real.robot.validation import load_yaml
 from sim2real.simulation.model_files import (

@@ -138,6 +138,7 @@ def describe(robot: RobotSpec) -> dict:
             "servo_model": j.servo.profile.model if j.servo else None,
             "direction": j.servo.direction if j.servo else None,
             "zero_offset_rad": j.servo.zero_offset_rad if j.servo else None,
+            "sign": j.sign,
             "holding_torque_nm": torques[j.name].torque_nm,
             "torque_limit_nm": torques[j.name].limit_nm,
             "torque_margin": torques[j.name].margin,
@@ -165,6 +166,10 @@ def describe(robot: RobotSpec) -> dict:
             "rule": timing.rule,
         },
         "bus": {"port": robot.bus.port, "baud": robot.bus.baud} if robot.bus else None,
+        "model": None if robot.model is None else {
+            "file": str(robot.model.path), "root": robot.model.root, "imu_body": robot.model.imu_body,
+            "imu_pos_m": list(robot.model.imu_pos), "feet": {s: f.body for s, f in robot.model.feet.items()},
+            "hands": dict(robot.model.hands), "inertias": robot.model.inertias},
         "sensor_board": (
             {"id": robot.sensor_board.id, "model": robot.sensor_board.profile.model}
             if robot.sensor_board else None
@@ -180,6 +185,11 @@ def _print_description(d: dict) -> None:
     deriv = d["tick_derivation"]
     print(f"{d['name']}: {d['description']}")
     print(f"  from {d['source']}")
+    if d["model"] is not None:
+        m = d["model"]
+        print(f"  model {m['file']}: root {m['root']}, feet {m['feet']['left']} and {m['feet']['right']}, "
+              f"IMU on {m['imu_body']} at {m['imu_pos_m']} m" + (f", hands {', '.join(m['hands'].values())}"
+                                                                 if m["hands"] else ""))
     print(f"  height {d['height_m']:.3f} m, mass {d['mass_kg']:.3f} kg, leg length {d['leg_length_m']:.3f} m")
     if d["bus"]:
         board = d["sensor_board"]
@@ -192,13 +202,14 @@ def _print_description(d: dict) -> None:
           + (f" at {d['bus']['baud']} baud" if d["bus"] else ""))
     print(f"  rule: {deriv['rule']}")
     print(f"joints (torque margin: stall / holding torque, {d['torque_margin_stance']}):")
-    print(f"  {'name':<18} {'id':>3} {'servo':<14} {'range [deg]':>16} {'home':>6} "
+    width = max([18] + [len(j["name"]) for j in d["joints"]])
+    print(f"  {'name':<{width}} {'id':>3} {'servo':<14} {'range [deg]':>16} {'home':>6} "
           f"{'hold [N m]':>10} {'margin':>7} {'step/tick':>9}")
     for j in d["joints"]:
         lo, hi = (math.degrees(a) for a in j["range_rad"])
         margin = "-" if j["torque_margin"] is None else f"{j['torque_margin']:.1f}x"
         step = f"{math.degrees(j['max_goal_step_rad']):.1f} deg" if "max_goal_step_rad" in j else "-"
-        print(f"  {j['name']:<18} {j['servo_id'] if j['servo_id'] is not None else '-':>3} "
+        print(f"  {j['name']:<{width}} {j['servo_id'] if j['servo_id'] is not None else '-':>3} "
               f"{j['servo_model'] or 'PD':<14} {f'[{lo:.1f}, {hi:.1f}]':>16} "
               f"{math.degrees(j['home_rad']):>6.1f} {j['holding_torque_nm']:>10.3f} {margin:>7} {step:>9}")
     weak = [j["name"] for j in d["joints"] if j["torque_margin"] is not None and j["torque_margin"] < 1.5]

@@ -99,12 +99,14 @@ def robot_yaml(result: ImportResult) -> str:
     out.append(f"  inertias: {r.inertias}{why}")
     out += ["joints:",
             f"  # side from the geometry, location from the name, axis and sign from the world axis ({GUESSED})",
-            f"  # servo ids numbered 1.. in model order ({GUESSED}): set each to its servo's ID"]
+            f"  # servo ids numbered 1.. in model order ({GUESSED}): set each to its servo's ID",
+            f"  # servo direction = sign: the servo's angle taken to be the model's, centre tick at 0, as ROBOTIS",
+            f"  # maps its robots ({GUESSED}: a servo mounted the other way round needs the other direction)"]
     for j in r.joints:
         note = f"  # {'; '.join(j.notes)}" if j.notes else ""
         out.append(f"  - {{name: {_scalar(j.name)}, side: {j.side}, location: {j.location}, axis: {j.axis}, "
                    f"sign: {j.sign}, range_deg: [{number_text(j.range_deg[0])}, {number_text(j.range_deg[1])}], "
-                   f"home_deg: {number_text(j.home_deg)}, servo: {{id: {j.servo_id}}}}}{note}")
+                   f"home_deg: {number_text(j.home_deg)}, servo: {{id: {j.servo_id}, direction: {j.sign}}}}}{note}")
     legs = [j.name for j in r.joints if j.location in LEG_LOCATIONS or j.location == "waist"]
     out.append("control_sets:")
     if legs:

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterable, Sequence
 
+from sim2real.robot.anatomy import ANATOMICAL_AXES, anatomical_axis
 from sim2real.robot.joint_names import axis_of, location_of, locations_in, words
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -48,22 +49,6 @@ GUESSED = "guessed: check"
 LEG_LOCATIONS = ("hip", "knee", "ankle")
 ARM_LOCATIONS = ("shoulder", "elbow", "wrist")
 CENTRE_LOCATIONS = ("waist", "neck")
-# The positive rotation axis in world coordinates at the zero pose (facing +x, left +y, z up)
-# of each role, for the right side and the centre; the left mirrors roll and yaw.  The hip,
-# knee, ankle and waist rows are sim2real.simulation.model_builder's _AXES; the shoulder and
-# wrist follow the hip, the elbow's pitch and yaw the hip's, the neck the waist.
-_HIP_LIKE = {"yaw": (0, 0, -1), "roll": (-1, 0, 0), "pitch": (0, -1, 0)}
-_WAIST_LIKE = {"yaw": (0, 0, 1), "roll": (1, 0, 0), "pitch": (0, 1, 0)}
-ANATOMICAL_AXES: dict[tuple[str, str], tuple[int, int, int]] = {
-    **{("waist", a): v for a, v in _WAIST_LIKE.items()},
-    **{("hip", a): v for a, v in _HIP_LIKE.items()},
-    ("knee", "pitch"): (0, 1, 0),
-    **{("ankle", a): v for a, v in _HIP_LIKE.items()},
-    **{("shoulder", a): v for a, v in _HIP_LIKE.items()},
-    ("elbow", "pitch"): (0, -1, 0), ("elbow", "yaw"): (0, 0, -1),
-    **{("wrist", a): v for a, v in _HIP_LIKE.items()},
-    **{("neck", a): v for a, v in _WAIST_LIKE.items()},
-}
 _PRINCIPAL = {"roll": (1.0, 0.0, 0.0), "pitch": (0.0, 1.0, 0.0), "yaw": (0.0, 0.0, 1.0)}
 
 
@@ -80,14 +65,6 @@ def servo_model_name(name: str) -> str:
     if profile is None or not profile.is_servo:
         raise KeyError(f"{name!r} is no servo profile (servos: {', '.join(servos)})")
     return profile.model
-
-
-def anatomical_axis(side: str, location: str, axis: str) -> tuple[float, float, float]:
-    """The world axis along which a joint of this role turns positive, at the zero pose."""
-    x, y, z = ANATOMICAL_AXES[(location, axis)]
-    if side == "left" and axis in ("roll", "yaw"):
-        x, z = -x, -z
-    return (float(x), float(y), float(z))
 
 
 # -- what the model holds, as plain data -------------------------------------------------------
@@ -177,8 +154,11 @@ class ImportResult:
         return lines
 
 
-def infer_joints(hinges: Sequence[Hinge], mirror: "MirrorInference") -> tuple[list[JointGuess], list[tuple[str, str]]]:
-    """Each hinge's role, sign, range and home, or why it has none; servo IDs 1.. in order."""
+def infer_joints(hinges: Sequence[Hinge], mirror: "MirrorInference",
+                 servo_reach_deg: float = 180.0) -> tuple[list[JointGuess], list[tuple[str, str]]]:
+    """Each hinge's role, sign, range and home, or why it has none; servo IDs 1.. in order.
+    ``servo_reach_deg``: how far the servo turns either way from its centre [deg]; a range
+    beyond it is cut to it (servo angle = model angle, as ROBOTIS's robots map them)."""
     joints: list[JointGuess] = []
     held: list[tuple[str, str]] = []
     for hinge in hinges:
@@ -187,7 +167,7 @@ def infer_joints(hinges: Sequence[Hinge], mirror: "MirrorInference") -> tuple[li
             held.append((hinge.name, guess))
             continue
         side, location, axis, sign, notes = guess
-        lo, hi, home, more = _range_and_home(hinge, sign)
+        lo, hi, home, more = _range_and_home(hinge, sign, servo_reach_deg)
         joints.append(JointGuess(hinge.name, side, location, axis, sign, (lo, hi), home, len(joints) + 1,
                                  tuple(notes + more)))
     roles = {j.name: j for j in joints}
@@ -235,13 +215,18 @@ def _role(hinge: Hinge, side: str) -> tuple[str, str, str, int, list[str]] | str
     return side, location, axis, 1 if dot > 0 else -1, notes
 
 
-def _range_and_home(hinge: Hinge, sign: int) -> tuple[float, float, float, list[str]]:
+def _range_and_home(hinge: Hinge, sign: int, reach_deg: float = 180.0) -> tuple[float, float, float, list[str]]:
     notes = []
     if hinge.range_rad is None:
         lo, hi = -UNLIMITED_RANGE_DEG, UNLIMITED_RANGE_DEG
         notes.append(f"unlimited in the model: range {GUESSED}")
     else:
         lo, hi = sorted(round(math.degrees(sign * r), 1) for r in hinge.range_rad)
+        reach = math.floor(reach_deg * 10) / 10  # a tenth of a degree inside the servo's reach
+        if lo < -reach or hi > reach:
+            notes.append(f"the model's range [{number_text(lo)}, {number_text(hi)}] deg is cut to the servo's "
+                         f"+-{number_text(reach)} deg")
+            lo, hi = max(lo, -reach), min(hi, reach)
     home = round(math.degrees(sign * hinge.home_rad), 1)
     if not lo <= home <= hi:
         inside = min(max(home, lo), hi)
@@ -310,6 +295,7 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
                  package_dirs: Iterable[Path | str] = (), recompute_inertias: bool = False) -> ImportResult:
     """Read ``model_file`` (MJCF or URDF) and infer the robot YAML for ``output`` (not written:
     :func:`write_robot_yaml`).  Refusals are :class:`~sim2real.errors.ConfigError` naming the file."""
+    from sim2real.robot.profiles import load_profile
     from sim2real.simulation import model_files as mf
 
     model_file, output = Path(model_file), Path(output)
@@ -335,7 +321,9 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     mirror = mf.mirror_pairs(model)
     hinges, bodies, others = _model_facts(model)
     moved = {h.name: h.body for h in hinges}
-    joints, held = infer_joints(hinges, mirror)
+    profile = load_profile(servo_model)
+    reach = min(abs(a) for a in profile.position.range_rad)
+    joints, held = infer_joints(hinges, mirror, math.degrees(reach))
     if not joints:
         from sim2real.errors import ConfigError
 

@@ -42,8 +42,9 @@ import numpy as np
 
 from sim2real.errors import BipedError
 from sim2real.robot import Joint, RobotSpec
+from sim2real.robot.anatomy import anatomical_axis
 from sim2real.robot.servo_model import ServoPhysics, servo_physics
-from sim2real.robot.timing import control_timing
+from sim2real.robot.timing import PHYSICS_DT_S
 from sim2real.simulation.robot_model import (
     BACKLASH_SUFFIX,
     FEET,
@@ -75,14 +76,6 @@ FLOOR_FRICTION = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling (rubber-ish
 FLOOR_SOLREF = (0.01, 1.0)
 JOINT_ORDER = {"waist": ("yaw", "roll", "pitch"), "hip": ("yaw", "roll", "pitch"),
                "knee": ("pitch",), "ankle": ("yaw", "pitch", "roll")}
-# Joint axes for the right side and the centre; the left side mirrors roll and yaw so that
-# one anatomical angle means one motion on both legs (see sim2real.robot).
-_AXES = {
-    ("waist", "yaw"): (0, 0, 1), ("waist", "roll"): (1, 0, 0), ("waist", "pitch"): (0, 1, 0),
-    ("hip", "yaw"): (0, 0, -1), ("hip", "roll"): (-1, 0, 0), ("hip", "pitch"): (0, -1, 0),
-    ("knee", "pitch"): (0, 1, 0),
-    ("ankle", "yaw"): (0, 0, -1), ("ankle", "roll"): (-1, 0, 0), ("ankle", "pitch"): (0, -1, 0),
-}
 COLORS = {"left": (0.85, 0.45, 0.2, 1), "right": (0.2, 0.5, 0.85, 1), "center": (0.75, 0.75, 0.78, 1)}
 SOLE_CLEARANCE_M = 0.0005  # the home keyframe starts the soles this far above the floor
 SUSPENDED_HEIGHT_LEGS = 2.0  # a hung robot's pelvis, in leg lengths above the floor: feet well clear
@@ -107,10 +100,8 @@ PLAY_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
 
 
 def joint_axis(joint: Joint) -> tuple[float, float, float]:
-    x, y, z = _AXES[(joint.location, joint.axis)]
-    if joint.side == "left" and joint.axis in ("roll", "yaw"):
-        x, z = -x, -z
-    return (float(x), float(y), float(z))
+    """A box robot's joint axis: its role's anatomical axis (:mod:`sim2real.robot.anatomy`)."""
+    return anatomical_axis(joint.side, joint.location, joint.axis)
 
 
 def _look_at(forward: np.ndarray) -> list[float]:
@@ -175,43 +166,24 @@ def build_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
     with a backlash joint behind each joint if ``backlash``; ``suspended`` hangs it by the
     pelvis, fixed in the air with its feet off the floor (no root joint), as a robot is hung
     for system identification."""
+    if robot.model is not None:  # a user's MJCF or URDF (that module builds on this one's parts)
+        from sim2real.simulation.model_robot import model_spec
+
+        return model_spec(robot, backlash, suspended)
     b = robot.body
-    timing = control_timing(robot)
     spec = mujoco.MjSpec()
-    spec.modelname = robot.name.replace(":", "_")
     spec.compiler.degree = False  # every angle here is in radians (MJCF's default is degrees)
-    spec.option.timestep = timing.physics_dt_s
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.visual.global_.offwidth, spec.visual.global_.offheight = OFFSCREEN_SIZE
-
-    spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
-                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, width=256, height=256,
-                     rgb1=[0.22, 0.25, 0.3], rgb2=[0.3, 0.33, 0.38])
-    tile = 4 / max(b.height, 0.1)  # checker squares of about a quarter of the robot's height
-    grid = spec.add_material(name="grid", texrepeat=[tile, tile], texuniform=True)
-    grid.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
-
-    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
-                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, width=256, height=256,
-                     rgb1=[0.55, 0.7, 0.85], rgb2=[0.1, 0.12, 0.16])
+    dt = physics_dt(robot)
+    add_scene(spec, robot, b.height)
     world = spec.worldbody
-    world.add_light(name="sun", pos=[0, 0, 3 * max(1.0, b.height)], dir=[0, 0, -1],
-                    type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
-    contype, conaffinity = COLLISION_BITS["floor"]
-    world.add_geom(name=FLOOR_GEOM, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
-                   material="grid", friction=list(FLOOR_FRICTION), solref=list(FLOOR_SOLREF),
-                   contype=contype, conaffinity=conaffinity)
 
     pelvis = world.add_body(name=robot.root_body, pos=[0, 0, (SUSPENDED_HEIGHT_LEGS if suspended else 1.0) * b.leg_length])
     if not suspended:
         pelvis.add_freejoint(name="root")
     _box_geom(pelvis, "pelvis", b.pelvis.size, [0, 0, b.pelvis.size[2] / 2], b.pelvis.mass, "center")
-    offset = 2.6 * b.height * np.array([0.45, -0.88, 0.12])  # front-right, slightly above
-    pelvis.add_camera(name="track", mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM, pos=offset.tolist(),
-                      xyaxes=_look_at(-offset))
+    add_tracking_camera(pelvis, b.height)
 
     trunk = pelvis.add_body(name="trunk", pos=[0, 0, b.pelvis.size[2]])
-    dt = timing.physics_dt_s
     _add_joints(robot, trunk, "center", "waist", backlash, dt)
     _box_geom(trunk, "trunk", b.trunk.size, [0, 0, b.trunk.size[2] / 2], b.trunk.mass, "center")
     trunk.add_site(name=IMU_SITE, pos=[0, 0, b.trunk.size[2] / 2])
@@ -231,9 +203,60 @@ def build_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
         # The touch site covers the sole and a sliver below it, where contact points lie.
         foot.add_site(name=sole_site(side), type=mujoco.mjtGeom.mjGEOM_BOX, pos=sole_center,
                       size=[f.length / 2 + 1e-3, f.width / 2 + 1e-3, f.thickness], group=3)
-        spec.add_sensor(name=touch_sensor(side), type=mujoco.mjtSensor.mjSENS_TOUCH,
-                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=sole_site(side))
+        add_touch_sensor(spec, side)
+    add_sensors_and_actuators(spec, robot)
+    return spec
 
+
+def physics_dt(robot: RobotSpec) -> float:
+    """MuJoCo's timestep for the robot [s] (the control tick is a whole number of them)."""
+    return robot.physics_dt_s or PHYSICS_DT_S
+
+
+def add_scene(spec: mujoco.MjSpec, robot: RobotSpec, height: float) -> None:
+    """The world every robot stands in: the options, a checkered floor, the sky and the sun;
+    ``height`` [m] (the robot's) sizes the floor's checkers and the light."""
+    spec.modelname = robot.name.replace(":", "_")
+    spec.option.timestep = physics_dt(robot)
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = OFFSCREEN_SIZE
+
+    spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, width=256, height=256,
+                     rgb1=[0.22, 0.25, 0.3], rgb2=[0.3, 0.33, 0.38])
+    tile = 4 / max(height, 0.1)  # checker squares of about a quarter of the robot's height
+    grid = spec.add_material(name="grid", texrepeat=[tile, tile], texuniform=True)
+    grid.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
+
+    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, width=256, height=256,
+                     rgb1=[0.55, 0.7, 0.85], rgb2=[0.1, 0.12, 0.16])
+    world = spec.worldbody
+    world.add_light(name="sun", pos=[0, 0, 3 * max(1.0, height)], dir=[0, 0, -1],
+                    type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
+    contype, conaffinity = COLLISION_BITS["floor"]
+    world.add_geom(name=FLOOR_GEOM, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
+                   material="grid", friction=list(FLOOR_FRICTION), solref=list(FLOOR_SOLREF),
+                   contype=contype, conaffinity=conaffinity)
+
+
+def add_tracking_camera(body, height: float) -> None:
+    """A camera following the robot's centre of mass from the front right, slightly above."""
+    offset = 2.6 * height * np.array([0.45, -0.88, 0.12])
+    body.add_camera(name="track", mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM, pos=offset.tolist(),
+                    xyaxes=_look_at(-offset))
+
+
+def add_touch_sensor(spec: mujoco.MjSpec, side: str) -> None:
+    """The foot switch's ground truth: the normal force within the sole site [N]."""
+    spec.add_sensor(name=touch_sensor(side), type=mujoco.mjtSensor.mjSENS_TOUCH,
+                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname=sole_site(side))
+
+
+def add_sensors_and_actuators(spec: mujoco.MjSpec, robot: RobotSpec) -> None:
+    """The IMU's sensors on the ``imu`` site, each joint's angle sensor and position actuator
+    (robot order), the gyro: the parts :class:`~sim2real.simulation.robot_model.RobotModel`
+    reads, after the body tree and the touch sensors."""
     # world up in the torso frame: what the sensor board's IMU reports
     spec.add_sensor(name=UP_SENSOR, type=mujoco.mjtSensor.mjSENS_FRAMEZAXIS,
                     objtype=mujoco.mjtObj.mjOBJ_BODY, objname="world",
@@ -249,7 +272,6 @@ def build_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
     # (last, so that the older sensors keep their addresses)
     spec.add_sensor(name=GYRO_SENSOR, type=mujoco.mjtSensor.mjSENS_GYRO, objtype=mujoco.mjtObj.mjOBJ_SITE,
                     objname=IMU_SITE)
-    return spec
 
 
 # MuJoCo's warnings of a simulation gone numerically unstable.  On a bad acceleration it resets
@@ -293,6 +315,20 @@ def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel)
     home = home_ctrl(robot, model)
     JointAngles.of(model).place(data.qpos, home)
     mujoco.mj_kinematics(model, data)
+    if robot.model is not None:
+        from sim2real.simulation.model_robot import lowest_sole_point
+
+        lowest = lowest_sole_point(model, data, robot)
+    else:
+        lowest = _lowest_box_sole_point(model, data)
+    qpos = data.qpos.copy()
+    if model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE:  # standing: lowered onto the floor; hung: as it is
+        qpos[2] -= lowest - SOLE_CLEARANCE_M
+    spec.add_key(name="home", qpos=qpos.tolist(), ctrl=home.tolist())
+
+
+def _lowest_box_sole_point(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """The lowest corner of a box robot's feet in the world [m]."""
     lowest = np.inf
     for side in FEET:
         geom = model.geom(f"{side}_foot").id
@@ -300,10 +336,7 @@ def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel)
         centre_z = float(data.geom_xpos[geom][2])
         for corner in itertools.product((-1, 1), repeat=3):
             lowest = min(lowest, centre_z + dot3(np.array(corner) * model.geom_size[geom], up_row))
-    qpos = data.qpos.copy()
-    if model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE:  # standing: lowered onto the floor; hung: as it is
-        qpos[2] -= lowest - SOLE_CLEARANCE_M
-    spec.add_key(name="home", qpos=qpos.tolist(), ctrl=home.tolist())
+    return lowest
 
 
 def home_ctrl(robot: RobotSpec, model: mujoco.MjModel) -> np.ndarray:

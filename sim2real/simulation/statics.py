@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from sim2real.robot import Joint, RobotSpec
-from sim2real.robot.spec import GRAVITY
+from sim2real.robot.spec import GRAVITY, LEG_LOCATIONS
 
 CROUCH_KNEE_DEG = 60.0
 GRAVITY_VECTOR = np.array([0.0, 0.0, -GRAVITY])  # [m/s^2], world frame
@@ -55,9 +55,11 @@ def _subtree(model: mujoco.MjModel, root: int) -> set[int]:
 
 
 def carried_bodies(model: mujoco.MjModel, joint: Joint) -> set[int]:
-    """Bodies a joint moves when its leg stands on the ground (the trunk, for a waist joint)."""
+    """Bodies a joint holds up: for a leg joint with its foot on the ground, everything on the
+    root's side of it; for any other (waist, neck, arm) the bodies beyond it (the trunk, the
+    head, the arm)."""
     below = _subtree(model, model.jnt_bodyid[model.joint(joint.name).id])
-    return below if joint.location == "waist" else set(range(1, model.nbody)) - below
+    return set(range(1, model.nbody)) - below if joint.location in LEG_LOCATIONS else below
 
 
 def dot3(a, b) -> float:

@@ -1,0 +1,206 @@
+"""A robot from a user's MJCF or URDF: its model file made into a project model.
+
+The robot config's ``model:`` block names the file and where its parts are; its ``joints:``
+map the model's hinges onto roles and servos.  :func:`model_spec` loads the file
+(:func:`~sim2real.simulation.model_files.load_model_spec`), drops what the project supplies
+itself (the file's actuators, sensors, keyframes; its visual-only geoms unless asked to keep
+them), floats the root body, and then gives it exactly what a box robot has, with the same
+code (:mod:`sim2real.simulation.model_builder`): the scene, the servo physics on every mapped
+joint (``kp``, force range, damping, friction, armature; backlash joints when asked), a
+position actuator each, the IMU site and sensors, the sole sites and touch sensors.
+
+* A mapped joint whose ``sign`` is -1 has its axis turned over, so that the model's angle *is*
+  the anatomical angle everything else reads; its range is the config's.
+* A joint the map does not name (a gripper, a spare hinge) is removed: its child body is held
+  fixed to its parent at the model's zero pose.
+* The sole site of a foot is a box over the foot's collision geoms (bounding box in the foot's
+  frame) reaching a little below them, where contact points lie.
+
+:func:`measure_physique` gives mass, height and leg length from the compiled model at its
+zero pose; the control tick and the holding-torque margins follow from them as for a box robot.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import mujoco
+import numpy as np
+
+from sim2real.errors import ConfigError
+from sim2real.robot import RobotSpec
+from sim2real.robot.servo_model import servo_physics
+from sim2real.robot.spec import Physique
+from sim2real.simulation.model_builder import (
+    SUSPENDED_HEIGHT_LEGS,
+    add_backlash_joint,
+    add_scene,
+    add_sensors_and_actuators,
+    add_touch_sensor,
+    add_tracking_camera,
+    configure_servo_joint,
+    physics_dt,
+)
+from sim2real.simulation.model_files import add_free_joint, compile_model, is_collision_geom, load_model_spec
+from sim2real.simulation.model_inertias import recompute_inertias
+from sim2real.simulation.robot_model import FEET, IMU_SITE, sole_site
+
+SOLE_MARGIN_M = 1e-3  # the sole site reaches this far beyond the foot's geoms sideways
+SOLE_BELOW_M = 3e-3  # and this far below them, where contact points lie
+
+
+def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False,
+               for_measure: bool = False) -> mujoco.MjSpec:
+    """The robot's spec, as :func:`~sim2real.simulation.model_builder.build_spec` gives a box
+    robot's; ``for_measure``: before its physique is known (placed as the file places it, for
+    :func:`measure_physique`)."""
+    source = robot.model
+    assert source is not None
+    where = robot.source
+    spec = load_model_spec(source.path, source.package_dirs, drop_visuals=source.drop_visuals)
+    for element in (*spec.actuators, *spec.sensors, *spec.keys):
+        spec.delete(element)
+    root = spec.body(source.root)
+    if root is None:
+        raise ConfigError(where, "model.root", f"no body {source.root!r} in {source.path.name} (bodies: "
+                          f"{', '.join(b.name for b in spec.bodies if b.name and b.name != 'world')})")
+    _check_bodies(spec, robot)
+    degree = bool(spec.compiler.degree)  # the file's angle unit: joint ranges are written in it
+    frees = [j for j in root.joints if j.type == mujoco.mjtJoint.mjJNT_FREE]
+    if suspended:
+        for joint in frees:
+            spec.delete(joint)
+    elif not frees:
+        add_free_joint(spec, source.root)
+    mapped = {j.name: j for j in robot.joints}
+    for joint in list(spec.joints):
+        if joint.type == mujoco.mjtJoint.mjJNT_FREE:
+            continue
+        if joint.name not in mapped:
+            spec.delete(joint)  # held: its body fixed to its parent at the model's zero pose
+            continue
+        if joint.type != mujoco.mjtJoint.mjJNT_HINGE:
+            raise ConfigError(where, f"joints.{joint.name}", "is not a hinge in the model: a servo turns a hinge")
+    missing = [name for name in mapped if spec.joint(name) is None]
+    if missing:
+        raise ConfigError(where, "joints", f"{', '.join(missing)}: no such joint in {source.path.name}")
+    if source.inertias == "from_geometry":
+        recompute_inertias(spec)
+    dt = physics_dt(robot)
+    for robot_joint in robot.joints:
+        joint = spec.joint(robot_joint.name)
+        if robot_joint.sign < 0:
+            joint.axis = -np.asarray(joint.axis)
+        joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+        low, high = robot_joint.range_rad
+        joint.range = [math.degrees(low), math.degrees(high)] if degree else [low, high]
+        if robot_joint.servo is not None:
+            configure_servo_joint(joint, servo_physics(robot_joint.servo.profile))
+        if backlash:
+            body = joint.parent
+            if body.joints[len(body.joints) - 1].name != joint.name:
+                raise ConfigError(where, f"joints.{joint.name}", "backlash goes right behind a joint, and this "
+                                  "one is not its body's last: split the body's joints in the model")
+            add_backlash_joint(body, joint.name, joint.axis, dt)
+    height = 1.0 if for_measure else robot.height
+    add_scene(spec, robot, height)
+    if not for_measure:
+        lift = (SUSPENDED_HEIGHT_LEGS if suspended else 1.0) * robot.leg_length
+        root.pos = [root.pos[0], root.pos[1], root.pos[2] + lift]
+        add_tracking_camera(root, height)
+    imu = spec.body(source.imu_body)
+    imu.add_site(name=IMU_SITE, pos=list(source.imu_pos))
+    model = compile_model(spec, where)
+    for side in FEET:
+        low, high = _foot_box(model, robot, side)
+        centre = 0.5 * (low + high)
+        half = 0.5 * (high - low) + np.array([SOLE_MARGIN_M, SOLE_MARGIN_M, 0.0])
+        centre[2] -= SOLE_BELOW_M / 2
+        half[2] += SOLE_BELOW_M / 2
+        spec.body(source.feet[side].body).add_site(name=sole_site(side), type=mujoco.mjtGeom.mjGEOM_BOX,
+                                                   pos=centre.tolist(), size=half.tolist(), group=3)
+        add_touch_sensor(spec, side)
+    add_sensors_and_actuators(spec, robot)
+    return spec
+
+
+def _check_bodies(spec: mujoco.MjSpec, robot: RobotSpec) -> None:
+    source = robot.model
+    named = [("model.imu.body", source.imu_body)]
+    named += [(f"model.feet.{side}.body", foot.body) for side, foot in source.feet.items()]
+    named += [(f"model.hands.{side}", body) for side, body in source.hands.items()]
+    for key, name in named:
+        if spec.body(name) is None:
+            raise ConfigError(robot.source, key, f"no body {name!r} in {source.path.name}")
+
+
+def _foot_geoms(model: mujoco.MjModel, robot: RobotSpec, side: str) -> list[int]:
+    """The geoms a foot stands on: those named in the config, else every collision geom of
+    the foot's body."""
+    foot = robot.model.feet[side]
+    body = model.body(foot.body).id
+    if foot.geoms:
+        ids = []
+        for name in foot.geoms:
+            gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
+            if gid < 0 or model.geom_bodyid[gid] != body:
+                raise ConfigError(robot.source, f"model.feet.{side}.geoms", f"no geom {name!r} on body {foot.body!r}")
+            ids.append(gid)
+        return ids
+    ids = [g for g in range(model.ngeom) if model.geom_bodyid[g] == body
+           and is_collision_geom(model.geom_contype[g], model.geom_conaffinity[g])]
+    if not ids:
+        raise ConfigError(robot.source, f"model.feet.{side}.body", f"body {foot.body!r} has no collision geometry "
+                          "to stand on")
+    return ids
+
+
+def _corners_in_body(model: mujoco.MjModel, geom: int) -> np.ndarray:
+    """(8, 3) the corners of a geom's bounding box in its body's frame [m]."""
+    centre, half = model.geom_aabb[geom, :3], model.geom_aabb[geom, 3:]
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, model.geom_quat[geom])
+    local = np.array([centre + np.array(c) * half for c in itertools.product((-1, 1), repeat=3)])
+    return local @ rot.reshape(3, 3).T + model.geom_pos[geom]
+
+
+def _foot_box(model: mujoco.MjModel, robot: RobotSpec, side: str) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) corners of the box over a foot's geoms, in the foot body's frame [m]."""
+    corners = np.concatenate([_corners_in_body(model, g) for g in _foot_geoms(model, robot, side)])
+    return corners.min(axis=0), corners.max(axis=0)
+
+
+def lowest_sole_point(model: mujoco.MjModel, data: mujoco.MjData, robot: RobotSpec) -> float:
+    """The lowest point of either foot's geoms in the world [m] (from ``data``'s kinematics)."""
+    lowest = math.inf
+    for side in FEET:
+        for geom in _foot_geoms(model, robot, side):
+            body = model.geom_bodyid[geom]
+            world = _corners_in_body(model, geom) @ data.xmat[body].reshape(3, 3).T + data.xpos[body]
+            lowest = min(lowest, float(world[:, 2].min()))
+    return lowest
+
+
+def measure_physique(robot: RobotSpec) -> Physique:
+    """Mass, height and leg length of a robot from a model file, on its compiled model at the
+    zero pose: height from the lowest to the highest point of its collision geometry; leg
+    length from the highest hip joint's anchor to the lowest point of the feet (legs straight
+    at zero, as a URDF or MJCF is drawn)."""
+    model = compile_model(model_spec(robot, for_measure=True), robot.source)
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    mass = float(model.body_mass.sum())
+    collision = [g for g in range(model.ngeom) if model.geom_bodyid[g] > 0
+                 and is_collision_geom(model.geom_contype[g], model.geom_conaffinity[g])]
+    zs = np.concatenate([(_corners_in_body(model, g) @ data.xmat[model.geom_bodyid[g]].reshape(3, 3).T
+                          + data.xpos[model.geom_bodyid[g]])[:, 2] for g in collision])
+    sole = lowest_sole_point(model, data, robot)
+    hips = [model.joint(j.name).id for j in robot.joints if j.location == "hip"]
+    if not hips:
+        raise ConfigError(robot.source, "joints", "no hip joint: a biped's leg length runs from its hips")
+    hip_z = max(float(data.xanchor[j][2]) for j in hips)
+    if not hip_z > sole:
+        raise ConfigError(robot.source, "joints", f"the hips ({hip_z:.3f} m) are not above the soles ({sole:.3f} m) "
+                          "at the model's zero pose: is the model upright, z up?")
+    return Physique(mass=mass, height=float(zs.max()) - sole, leg_length=hip_z - sole)
