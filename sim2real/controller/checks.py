@@ -360,7 +360,9 @@ def joint_map_hash(robot: RobotSpec) -> str:
     parts = []
     for j in robot.joints:
         servo = (j.servo.id, j.servo.profile.model, j.servo.direction, round(j.servo.zero_offset_rad, 9)) if j.servo else None
-        parts.append([j.name, j.side, j.location, j.axis, [round(a, 9) for a in j.range_rad], servo])
+        # a model joint turned over (sign -1) adds its sign: older robots' hashes stay as they were
+        parts.append([j.name, j.side, j.location, j.axis, [round(a, 9) for a in j.range_rad], servo]
+                     + ([j.sign] if j.sign != 1 else []))
     return hashlib.sha256(json.dumps(parts).encode()).hexdigest()[:16]
 
 

@@ -46,8 +46,11 @@ def max_steps(robot: RobotSpec, tick_s: float) -> np.ndarray:
 
 def hold_pose(robot: RobotSpec, driven: Collection[str]) -> np.ndarray:
     """(n_joints,) the goals before the first tick [rad]: driven joints start at home, the
-    others hold the centre of their range throughout (seed 000 section 7.2)."""
-    return np.array([j.home_rad if j.name in driven else j.center_rad for j in robot.joints])
+    others hold the centre of their range throughout (seed 000 section 7.2) - on a box robot,
+    whose ranges are centred on a standing pose.  A robot from a model file has its
+    mechanism's ranges, centred on nothing: its undriven joints (arms, head) hold home."""
+    from_model = robot.model is not None
+    return np.array([j.home_rad if j.name in driven or from_model else j.center_rad for j in robot.joints])
 
 
 def quantize(angle: np.ndarray, resolution: np.ndarray) -> np.ndarray:
