@@ -45,7 +45,7 @@ from sim2real.errors import BipedError
 from sim2real.robot import Joint, RobotSpec
 from sim2real.robot.servo_model import ServoPhysics, servo_physics
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.statics import axis_inertia, dot3
+from sim2real.simulation.joint_loads import axis_inertia, dot3
 
 FLOOR, LEFT, RIGHT, TORSO = 1, 2, 4, 8  # contype / conaffinity bits
 COLLISION_BITS = {  # (contype, conaffinity)
