@@ -11,7 +11,7 @@ swapped since):
     check_regular_file(path)                        # before handing the path to a library
 
 No MuJoCo here; :func:`sim2real.robot.validation.load_yaml` and the command-line types of
-:mod:`sim2real.cli.args` use it too.
+:mod:`sim2real.arg_types` and :mod:`sim2real.cli.args` use it too.
 """
 
 from __future__ import annotations

@@ -12,7 +12,9 @@ from conftest import all_robot_names
 
 from sim2real.controller.mapping import hold_pose
 from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import BACKLASH_SUFFIX, CLOSED_PLAY_RAD, JointAngles, build_model, to_mjcf
+from sim2real.simulation.model_builder import build_model, to_mjcf
+from sim2real.simulation.model_parts import CLOSED_PLAY_RAD
+from sim2real.simulation.robot_model import BACKLASH_SUFFIX, JointAngles
 from sim2real.simulation.statics import holding_torques
 
 

@@ -9,7 +9,7 @@ from evolve.neat import Genome, NeatConfig, Population
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import CLOSED_PLAY_RAD
+from sim2real.simulation.model_parts import CLOSED_PLAY_RAD
 from sim2real.simulation.reality import (
     NOMINAL,
     PERTURBATIONS,

@@ -355,7 +355,7 @@ def check_view(args: argparse.Namespace) -> None:
 
 def check_render(args: argparse.Namespace) -> None:
     """Flags that apply to the other kind of render, the output's kind and size, up front."""
-    from sim2real.simulation.model_builder import OFFSCREEN_SIZE
+    from sim2real.simulation.model_parts import OFFSCREEN_SIZE
 
     if args.strip:
         _check_strip(args)

@@ -100,7 +100,7 @@ def robot_yaml(result: ImportResult) -> str:
     out += ["joints:",
             f"  # side from the geometry, location from the name, axis and sign from the world axis ({GUESSED})",
             f"  # servo ids numbered 1.. in model order ({GUESSED}): set each to its servo's ID",
-            f"  # servo direction = sign: the servo's angle taken to be the model's, centre tick at 0, as ROBOTIS",
+            "  # servo direction = sign: the servo's angle taken to be the model's, centre tick at 0, as ROBOTIS",
             f"  # maps its robots ({GUESSED}: a servo mounted the other way round needs the other direction)"]
     for j in r.joints:
         note = f"  # {'; '.join(j.notes)}" if j.notes else ""

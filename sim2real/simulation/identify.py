@@ -43,7 +43,8 @@ from sim2real.controller.mapping import ServoMapping
 from sim2real.errors import ConfigError
 from sim2real.hardware.trace import Trace, check_joint_angles, sidecar_path
 from sim2real.robot import RobotSpec
-from sim2real.simulation.model_builder import JointAngles, finished_spec
+from sim2real.simulation.model_builder import finished_spec
+from sim2real.simulation.robot_model import JointAngles
 from sim2real.simulation.reality import NOMINAL, Perturbation, apply_to_model, sample
 
 # fitted per group: (reality key, low, high)

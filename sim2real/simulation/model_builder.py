@@ -35,7 +35,6 @@ Each simulation's width goes into the backlash joints' ``jnt_range``
 from __future__ import annotations
 
 import itertools
-import math
 
 import mujoco
 import numpy as np
@@ -43,73 +42,29 @@ import numpy as np
 from sim2real.errors import BipedError
 from sim2real.robot import Joint, RobotSpec
 from sim2real.robot.anatomy import anatomical_axis
-from sim2real.robot.servo_model import ServoPhysics, servo_physics
-from sim2real.robot.timing import PHYSICS_DT_S
-from sim2real.simulation.robot_model import (
-    BACKLASH_SUFFIX,
-    FEET,
-    FLOOR_GEOM,
-    FORWARD_SENSOR,
-    GYRO_SENSOR,
-    IMU_SITE,
-    UP_SENSOR,
-    JointAngles,
-    heading_rad,
-    joint_sensor,
-    sole_site,
-    touch_sensor,
+from sim2real.robot.servo_model import servo_physics
+from sim2real.simulation.joint_loads import axis_inertia, dot3
+from sim2real.simulation.model_parts import (
+    COLLISION_BITS,
+    SUSPENDED_HEIGHT_LEGS,
+    add_backlash_joint,
+    add_scene,
+    add_sensors_and_actuators,
+    add_touch_sensor,
+    add_tracking_camera,
+    configure_servo_joint,
+    physics_dt,
 )
-from sim2real.simulation.statics import axis_inertia, dot3
+from sim2real.simulation.model_robot import lowest_sole_point, model_spec
+from sim2real.simulation.robot_model import FEET, IMU_SITE, JointAngles, sole_site
 
-__all__ = ["JointAngles", "heading_rad"]  # read here by older code; they live in robot_model
-
-FLOOR, LEFT, RIGHT, TORSO = 1, 2, 4, 8  # contype / conaffinity bits
-COLLISION_BITS = {  # (contype, conaffinity)
-    "floor": (FLOOR, LEFT | RIGHT | TORSO),
-    "left": (LEFT, FLOOR | RIGHT),
-    "right": (RIGHT, FLOOR | LEFT),
-    "center": (TORSO, FLOOR),
-}
-FLOOR_FRICTION = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling (rubber-ish soles on a hard floor)
-# A hard floor: contact time constant 10 ms (MuJoCo's default 20 ms lets a stiff PD-held human
-# rock on its soles; >= 2 timesteps keeps it stable).
-FLOOR_SOLREF = (0.01, 1.0)
 JOINT_ORDER = {"waist": ("yaw", "roll", "pitch"), "hip": ("yaw", "roll", "pitch"),
                "knee": ("pitch",), "ankle": ("yaw", "pitch", "roll")}
 COLORS = {"left": (0.85, 0.45, 0.2, 1), "right": (0.2, 0.5, 0.85, 1), "center": (0.75, 0.75, 0.78, 1)}
 SOLE_CLEARANCE_M = 0.0005  # the home keyframe starts the soles this far above the floor
-SUSPENDED_HEIGHT_LEGS = 2.0  # a hung robot's pelvis, in leg lengths above the floor: feet well clear
-OFFSCREEN_SIZE = (1280, 720)  # [px] the offscreen framebuffer: the largest picture `biped render` makes
-
-# A width-0 draw closes the play to this [rad] (a limited joint needs low < high): its two
-# limits then hold the joint at 0 as the nominal model's rigid gears do.
-CLOSED_PLAY_RAD = 1e-6
-# In the gap the link moves freely, so what the backlash joint adds must be small next to the
-# smallest link a servo moves (xl430_biped: a foot about its ankle roll, 1.9e-4 kg m^2) and to
-# a servo's own damping (0.04-0.8 N m s/rad); a little armature keeps the joint's row of the
-# mass matrix away from 0 whatever it carries.  Open Duck's 0.01 kg m^2 would be 50 feet and
-# set how a link crosses its gap.  Stable at the 2 ms implicitfast step: standing, knee
-# steps, and 64 random controllers x 3 s with play up to 3 deg (docs/servo_model.md).
-PLAY_ARMATURE = 1e-5  # [kg m^2]
-PLAY_DAMPING = 1e-3  # [N m s/rad]
-# Limits as stiff as MuJoCo lets them be at a 2 ms step (time constant 2 steps, critically
-# damped) with an impedance near 1: the standing robot's closed knee yields 0.01 deg, as
-# against 1.3 deg with MuJoCo's default solref and solimp, a compliance the gears do not have.
-PLAY_SOLREF_STEPS = 2.0
-PLAY_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)
-
-
 def joint_axis(joint: Joint) -> tuple[float, float, float]:
     """A box robot's joint axis: its role's anatomical axis (:mod:`sim2real.robot.anatomy`)."""
     return anatomical_axis(joint.side, joint.location, joint.axis)
-
-
-def _look_at(forward: np.ndarray) -> list[float]:
-    """Camera ``xyaxes`` looking along ``forward`` with the world's z up."""
-    f = forward / math.sqrt(dot3(forward, forward))  # not np.linalg.norm: see dot3
-    x = np.cross(f, [0.0, 0.0, 1.0])
-    x /= math.sqrt(dot3(x, x))
-    return [*x, *np.cross(x, f)]
 
 
 def _box_geom(body, name, size, pos, mass, side):
@@ -136,39 +91,12 @@ def _add_joints(robot: RobotSpec, body, side: str, location: str, backlash: bool
                 add_backlash_joint(body, joint.name, joint_axis(joint), dt)
 
 
-def add_backlash_joint(body, servo_joint: str, axis, dt: float):
-    """The gears' free play behind joint ``servo_joint``: add it to ``body`` right after that
-    joint, with its ``axis``; closed (``jnt_range`` sets each simulation's width); ``dt`` is
-    the physics timestep [s]."""
-    return body.add_joint(
-        name=servo_joint + BACKLASH_SUFFIX, type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(axis),
-        range=[-CLOSED_PLAY_RAD / 2, CLOSED_PLAY_RAD / 2], limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-        armature=PLAY_ARMATURE, damping=[PLAY_DAMPING, 0.0, 0.0],
-        solref_limit=[PLAY_SOLREF_STEPS * dt, 1.0], solimp_limit=list(PLAY_SOLIMP),
-    )
-
-
-def configure_servo_joint(jnt, phys: ServoPhysics) -> None:
-    """The motor side of the servo model on a hinge joint spec."""
-    jnt.armature, jnt.frictionloss = phys.armature, phys.frictionloss
-    jnt.damping = [phys.damping, 0.0, 0.0]  # linear term of MuJoCo's damping polynomial
-
-
-def configure_servo_actuator(act, phys: ServoPhysics) -> None:
-    """The firmware side: a position loop saturating at the stall torque."""
-    act.set_to_position(kp=phys.kp)
-    act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-    act.forcerange = [-phys.force_limit, phys.force_limit]
-
-
 def build_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False) -> mujoco.MjSpec:
     """The robot as an editable :class:`mujoco.MjSpec` (gains of PD robots not yet scaled),
     with a backlash joint behind each joint if ``backlash``; ``suspended`` hangs it by the
     pelvis, fixed in the air with its feet off the floor (no root joint), as a robot is hung
     for system identification."""
-    if robot.model is not None:  # a user's MJCF or URDF (that module builds on this one's parts)
-        from sim2real.simulation.model_robot import model_spec
-
+    if robot.model is not None:  # a user's MJCF or URDF
         return model_spec(robot, backlash, suspended)
     b = robot.body
     spec = mujoco.MjSpec()
@@ -208,72 +136,6 @@ def build_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
     return spec
 
 
-def physics_dt(robot: RobotSpec) -> float:
-    """MuJoCo's timestep for the robot [s] (the control tick is a whole number of them)."""
-    return robot.physics_dt_s or PHYSICS_DT_S
-
-
-def add_scene(spec: mujoco.MjSpec, robot: RobotSpec, height: float) -> None:
-    """The world every robot stands in: the options, a checkered floor, the sky and the sun;
-    ``height`` [m] (the robot's) sizes the floor's checkers and the light."""
-    spec.modelname = robot.name.replace(":", "_")
-    spec.option.timestep = physics_dt(robot)
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.visual.global_.offwidth, spec.visual.global_.offheight = OFFSCREEN_SIZE
-
-    spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
-                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, width=256, height=256,
-                     rgb1=[0.22, 0.25, 0.3], rgb2=[0.3, 0.33, 0.38])
-    tile = 4 / max(height, 0.1)  # checker squares of about a quarter of the robot's height
-    grid = spec.add_material(name="grid", texrepeat=[tile, tile], texuniform=True)
-    grid.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
-
-    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
-                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, width=256, height=256,
-                     rgb1=[0.55, 0.7, 0.85], rgb2=[0.1, 0.12, 0.16])
-    world = spec.worldbody
-    world.add_light(name="sun", pos=[0, 0, 3 * max(1.0, height)], dir=[0, 0, -1],
-                    type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
-    contype, conaffinity = COLLISION_BITS["floor"]
-    world.add_geom(name=FLOOR_GEOM, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
-                   material="grid", friction=list(FLOOR_FRICTION), solref=list(FLOOR_SOLREF),
-                   contype=contype, conaffinity=conaffinity)
-
-
-def add_tracking_camera(body, height: float) -> None:
-    """A camera following the robot's centre of mass from the front right, slightly above."""
-    offset = 2.6 * height * np.array([0.45, -0.88, 0.12])
-    body.add_camera(name="track", mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM, pos=offset.tolist(),
-                    xyaxes=_look_at(-offset))
-
-
-def add_touch_sensor(spec: mujoco.MjSpec, side: str) -> None:
-    """The foot switch's ground truth: the normal force within the sole site [N]."""
-    spec.add_sensor(name=touch_sensor(side), type=mujoco.mjtSensor.mjSENS_TOUCH,
-                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname=sole_site(side))
-
-
-def add_sensors_and_actuators(spec: mujoco.MjSpec, robot: RobotSpec) -> None:
-    """The IMU's sensors on the ``imu`` site, each joint's angle sensor and position actuator
-    (robot order), the gyro: the parts :class:`~sim2real.simulation.robot_model.RobotModel`
-    reads, after the body tree and the touch sensors."""
-    # world up in the torso frame: what the sensor board's IMU reports
-    spec.add_sensor(name=UP_SENSOR, type=mujoco.mjtSensor.mjSENS_FRAMEZAXIS,
-                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname="world",
-                    reftype=mujoco.mjtObj.mjOBJ_SITE, refname=IMU_SITE)
-    # the torso's forward axis in the world: its yaw is the heading the board's IMU reports
-    spec.add_sensor(name=FORWARD_SENSOR, type=mujoco.mjtSensor.mjSENS_FRAMEXAXIS,
-                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname=IMU_SITE)
-    for joint in robot.joints:
-        spec.add_sensor(name=joint_sensor(joint.name), type=mujoco.mjtSensor.mjSENS_JOINTPOS,
-                        objtype=mujoco.mjtObj.mjOBJ_JOINT, objname=joint.name)
-        _add_actuator(spec, joint)
-    # the torso's angular rate about its own axes [rad/s]: what the sensor board's gyro reports
-    # (last, so that the older sensors keep their addresses)
-    spec.add_sensor(name=GYRO_SENSOR, type=mujoco.mjtSensor.mjSENS_GYRO, objtype=mujoco.mjtObj.mjOBJ_SITE,
-                    objname=IMU_SITE)
-
-
 # MuJoCo's warnings of a simulation gone numerically unstable.  On a bad acceleration it resets
 # the state to the model's qpos0 and carries on from there (time 0, the robot upright at the
 # origin), so whatever is measured afterwards - distance, falls - is no result.
@@ -299,16 +161,6 @@ class SimulationUnstable(BipedError):
     is bounded to a plausible range, but combinations can still blow up)."""
 
 
-def _add_actuator(spec: mujoco.MjSpec, joint: Joint) -> None:
-    act = spec.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-    act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
-    act.ctrlrange = list(joint.range_rad)
-    if joint.servo is not None:
-        configure_servo_actuator(act, servo_physics(joint.servo.profile))
-    else:
-        act.set_to_position(kp=1.0, kv=0.0)  # scaled by the joint inertia in build_model
-
-
 def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
     """Add keyframe ``home``: joints at home, root lowered until the soles touch the floor."""
     data = mujoco.MjData(model)
@@ -316,8 +168,6 @@ def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel)
     JointAngles.of(model).place(data.qpos, home)
     mujoco.mj_kinematics(model, data)
     if robot.model is not None:
-        from sim2real.simulation.model_robot import lowest_sole_point
-
         lowest = lowest_sole_point(model, data, robot)
     else:
         lowest = _lowest_box_sole_point(model, data)

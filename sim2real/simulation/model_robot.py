@@ -5,7 +5,7 @@ map the model's hinges onto roles and servos.  :func:`model_spec` loads the file
 (:func:`~sim2real.simulation.model_files.load_model_spec`), drops what the project supplies
 itself (the file's actuators, sensors, keyframes; its visual-only geoms unless asked to keep
 them), floats the root body, and then gives it exactly what a box robot has, with the same
-code (:mod:`sim2real.simulation.model_builder`): the scene, the servo physics on every mapped
+code (:mod:`sim2real.simulation.model_parts`): the scene, the servo physics on every mapped
 joint (``kp``, force range, damping, friction, armature; backlash joints when asked), a
 position actuator each, the IMU site and sensors, the sole sites and touch sensors.
 
@@ -32,7 +32,7 @@ from sim2real.errors import ConfigError
 from sim2real.robot import RobotSpec
 from sim2real.robot.servo_model import servo_physics
 from sim2real.robot.spec import Physique
-from sim2real.simulation.model_builder import (
+from sim2real.simulation.model_parts import (
     SUSPENDED_HEIGHT_LEGS,
     add_backlash_joint,
     add_scene,

@@ -25,7 +25,7 @@ import sys
 import threading
 from typing import TYPE_CHECKING
 
-from sim2real.cli.args import add_realtime_arguments, realtime_request
+from sim2real.arg_types import add_realtime_arguments, realtime_request
 from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import RobotSpec
 from sim2real.simulation.dry_run import END_OF_RUN, parse_faults
@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from sim2real.cli.args import (
+    from sim2real.arg_types import (
         baud_rate,
         non_negative_finite_float,
         reality_name,

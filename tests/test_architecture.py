@@ -1,0 +1,168 @@
+"""The import graph's layering, read from the source with ``ast`` (nothing is imported).
+
+Every import counts, at module level or inside a function (a lazy import is still a
+dependency; it only hides it); an import under ``if TYPE_CHECKING:`` counts for the layers,
+not for cycles (it never runs).  The rules:
+
+* ``evolve`` depends on ``sim2real``, never the reverse;
+* the library layers of ``sim2real`` (controller, hardware, robot, simulation) never import
+  its command line, ``sim2real.cli`` (flags belong to the CLI; what both need sits lower,
+  e.g. :mod:`sim2real.arg_types`);
+* no import cycle among the modules of ``sim2real`` and ``evolve``.
+"""
+
+from __future__ import annotations
+
+import ast
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = ("sim2real", "evolve")
+LIBRARY_LAYERS = ("sim2real.controller", "sim2real.hardware", "sim2real.robot", "sim2real.simulation")
+# Lazy imports that go up a layer on purpose, each with its reason; they count for nothing else.
+BY_DESIGN = {
+    ("sim2real.robot.spec", "sim2real.simulation.model_robot"):
+        "a robot from a model file has its mass and leg length measured on the compiled model: only "
+        "then, and only where MuJoCo is installed (the robot computer's deploy path needs neither)",
+}
+
+
+@dataclass(frozen=True)
+class Import:
+    source: str  # the importing module
+    target: str  # the project module imported (the deepest that exists)
+    line: int
+    type_only: bool  # under ``if TYPE_CHECKING:``
+
+
+def _modules() -> dict[str, Path]:
+    found = {}
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            parts = path.relative_to(ROOT).with_suffix("").parts
+            found[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return found
+
+
+def _project_module(name: str, modules: dict[str, Path]) -> str | None:
+    """The deepest project module that importing ``name`` names (``a.b.func`` -> ``a.b``)."""
+    while name and name not in modules:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def _imports_of(module: str, path: Path, modules: dict[str, Path]) -> list[Import]:
+    found: list[Import] = []
+    package = module.split(".") if path.name == "__init__.py" else module.split(".")[:-1]
+
+    def visit(node: ast.AST, type_only: bool) -> None:
+        for child in ast.iter_child_nodes(node):
+            guarded = type_only or (isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test))
+            names: list[str] = []
+            if isinstance(child, ast.Import):
+                names = [alias.name for alias in child.names]
+            elif isinstance(child, ast.ImportFrom):
+                base = child.module or ""
+                if child.level:  # relative: from the importing module's package
+                    base = ".".join(package[:len(package) - child.level + 1] + ([base] if base else []))
+                names = [f"{base}.{alias.name}" for alias in child.names]  # a submodule, or a name in base
+            for name in names:
+                target = _project_module(name, modules)
+                if target is not None and target != module:
+                    found.append(Import(module, target, child.lineno, guarded))
+            visit(child, guarded)
+
+    visit(ast.parse(path.read_text(encoding="utf-8"), str(path)), False)
+    return found
+
+
+@lru_cache(maxsize=1)
+def import_graph() -> tuple[Import, ...]:
+    modules = _modules()
+    return tuple(i for module, path in modules.items() for i in _imports_of(module, path, modules))
+
+
+def _in(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
+
+
+def _where(imports: list[Import]) -> str:
+    return "\n".join(dict.fromkeys(f"{i.source} (line {i.line}) imports {i.target}" for i in imports))
+
+
+def test_the_graph_is_read():
+    graph = import_graph()
+    assert any(i.source == "evolve.run" and _in(i.target, "sim2real") for i in graph)
+    assert any(i.source == "sim2real.controller.file" and i.target == "sim2real.controller.checks" for i in graph)
+
+
+def test_sim2real_never_imports_evolve():
+    wrong = [i for i in import_graph() if _in(i.source, "sim2real") and _in(i.target, "evolve")]
+    assert not wrong, _where(wrong)
+
+
+@pytest.mark.parametrize("layer", LIBRARY_LAYERS)
+def test_library_layers_never_import_the_command_line(layer):
+    wrong = [i for i in import_graph() if _in(i.source, layer) and _in(i.target, "sim2real.cli")]
+    assert not wrong, _where(wrong)
+
+
+def _cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan, iteratively)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles = []
+    for root in sorted(edges):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(edges[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = len(index)
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(edges.get(child, ())))))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len(component) > 1:
+                    cycles.append(sorted(component))
+    return cycles
+
+
+def test_cycles_are_found():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert _cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_import_cycles_even_through_imports_inside_functions():
+    edges: dict[str, set[str]] = {}
+    counted = [i for i in import_graph() if not i.type_only and (i.source, i.target) not in BY_DESIGN]
+    for i in counted:
+        edges.setdefault(i.source, set()).add(i.target)
+    cycles = _cycles(edges)
+    shown = [[i for i in counted if i.source in c and i.target in c] for c in cycles]
+    assert not cycles, "\n\n".join(_where(s) for s in shown)
