@@ -155,3 +155,11 @@ def test_every_channel_key_is_in_the_controller_schema_and_back():
     assert channels.selection(channels.selection_keys(every)) == every
     assert channels.selection(channels.every_key(every)) == every
     assert channels.selection(channels.every_key({})) == {}
+
+
+def test_the_network_drawing_names_the_gyro_inputs():
+    from sim2real.figures.network import network_graph
+
+    graph = network_graph(_gyro_controller()[1])
+    labels = {label for _, label in graph.nodes(data="label")}
+    assert {"gyro_roll", "gyro_pitch", "gyro_yaw"} <= labels
