@@ -55,7 +55,7 @@ from sim2real.simulation.model_parts import (
     configure_servo_joint,
     physics_dt,
 )
-from sim2real.simulation.model_robot import lowest_sole_point, model_spec
+from sim2real.simulation.model_robot import level_feet, lowest_sole_point, model_spec
 from sim2real.simulation.robot_model import FEET, IMU_SITE, JointAngles, sole_site
 
 JOINT_ORDER = {"waist": ("yaw", "roll", "pitch"), "hip": ("yaw", "roll", "pitch"),
@@ -168,6 +168,8 @@ def _home_keyframe(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel)
     JointAngles.of(model).place(data.qpos, home)
     mujoco.mj_kinematics(model, data)
     if robot.model is not None:
+        if model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE:
+            level_feet(model, data, robot)
         lowest = lowest_sole_point(model, data, robot)
     else:
         lowest = _lowest_box_sole_point(model, data)

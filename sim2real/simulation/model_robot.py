@@ -182,6 +182,32 @@ def lowest_sole_point(model: mujoco.MjModel, data: mujoco.MjData, robot: RobotSp
     return lowest
 
 
+def level_feet(model: mujoco.MjModel, data: mujoco.MjData, robot: RobotSpec) -> None:
+    """Turn the floating root in ``data.qpos`` so that the feet, at the joint angles there,
+    stand as level as they do at the model's zero pose (a crouch that leans the trunk forward,
+    as ROBOTIS's walking stance does, then starts with its soles flat, not on their heels).
+    Needs a free root joint first in ``qpos``; recomputes the kinematics."""
+    feet = [model.body(robot.model.feet[side].body).id for side in FEET]
+    zero = mujoco.MjData(model)
+    zero.qpos[3:7] = data.qpos[3:7]
+    mujoco.mj_kinematics(model, zero)
+    mujoco.mj_kinematics(model, data)
+    # each foot's local direction that points up at the zero pose, seen in the world now
+    up_now = sum(data.xmat[b].reshape(3, 3) @ (zero.xmat[b].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0]))
+                 for b in feet)
+    up_now /= np.linalg.norm(up_now)
+    axis = np.cross(up_now, [0.0, 0.0, 1.0])
+    sin, cos = np.linalg.norm(axis), float(up_now[2])
+    if sin < 1e-12:
+        return
+    turn = np.zeros(4)
+    mujoco.mju_axisAngle2Quat(turn, axis / sin, math.atan2(sin, cos))
+    root = np.zeros(4)
+    mujoco.mju_mulQuat(root, turn, data.qpos[3:7])
+    data.qpos[3:7] = root
+    mujoco.mj_kinematics(model, data)
+
+
 def measure_physique(robot: RobotSpec) -> Physique:
     """Mass, height and leg length of a robot from a model file, on its compiled model at the
     zero pose: height from the lowest to the highest point of its collision geometry; leg
