@@ -3,6 +3,7 @@ ROBOTIS's numbers): what `robot show` says, standing on its soles from home, ROB
 table found from the geometry, and evolution and the runtime on it."""
 
 import json
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -79,3 +80,13 @@ def test_evolution_and_the_runtime_run_on_op3(tmp_path, capsys):
     assert dry["ticks"] >= 20 and not dry["torque_off"]["unconfirmed"]
     assert main(["compare", str(trace), "--json"]) == 0
     assert set(json.loads(capsys.readouterr().out.strip().splitlines()[-1])["joints"]) == set(OP3.joint_names)
+
+
+def test_biped_evolve_runs_on_op3(tmp_path):
+    out = tmp_path / "run"
+    config = Path(__file__).resolve().parents[1] / "configs" / "evolve" / "walk_op3.yaml"
+    assert main(["evolve", str(config), "--out", str(out), "--generations", "1",
+                 "--population", "8", "--threads", "1", "--quiet"]) == 0
+    controller = json.loads((out / "controller.json").read_text())
+    assert controller["robot"]["name"] == "op3" and controller["gyro_input"] is True
+    assert controller["inputs"][-3:] == ["gyro_roll", "gyro_pitch", "gyro_yaw"]
