@@ -148,3 +148,25 @@ def test_a_controller_for_an_imported_robot_runs_on_the_mock_bus_the_simulated_b
     assert main(["compare", str(trace), *where, "--json"]) == 0
     compared = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert set(compared["joints"]) == set(robot.joint_names)
+
+
+def test_standing_at_home_the_robot_touches_only_the_floor(imported):
+    """Links that touch at the zero pose (CAD overlap at a joint) are excluded: a standing robot
+    presses on nothing but the floor, and its soles carry all of it."""
+    for robot in (load_robot(imported), load_robot("op3")):
+        model, data, parts, _ = _stand(robot, seconds=0.5)
+        bodies = {(int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])) for c in data.contact[:data.ncon]}
+        assert bodies and all(0 in pair for pair in bodies), robot.name
+
+
+def test_xacro_left_in_comments_is_not_xacro(tmp_path):
+    """An expanded xacro keeps its commented-out properties: that is a plain URDF."""
+    from sim2real.simulation.model_files import load_model_spec
+
+    files = write_humanoid(tmp_path)
+    text = files.urdf.read_text().replace("<robot ", '<robot xmlns:a="urn:x" ', 1)
+    text = text.replace(">", '>\n  <!-- <xacro:property name="pi" value="3.14159"/> -->', 1)
+    commented = tmp_path / "commented.urdf"
+    commented.write_text(text)
+    spec = load_model_spec(commented)
+    assert any(j.name == "r_knee_joint" for j in spec.joints)

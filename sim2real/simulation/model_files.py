@@ -178,6 +178,8 @@ def _read_model_xml(path: Path) -> tuple[ET.Element, str]:
 def _xacro_sign(path: Path, text: str) -> str | None:
     if path.name.lower().endswith(".xacro"):
         return "its name ends in .xacro"
+    # what a comment holds is not the model (expanded xacro keeps commented-out properties)
+    text = re.sub(r"<!--.*?-->", "", text, flags=re.DOTALL)
     if "xmlns:xacro" in text or XACRO_NAMESPACE in text:
         return "it declares the xacro namespace"
     if "<xacro:" in text:

@@ -13,8 +13,9 @@ position actuator each, the IMU site and sensors, the sole sites and touch senso
   the anatomical angle everything else reads; its range is the config's.
 * A joint the map does not name (a gripper, a spare hinge) is removed: its child body is held
   fixed to its parent at the model's zero pose.
-* The sole site of a foot is a box over the foot's collision geoms (bounding box in the foot's
-  frame) reaching a little below them, where contact points lie.
+* The sole site of a foot is a box over the bottom of the foot's collision geoms (bounding box
+  in the foot's frame) reaching a little below them, where contact points lie.
+* Links that touch at the model's zero pose (CAD meshes overlapping at a joint) never collide.
 
 :func:`measure_physique` gives mass, height and leg length from the compiled model at its
 zero pose; the control tick and the holding-torque margins follow from them as for a box robot.
@@ -48,6 +49,11 @@ from sim2real.simulation.robot_model import FEET, IMU_SITE, sole_site
 
 SOLE_MARGIN_M = 1e-3  # the sole site reaches this far beyond the foot's geoms sideways
 SOLE_BELOW_M = 3e-3  # and this far below them, where contact points lie
+# ... and up to this far above their lowest point (or this share of their height): a touch
+# sensor sums every contact of the foot's body inside its site, and one with the shank at the
+# ankle is no foot switch closing
+SOLE_SLAB_M = 5e-3
+SOLE_SLAB_SHARE = 0.2
 
 
 def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False,
@@ -112,17 +118,34 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
     imu = spec.body(source.imu_body)
     imu.add_site(name=IMU_SITE, pos=list(source.imu_pos))
     model = compile_model(spec, where)
+    _exclude_touching_links(spec, model)
     for side in FEET:
         low, high = _foot_box(model, robot, side)
+        top = low[2] + max(SOLE_SLAB_M, SOLE_SLAB_SHARE * (high[2] - low[2]))  # the sole, not the ankle above it
+        low[2] -= SOLE_BELOW_M
+        high[2] = min(high[2], top)
         centre = 0.5 * (low + high)
         half = 0.5 * (high - low) + np.array([SOLE_MARGIN_M, SOLE_MARGIN_M, 0.0])
-        centre[2] -= SOLE_BELOW_M / 2
-        half[2] += SOLE_BELOW_M / 2
         spec.body(source.feet[side].body).add_site(name=sole_site(side), type=mujoco.mjtGeom.mjGEOM_BOX,
                                                    pos=centre.tolist(), size=half.tolist(), group=3)
         add_touch_sensor(spec, side)
     add_sensors_and_actuators(spec, robot)
     return spec
+
+
+def _exclude_touching_links(spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
+    """No contacts between two links that already touch at the model's zero pose: CAD meshes
+    overlap at the joints (MuJoCo leaves out only parent and child), and a contact there is
+    the robot pressing on itself with hundreds of newtons, not a collision."""
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    pairs = set()
+    for k in range(data.ncon):
+        b1, b2 = (int(model.geom_bodyid[g]) for g in (data.contact[k].geom1, data.contact[k].geom2))
+        if b1 and b2 and b1 != b2:
+            pairs.add(tuple(sorted((model.body(b1).name, model.body(b2).name))))
+    for first, second in sorted(pairs):
+        spec.add_exclude(bodyname1=first, bodyname2=second)
 
 
 def _check_bodies(spec: mujoco.MjSpec, robot: RobotSpec) -> None:
