@@ -46,6 +46,7 @@ from sim2real.robot.servo_model import servo_physics
 from sim2real.simulation.joint_loads import axis_inertia, dot3
 from sim2real.simulation.model_parts import (
     COLLISION_BITS,
+    COLORS,
     SUSPENDED_HEIGHT_LEGS,
     add_backlash_joint,
     add_scene,
@@ -60,7 +61,6 @@ from sim2real.simulation.robot_model import FEET, IMU_SITE, JointAngles, sole_si
 
 JOINT_ORDER = {"waist": ("yaw", "roll", "pitch"), "hip": ("yaw", "roll", "pitch"),
                "knee": ("pitch",), "ankle": ("yaw", "pitch", "roll")}
-COLORS = {"left": (0.85, 0.45, 0.2, 1), "right": (0.2, 0.5, 0.85, 1), "center": (0.75, 0.75, 0.78, 1)}
 SOLE_CLEARANCE_M = 0.0005  # the home keyframe starts the soles this far above the floor
 def joint_axis(joint: Joint) -> tuple[float, float, float]:
     """A box robot's joint axis: its role's anatomical axis (:mod:`sim2real.robot.anatomy`)."""

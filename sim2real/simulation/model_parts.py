@@ -41,6 +41,7 @@ COLLISION_BITS = {  # (contype, conaffinity)
     "right": (RIGHT, FLOOR | LEFT),
     "center": (TORSO, FLOOR),
 }
+COLORS = {"left": (0.85, 0.45, 0.2, 1), "right": (0.2, 0.5, 0.85, 1), "center": (0.75, 0.75, 0.78, 1)}  # parts by side
 FLOOR_FRICTION = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling (rubber-ish soles on a hard floor)
 # A hard floor: contact time constant 10 ms (MuJoCo's default 20 ms lets a stiff PD-held human
 # rock on its soles; >= 2 timesteps keeps it stable).

@@ -34,6 +34,7 @@ from sim2real.robot import RobotSpec
 from sim2real.robot.servo_model import servo_physics
 from sim2real.robot.spec import Physique
 from sim2real.simulation.model_parts import (
+    COLORS,
     SUSPENDED_HEIGHT_LEGS,
     add_backlash_joint,
     add_scene,
@@ -47,6 +48,7 @@ from sim2real.simulation.model_files import add_free_joint, compile_model, is_co
 from sim2real.simulation.model_inertias import recompute_inertias
 from sim2real.simulation.robot_model import FEET, IMU_SITE, sole_site
 
+DEFAULT_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's colour of a geom that sets none
 SOLE_MARGIN_M = 1e-3  # the sole site reaches this far beyond the foot's geoms sideways
 SOLE_BELOW_M = 3e-3  # and this far below them, where contact points lie
 # ... and up to this far above their lowest point (or this share of their height): a touch
@@ -109,6 +111,7 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
                 raise ConfigError(where, f"joints.{joint.name}", "backlash goes right behind a joint, and this "
                                   "one is not its body's last: split the body's joints in the model")
             add_backlash_joint(body, joint.name, joint.axis, dt)
+    _colour_by_side(spec, robot)
     height = 1.0 if for_measure else robot.height
     add_scene(spec, robot, height)
     if not for_measure:
@@ -131,6 +134,23 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
         add_touch_sensor(spec, side)
     add_sensors_and_actuators(spec, robot)
     return spec
+
+
+def _colour_by_side(spec: mujoco.MjSpec, robot: RobotSpec) -> None:
+    """Paint the parts the model leaves plain (no material, MuJoCo's default grey) as the box
+    robots are: a body takes the side of the nearest mapped joint at or above it."""
+    sides = {spec.joint(j.name).parent.name: j.side for j in robot.joints}
+
+    def side_of(body) -> str:
+        while body is not None and body.name != "world":
+            if body.name in sides:
+                return sides[body.name]
+            body = body.parent
+        return "center"
+
+    for geom in spec.geoms:
+        if not geom.material and np.allclose(geom.rgba, DEFAULT_RGBA):
+            geom.rgba = COLORS[side_of(geom.parent)]
 
 
 def _exclude_touching_links(spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
