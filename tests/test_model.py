@@ -55,13 +55,15 @@ def test_robot_held_at_home_by_its_servos_stands_for_5_s(robot_and_model):
 
 
 def test_only_the_feet_touch_the_floor_at_home(robot_and_model):
-    _, model = robot_and_model
+    robot, model = robot_and_model
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     for _ in range(50):
         mujoco.mj_step(model, data)
-    touching = {frozenset((model.geom(c.geom1).name, model.geom(c.geom2).name)) for c in data.contact}
-    assert touching <= {frozenset(("floor", "left_foot")), frozenset(("floor", "right_foot"))}
+    feet = ({model.body(f.body).id for f in robot.model.feet.values()} if robot.model is not None
+            else {model.body(f"{side}_foot").id for side in ("left", "right")})
+    touching = {frozenset((int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2]))) for c in data.contact}
+    assert touching <= {frozenset((0, foot)) for foot in feet}  # the world's floor and a foot, nothing else
     assert touching, "the feet should be on the floor"
 
 
