@@ -261,7 +261,7 @@ def test_the_published_schema_owns_the_formats_keys_and_bounds():
     assert controller_schema.TICK_RANGE_S == (schema["properties"]["tick_s"]["minimum"],
                                               schema["properties"]["tick_s"]["maximum"])
     assert schema["properties"]["symmetry"]["properties"]["networks"]["const"] == list(symmetry.SIDES)
-    assert Controller.load(V1_FILE).inputs[-4:] == symmetry.SENSOR_INPUTS
+    assert Controller.load(V1_FILE).inputs[-4:] == ("own_foot", "other_foot", "up_forward", "up_sideways")
 
 
 def test_export_writes_the_controller_through_the_one_type():

@@ -54,9 +54,9 @@ class TaskConfig:
     selection_distance_cap: float = 0.0  # > 0: selection counts distance up to this many leg lengths
     selection_walk_bonus: float = 0.0  # selection adds this for a walk (upright to the end, >= 2.2 leg lengths)
     selection_heading_deg: float = 0.0  # > 0: the bonus only for a walk whose heading stayed this close to the start's
-    phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (symmetry.PHASE_INPUTS)
-    efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (symmetry.GOAL_SUFFIX)
-    heading_input: bool = False  # the networks get the torso's turn since the start (symmetry.HEADING_INPUT)
+    phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (channels.Clock)
+    efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (channels.EfferenceCopy)
+    heading_input: bool = False  # the networks get the torso's turn since the start (channels.Heading)
     heading_scale_deg: float = channels.Heading.settings[0].default  # [deg] the turn that input reads as 1 (clipped beyond)
     gyro_input: bool = False  # the networks get the torso's angular rate (channels.Gyro)
     gyro_scale_dps: float = channels.Gyro.settings[0].default  # [deg/s] the rate that input reads as 1 (clipped beyond)

@@ -118,6 +118,12 @@ class Channel:
         return float(wiring.layout.inputs[self.key][key])
 
 
+def turn_rad(heading_rad: np.ndarray | float, start_rad: np.ndarray | float) -> np.ndarray:
+    """The turn from ``start_rad`` to ``heading_rad`` (yaws about world up, counter-clockwise
+    seen from above, as an IMU reports them [rad]), wrapped to [-pi, pi]."""
+    return np.angle(np.exp(1j * (np.asarray(heading_rad, dtype=float) - start_rad)))
+
+
 def _same(width: int, signs: tuple[float, ...] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Both networks read values 0..width-1 in order, the right as they are, the left times ``signs``."""
     index = np.tile(np.arange(width), (2, 1))
@@ -193,7 +199,7 @@ class Heading(Channel):
         return ["heading"]
 
     def raw(self, r, wiring):
-        turn = np.angle(np.exp(1j * (np.asarray(r.heading, dtype=float) - r.start_heading)))
+        turn = turn_rad(r.heading, r.start_heading)
         scale = np.radians(self.setting(wiring, "heading_scale_deg"))
         return np.clip(-turn / scale, -1.0, 1.0)[:, None]  # turning right is positive for the right network
 

@@ -11,7 +11,7 @@ Each network reads its side's view of the robot and drives its side's joints:
   the walk preset of a biped with a waist, that is seed 000's eleven inputs.  The paper
   names its tilt inputs X and Z: the horizontal components of the up-vector in its y-up
   world, which are forward and sideways here.
-* optionally the torso's heading (:data:`HEADING_INPUT`): how far it has turned since the start
+* optionally the torso's heading (``heading``): how far it has turned since the start
   toward the network's own side, in half turns or on a smaller scale (:func:`heading_input`),
   from the board's heading (an IMU's yaw).  The up-vector does not change when the robot
   yaws, so without it a network cannot tell that it is turning, and a walker that turns a
@@ -21,11 +21,11 @@ Each network reads its side's view of the robot and drives its side's joints:
   rates about the torso's x, y and z axes over a scale, clipped to [-1, 1]; the left network
   reads roll and yaw rate negated (odd under the mirror) and pitch rate as it is.  Without it
   a network senses rotation only once it has tilted or turned.
-* optionally a clock (:data:`PHASE_INPUTS`): the sine and cosine of the gait phase
+* optionally a clock (``phase_sin``, ``phase_cos``): the sine and cosine of the gait phase
   ``2 pi t / period``, the left network's half a period later (both negated), so that one
   genome's two networks step in antiphase.  A recurrent network then need not find its own
   oscillator: the rhythm is the clock's, whatever the body, and evolution tunes the feedback.
-* optionally an efference copy (:data:`GOAL_SUFFIX`): the goals sent last tick, own leg,
+* optionally an efference copy (a joint input's name and ``_goal``): the goals sent last tick, own leg,
   other leg and centre as the joint angles are (normalized, mirrored alike), after the clock
   - so that a network can tell what it asked for from what the servos did (Open Duck Mini
   feeds its last actions back the same way).
@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim2real.controller import channels
-from sim2real.controller.channels import InputSettings
+from sim2real.controller.channels import InputSettings, turn_rad
 from sim2real.robot import RobotSpec
 
 SIDES = ("right", "left")
@@ -55,19 +55,9 @@ SIDES = ("right", "left")
 
 BIAS = ((1.0, 1.0), (1.0, -1.0))  # the bias nodes of the (right, left) network: +1, and the side
 CENTER_OUTPUT = "mean of both networks"  # what a centre joint gets
-SENSOR_INPUTS = ("own_foot", "other_foot", "up_forward", "up_sideways")  # after the joint angles
-HEADING_INPUT = "heading"  # after the sensors, with a heading
-PHASE_INPUTS = ("phase_sin", "phase_cos")  # after the sensors (and the heading), with a clock
-GOAL_SUFFIX = "_goal"  # an efference copy's input: a joint input's name and this, last
 
 
-def turn_rad(heading_rad: np.ndarray | float, start_rad: np.ndarray | float) -> np.ndarray:
-    """The turn from ``start_rad`` to ``heading_rad`` (yaws about world up, counter-clockwise
-    seen from above, as an IMU reports them [rad]), wrapped to [-pi, pi]."""
-    return np.angle(np.exp(1j * (np.asarray(heading_rad, dtype=float) - start_rad)))
-
-
-HEADING_SCALE_DEG = 180.0  # the turn that reads 1 unless a controller says otherwise: half turns
+HEADING_SCALE_DEG = channels.Heading.settings[0].default  # [deg] the turn that reads 1 by default: half turns
 
 
 def heading_input(heading_rad: np.ndarray | float, start_rad: np.ndarray | float,
@@ -232,7 +222,7 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
         value = dict(zip(layout.input_names, _angle_inputs(layout, joints, s).T))
         if goals is not None:
             angle_names = layout.input_names[:2 * layout.n_leg + len(layout.center_index)]
-            value.update(zip((name + GOAL_SUFFIX for name in angle_names), _angle_inputs(layout, goals, s).T))
+            value.update(zip((name + "_goal" for name in angle_names), _angle_inputs(layout, goals, s).T))
         value["own_foot"], value["other_foot"] = own_foot, other_foot
         value["up_forward"] = -up[:, 0]  # leaning forward is positive
         # leaning toward the network's own side is positive on both sides (leaning right
