@@ -199,6 +199,8 @@ class Heading(Channel):
         return ["heading"]
 
     def raw(self, r, wiring):
+        if r.start_heading is None:
+            raise ValueError("the heading input needs the start heading")
         turn = turn_rad(r.heading, r.start_heading)
         scale = np.radians(self.setting(wiring, "heading_scale_deg"))
         return np.clip(-turn / scale, -1.0, 1.0)[:, None]  # turning right is positive for the right network
@@ -298,7 +300,7 @@ def selection_keys(settings: InputSettings) -> dict[str, Any]:
             keys[channel.switch] = True
         for i, s in enumerate(channel.settings):
             value = settings[channel.key][s.key]
-            if channel.switch is None and i == 0 or value != s.default:
+            if (channel.switch is None and i == 0) or value != s.default:
                 keys[s.key] = value
     return keys
 
@@ -366,8 +368,6 @@ class InputWiring:
         for sensor in self.sensors:
             if getattr(r, sensor) is None:
                 raise ValueError(f"these inputs read the {sensor}: give it in the readings")
-        if "heading" in self.sensors and r.start_heading is None:
-            raise ValueError("the heading input needs the start heading")
         parts = [c.raw(r, self) for c in self.channels]
         return np.concatenate(parts, axis=1)
 
