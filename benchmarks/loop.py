@@ -50,12 +50,13 @@ from sim2real.robot import load_robot
 from sim2real.simulation.dry_run import SimulatedBusProcess
 
 
-def random_controller(robot, connections: int, hidden: int, seed: int) -> Controller:
+def random_controller(robot, connections: int, hidden: int, seed: int, control_set: str = "walk") -> Controller:
     """A controller of the given size with random weights (recurrent, self-loops allowed),
-    in an exported controller's frame (an unconnected genome's)."""
+    in an exported controller's frame (an unconnected genome's), driving ``control_set``."""
     rng = np.random.default_rng(seed)
-    layout = symmetric_layout(robot, robot.control_sets["walk"])
-    controller = controller_from_genome(Genome(0, neat_layout(layout)), robot, layout, TaskConfig(), 1.0,
+    layout = symmetric_layout(robot, robot.control_sets[control_set])
+    controller = controller_from_genome(Genome(0, neat_layout(layout)), robot, layout,
+                                        TaskConfig(control_set=control_set), 1.0,
                                         {"seed": seed, "made_by": "benchmarks.loop.random_controller"}).to_dict()
     interface = layout.n_inputs + 2 + layout.n_outputs
     nodes = list(range(interface)) + list(range(interface, interface + hidden))

@@ -240,6 +240,13 @@ def test_biped_run_works_where_mujoco_cannot_be_imported(tmp_path):
     assert out.returncode == 0, out.stderr
     result = json.loads(out.stdout.splitlines()[-1])
     assert result["stop_reason"] == "duration reached" and result["torque_off"]["unconfirmed"] == []
+    op3 = load_robot("op3")  # a robot from a model file: its deploy path needs no MuJoCo either
+    random_controller(op3, connections=20, hidden=2, seed=0, control_set="legs").save(tmp_path / "op3.json")
+    out = subprocess.run([sys.executable, "-m", "evolve.cli", "run", str(tmp_path / "op3.json"), "--bus", "mock",
+                          "--duration", "0.3", "--json", "--no-realtime"], capture_output=True, text=True, timeout=120,
+                         env=env)
+    assert out.returncode == 0, out.stderr
+    assert len(json.loads(out.stdout.splitlines()[-1])["torque_off"]["confirmed"]) == 20
     out = subprocess.run([sys.executable, "-m", "evolve.cli", "robot", "mjcf"], capture_output=True, text=True,
                          timeout=120, env=env)
     assert out.returncode == 2 and "needs MuJoCo" in out.stderr and "[sim]" in out.stderr
