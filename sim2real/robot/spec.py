@@ -1,18 +1,18 @@
 """What a robot is: a frozen :class:`RobotSpec` (read from ``configs/robots/*.yaml`` by
 :mod:`sim2real.robot.loading`).
 
-Every robot here is a biped of the same tree - trunk, pelvis (the root, seed 000's
-"waist"), and per leg thigh, shank and foot - with a configurable set of hinge joints
-at the waist, hips, knees and ankles.  A config gives the segment sizes [m] and masses
-[kg] (or, for the human character, anthropometric measures they are scaled from), the
-joints with their ranges, and for a servo robot each joint's Dynamixel (ID, model,
-direction, zero offset), the sensor board and the bus.
+A robot is either a biped of the project's box tree - trunk, pelvis (the root, seed 000's
+"waist"), and per leg thigh, shank and foot - with a configurable set of hinge joints at the
+waist, hips, knees and ankles, whose config gives the segment sizes [m] and masses [kg] (or,
+for the human character, anthropometric measures they are scaled from); or a user's MJCF or
+URDF model (:class:`ModelSource`) whose joints the config maps onto roles - legs, arms, neck -
+with a ``sign`` each (anatomical angle = sign * model angle).  Either way the config gives the
+joints with their ranges, and for a servo robot each joint's Dynamixel (ID, model, direction,
+zero offset), the sensor board and the bus.  Mass, height and leg length (:attr:`RobotSpec.physique`)
+are the box tree's, or measured on the compiled model.
 
 Joint angles are anatomical and mirrored between the sides, so the same angle means the
-same motion on either leg (a symmetric controller relies on it): pitch is flexion
-(hip forward, knee bending, toes up), roll is abduction (leg outward; ankle the same
-sense), yaw is external rotation (toes outward).  At the waist, pitch bends the trunk
-forward, roll leans it right and yaw turns it left.
+same motion on either side (a symmetric controller relies on it): :mod:`sim2real.robot.anatomy`.
 
     robot = load_robot("xl430_biped")          # or a path, or "human:female_50"
     robot.joint("right_knee").range_rad
