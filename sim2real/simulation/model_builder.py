@@ -1,6 +1,11 @@
 """Robot config -> MuJoCo model, with the servo model of :mod:`sim2real.robot.servo_model`.
 
-The tree is the one of :mod:`sim2real.robot`: the pelvis is the floating root, the trunk
+A robot from a model file is built by :mod:`sim2real.simulation.model_robot`; both builders
+give their robots the same parts (:mod:`sim2real.simulation.model_parts`), named as
+:mod:`sim2real.simulation.robot_model` reads them.  Here: the box tree, the home keyframe,
+PD gains of the human character, and :func:`build_model` for every robot.
+
+The box tree is the one of :mod:`sim2real.robot`: the pelvis is the floating root, the trunk
 sits on it through the waist joints, and each leg hangs from a hip joint at the pelvis'
 bottom.  Joints at one location share a body (hip: yaw, roll, pitch; ankle: pitch,
 roll), as a servo chain does.  Each joint gets a ``position`` actuator named after it.
