@@ -21,6 +21,7 @@ import numpy as np
 from benchmarks.common import parser, progress, report
 from sim2real.robot import load_robot
 from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.robot_model import is_collision_geom
 
 DEFAULT_ROBOTS = ("xl430_biped", "op3_legs", "op3")
 
@@ -65,7 +66,7 @@ def measure(name: str, steps: int, repeats: int) -> dict:
     lying = _cpu_rate(model, data, steps, repeats)
     kinds = {}
     for g in range(model.ngeom):
-        if model.geom_contype[g] or model.geom_conaffinity[g]:
+        if is_collision_geom(model.geom_contype[g], model.geom_conaffinity[g]):
             kind = mujoco.mjtGeom(model.geom_type[g]).name.removeprefix("mjGEOM_").lower()
             kinds[kind] = kinds.get(kind, 0) + 1
     return {"joints": len(robot.joints), "mass_kg": round(robot.mass, 4), "timestep_s": model.opt.timestep,

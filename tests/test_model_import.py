@@ -16,16 +16,9 @@ from sim2real.errors import ConfigError
 from sim2real.robot.anatomy import ANATOMICAL_AXES, anatomical_axis
 from sim2real.robot.joint_names import base_of, location_of, side_of, words
 from sim2real.robot.validation import load_yaml
-from sim2real.simulation.model_files import (
-    add_free_joint,
-    compile_model,
-    implausible_inertias,
-    load_model_spec,
-    mirror_pairs,
-    missing_meshes,
-    recompute_inertias,
-    root_body,
-)
+from sim2real.simulation.model_files import add_free_joint, compile_model, load_model_spec, missing_meshes, root_body
+from sim2real.simulation.model_inertias import implausible_inertias, recompute_inertias
+from sim2real.simulation.model_mirror import mirror_pairs
 
 
 @pytest.fixture(scope="module")

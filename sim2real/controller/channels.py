@@ -25,20 +25,17 @@ the simulation's sensor).
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from importlib import resources
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
 from sim2real.controller.mapping import normalized_angle
+from sim2real.controller.schema import FIELDS
 
 if TYPE_CHECKING:  # the layout imports this module for the names
     from sim2real.controller.symmetry import SymmetricLayout
 
-_SCHEMA_FIELDS: dict[str, Any] = json.loads((resources.files("sim2real.controller") / "schemas"
-                                             / "controller-v1.schema.json").read_text(encoding="utf-8"))["properties"]
 
 InputSettings = Mapping[str, Mapping[str, float]]  # optional channel key -> its settings, for the channels on
 
@@ -70,7 +67,7 @@ class Setting:
 
     @classmethod
     def of_schema(cls, key: str, default: float, unit: str) -> "Setting":
-        field = _SCHEMA_FIELDS[key]
+        field = FIELDS[key]
         low_open = "exclusiveMinimum" in field
         low = field["exclusiveMinimum"] if low_open else field["minimum"]
         return cls(key, default, float(low), float(field["maximum"]), unit, low_open)

@@ -29,46 +29,15 @@ from types import MappingProxyType
 from typing import Any, ClassVar, Mapping
 
 from sim2real.atomic_json import write_text_atomic
-from sim2real.controller.checks import check_controller, joint_map_hash, tick_bounds
-from sim2real.controller.json_reader import (
-    MAX_BYTES,
-    MAX_DEPTH,
-    DuplicateKey,
-    decode,
-    nesting_depth,
-    read_bounded,
-    unique_keys,
-)
-from sim2real.controller.mapping import OUTPUT_RULE, hold_pose
+from sim2real.controller.checks import check_controller, joint_map_hash
+from sim2real.controller.json_reader import decode, read_bounded
 from sim2real.controller import channels
-from sim2real.controller.schema import (
-    FIELDS,
-    FORMAT,
-    HEADING_SCALE_MAX_DEG,
-    MAX_STEEPNESS,
-    MAX_WEIGHT,
-    NETWORKS,
-    PHASE_RANGE_S,
-    REQUIRED,
-    SCHEMA,
-    TICK_RANGE_S,
-    VERSION,
-)
+from sim2real.controller.mapping import OUTPUT_RULE, hold_pose
+from sim2real.controller.schema import FIELDS, FORMAT, NETWORKS, VERSION
 from sim2real.controller.symmetry import BIAS, CENTER_OUTPUT, SymmetricLayout, symmetric_layout, wired_layout
 from sim2real.errors import ConfigError
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.robot.timing import control_timing
-
-# Names this module held before the format's schema, JSON reader and checks had modules of
-# their own, still importable from here (their homes: .schema, .json_reader, .checks).
-__all__ = [
-    "Controller", "JointMap", "Symmetry", "dumps",
-    "check_controller", "joint_map_hash", "tick_bounds",
-    "MAX_BYTES", "MAX_DEPTH", "DuplicateKey", "decode", "nesting_depth", "read_bounded", "unique_keys",
-    "FORMAT", "HEADING_SCALE_MAX_DEG", "MAX_STEEPNESS", "MAX_WEIGHT", "PHASE_RANGE_S", "REQUIRED", "SCHEMA",
-    "TICK_RANGE_S", "VERSION",
-]
-
 
 def dumps(data: dict[str, Any]) -> str:
     """One top-level key a line, each value compact: readable, and a 300-connection

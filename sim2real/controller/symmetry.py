@@ -183,11 +183,6 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
     )
 
 
-def foot_inputs(touching: np.ndarray) -> np.ndarray:
-    """Foot contacts as network inputs: -1 touching, +1 not (seed 000 section 7.1)."""
-    return np.where(touching, -1.0, 1.0)
-
-
 def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray,
                    up: np.ndarray, phase: np.ndarray | None = None, goals: np.ndarray | None = None,
                    heading: np.ndarray | None = None, gyro: np.ndarray | None = None) -> np.ndarray:

@@ -21,10 +21,10 @@ from sim2real.robot.importer import (
     DEFAULT_BUS,
     DEFAULT_SENSOR_BOARD,
     GUESSED,
-    LEG_LOCATIONS,
     ImportResult,
     number_text,
 )
+from sim2real.robot.spec import LEG_LOCATIONS
 
 _PLAIN = re.compile(r"[A-Za-z_.][A-Za-z0-9_.\-/]*")
 _YAML_WORDS = {"true", "false", "yes", "no", "on", "off", "null", "y", "n", "~"}

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Iterable, Sequence
 
 from sim2real.robot.anatomy import ANATOMICAL_AXES, anatomical_axis
 from sim2real.robot.joint_names import axis_of, location_of, locations_in, words
+from sim2real.robot.spec import CENTER_LOCATIONS, LEG_LOCATIONS
 
 if TYPE_CHECKING:  # pragma: no cover
     from sim2real.simulation.model_inertias import InertiaProblem
@@ -46,9 +47,7 @@ DEFAULT_SENSOR_BOARD = ("BIPED-FOOT-BOARD", 200)
 MAX_AXIS_OFF_DEG = 30.0  # a hinge farther than this from every principal axis has no role
 UNLIMITED_RANGE_DEG = 90.0  # the range guessed for a joint the model leaves unlimited
 GUESSED = "guessed: check"
-LEG_LOCATIONS = ("hip", "knee", "ankle")
 ARM_LOCATIONS = ("shoulder", "elbow", "wrist")
-CENTRE_LOCATIONS = ("waist", "neck")
 _PRINCIPAL = {"roll": (1.0, 0.0, 0.0), "pitch": (0.0, 1.0, 0.0), "yaw": (0.0, 0.0, 1.0)}
 
 
@@ -190,9 +189,9 @@ def _role(hinge: Hinge, side: str) -> tuple[str, str, str, int, list[str]] | str
     location = location_of(hinge.name)
     if location is None:
         return f"no location in its name (words: {', '.join(words(hinge.name)) or 'none'})"
-    if location in CENTRE_LOCATIONS and side != "center":
+    if location in CENTER_LOCATIONS and side != "center":
         return f"a {location} joint off the sagittal plane ({side}): the project's {location} joints are central"
-    if location not in CENTRE_LOCATIONS and side == "center":
+    if location not in CENTER_LOCATIONS and side == "center":
         return f"a {location} joint on the sagittal plane: which side is it?"
     u = hinge.axis
     dots = {a: abs(sum(p * q for p, q in zip(u, v))) for a, v in _PRINCIPAL.items()}
@@ -297,6 +296,8 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     :func:`write_robot_yaml`).  Refusals are :class:`~sim2real.errors.ConfigError` naming the file."""
     from sim2real.robot.profiles import load_profile
     from sim2real.simulation import model_files as mf
+    from sim2real.simulation import model_inertias
+    from sim2real.simulation.model_mirror import mirror_pairs
 
     model_file, output = Path(model_file), Path(output)
     dirs = tuple(Path(d).expanduser() for d in package_dirs)
@@ -304,7 +305,7 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     kind = mf.model_format(model_file)
     spec = mf.load_model_spec(model_file, dirs, drop_visuals=True)  # visuals play no part here
     root = mf.root_body(spec)
-    problems = mf.implausible_inertias(spec)
+    problems = model_inertias.implausible_inertias(spec)
     inertias, why = "as_given", ""
     if recompute_inertias:
         inertias, why = "from_geometry", "from --recompute-inertias"
@@ -315,10 +316,10 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
         names = ", ".join(p.body for p in problems[:4]) + (", ..." if len(problems) > 4 else "")
         why = f"implausible inertias on {names} (see the report): consider from_geometry"
     if inertias == "from_geometry":
-        mf.recompute_inertias(spec)
+        model_inertias.recompute_inertias(spec)
     mf.add_free_joint(spec, root)
     model = mf.compile_model(spec, str(model_file))
-    mirror = mf.mirror_pairs(model)
+    mirror = mirror_pairs(model)
     hinges, bodies, others = _model_facts(model)
     moved = {h.name: h.body for h in hinges}
     profile = load_profile(servo_model)
@@ -353,13 +354,15 @@ def _model_facts(model) -> tuple[list[Hinge], dict[str, Body], list[tuple[str, s
     import mujoco
     import numpy as np
 
+    from sim2real.simulation.robot_model import is_collision_geom
+
     data = mujoco.MjData(model)
     key = next((k for k in range(model.nkey) if model.key(k).name == "home"), None)
     home_qpos = model.key_qpos[key] if key is not None else None
     mujoco.mj_kinematics(model, data)  # at qpos0: the pose the axes and signs refer to
     lowest: dict[int, float] = {}
     for g in range(model.ngeom):
-        if model.geom_contype[g] or model.geom_conaffinity[g]:
+        if is_collision_geom(model.geom_contype[g], model.geom_conaffinity[g]):
             center, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
             rot = data.geom_xmat[g].reshape(3, 3)
             z = data.geom_xpos[g, 2] + rot[2] @ center - np.abs(rot[2]) @ half

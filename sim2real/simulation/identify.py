@@ -44,7 +44,7 @@ from sim2real.errors import ConfigError
 from sim2real.hardware.trace import Trace, check_joint_angles, sidecar_path
 from sim2real.robot import RobotSpec
 from sim2real.simulation.model_builder import finished_spec
-from sim2real.simulation.robot_model import JointAngles
+from sim2real.simulation.robot_model import JointAngles, joint_sensor
 from sim2real.simulation.reality import NOMINAL, Perturbation, apply_to_model, sample
 
 # fitted per group: (reality key, low, high)
@@ -253,7 +253,7 @@ class Fit:
         self.angles.place(data.qpos, present[0])
         state = sysid.create_initial_state(self.model, data.qpos.copy(), np.zeros(self.model.nv))
         control = sysid.TimeSeries(steps, held)
-        measured = sysid.TimeSeries(t, present, {f"{j}_pos": (sysid.SignalType.MjSensor, np.array([k]))
+        measured = sysid.TimeSeries(t, present, {joint_sensor(j): (sysid.SignalType.MjSensor, np.array([k]))
                                                   for k, j in enumerate(self.joints)})
         return sysid.ModelSequences(seg.name.replace(" ", "_"), self.spec, seg.name, state, control, measured,
                                     allow_missing_sensors=True)  # only the joint angles are recorded

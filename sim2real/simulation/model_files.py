@@ -41,6 +41,7 @@ import mujoco
 
 from sim2real.errors import ConfigError
 from sim2real.input_files import read_regular_bytes, regular_file_problem
+from sim2real.simulation.robot_model import is_collision_geom
 
 MAX_MODEL_BYTES = 16 << 20  # a model file's text; large URDFs (Talos, Atlas) are < 1 MB
 XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
@@ -137,11 +138,6 @@ def compile_model(spec: mujoco.MjSpec, source: str | None = None) -> mujoco.MjMo
         return spec.copy().compile()
     except ValueError as exc:
         raise ConfigError(source or _name(spec), "", f"MuJoCo cannot compile the model: {_one_line(exc)}") from None
-
-
-def is_collision_geom(contype: int, conaffinity: int) -> bool:
-    """Whether a geom takes part in contacts (a visual-only geom has both bitmasks 0)."""
-    return bool(contype) or bool(conaffinity)
 
 
 # -- reading the file -------------------------------------------------------------------------
@@ -313,11 +309,3 @@ def _name(spec: mujoco.MjSpec) -> str:
 def _one_line(exc: Exception) -> str:
     return " ".join(str(exc).split())[:400]
 
-
-# Checks of a loaded model, one module each; here so that callers import one place.
-from sim2real.simulation.model_inertias import InertiaProblem, implausible_inertias, recompute_inertias  # noqa: E402
-from sim2real.simulation.model_mirror import MirrorInference, MirrorPair, mirror_pairs  # noqa: E402
-
-__all__ = ["MAX_MODEL_BYTES", "InertiaProblem", "MirrorInference", "MirrorPair", "add_free_joint",
-           "compile_model", "implausible_inertias", "is_collision_geom", "load_model_spec",
-           "mirror_pairs", "missing_meshes", "model_format", "recompute_inertias", "root_body"]

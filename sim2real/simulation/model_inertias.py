@@ -28,6 +28,7 @@ import mujoco
 import numpy as np
 
 from sim2real.errors import ConfigError
+from sim2real.simulation.robot_model import is_collision_geom
 
 FACTOR = 10.0  # a principal moment this many times off the geometry's (either way) is implausible
 _TRIANGLE_SLACK = 1e-6  # relative: rounding in a file's printed moments is no violation
@@ -126,7 +127,7 @@ def _geometry_inertias(spec: mujoco.MjSpec) -> dict[str, _Geometric]:
     probe.compiler.boundinertia = 1e-18
     collision = set()
     for geom in list(probe.geoms):
-        if not (geom.contype or geom.conaffinity):
+        if not is_collision_geom(geom.contype, geom.conaffinity):
             probe.delete(geom)
             continue
         geom.mass = math.nan  # from the density, so that shapes an author made massless count too

@@ -44,9 +44,9 @@ from sim2real.simulation.model_parts import (
     configure_servo_joint,
     physics_dt,
 )
-from sim2real.simulation.model_files import add_free_joint, compile_model, is_collision_geom, load_model_spec
+from sim2real.simulation.model_files import add_free_joint, compile_model, load_model_spec
 from sim2real.simulation.model_inertias import recompute_inertias
-from sim2real.simulation.robot_model import FEET, IMU_SITE, sole_site
+from sim2real.simulation.robot_model import FEET, IMU_SITE, is_collision_geom, sole_site
 
 DEFAULT_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's colour of a geom that sets none
 SOLE_MARGIN_M = 1e-3  # the sole site reaches this far beyond the foot's geoms sideways

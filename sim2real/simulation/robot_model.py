@@ -47,6 +47,11 @@ def joint_sensor(joint: str) -> str:
     return f"{joint}_pos"
 
 
+def is_collision_geom(contype: int, conaffinity: int) -> bool:
+    """Whether a geom takes part in contacts (a visual-only geom has both bitmasks 0)."""
+    return bool(contype) or bool(conaffinity)
+
+
 def heading_rad(forward: np.ndarray) -> np.ndarray:
     """The heading an IMU reports from the ``torso_forward`` sensor's values (..., 3): the
     yaw of the torso's forward axis about world up, counter-clockwise seen from above [rad]."""

@@ -42,10 +42,6 @@ def board_reports(robot: RobotSpec, sensor: str) -> bool:
     return board is not None and SENSOR_REGISTERS[sensor] in board.profile.control_table
 
 
-def board_reports_heading(robot: RobotSpec) -> bool:
-    return board_reports(robot, "heading")
-
-
 def decode(reg: Register, raw: int) -> int:
     """A register's raw unsigned value as the number it holds (two's complement when signed)."""
     if reg.encoding == "sign_magnitude_bit10":
