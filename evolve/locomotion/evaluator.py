@@ -252,7 +252,9 @@ class LocomotionEvaluator:
         axis is capped at ``harness_max_force`` of the weight, so the legs must carry the rest:
         a robot that can hang in its harness swings its legs and drifts forward unopposed.
         """
-        pos = self.qpos[alive][:, :3]
+        # the root's centre of mass, as its start was taken: its frame's origin (qpos) can lie
+        # well below it (OP3's 67 mm), and the catch from below would then hold from the start
+        pos = self.parts.root_com(self.xipos)[alive]
         vel = self.qvel[alive][:, :3]
         behind = np.maximum(start[alive, 0] - pos[:, 0], 0.0)
         below = np.maximum(self.task.harness_height * start[alive, 2] - pos[:, 2], 0.0)
