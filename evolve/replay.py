@@ -17,8 +17,8 @@ from evolve.locomotion.export import genome_from_controller
 from evolve.locomotion.task import TaskConfig
 from sim2real.controller import channels
 from sim2real.controller.activation import check_disabled_modules
+from sim2real.controller.channels import turn_rad
 from sim2real.controller.file import Controller
-from sim2real.controller.symmetry import turn_rad
 from sim2real.errors import ConfigError, UsageError
 from sim2real.figures.gait import Gait
 from sim2real.simulation.model_builder import SimulationUnstable

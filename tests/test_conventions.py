@@ -142,7 +142,7 @@ def test_the_bias_values_have_one_owner():
 
 # -- joint angles: servo joint + gear play, read in one place -------------------------------------
 def test_evolution_the_simulated_bus_and_compare_read_joint_angles_through_one_reader(monkeypatch, tmp_path):
-    assert physics.JointAngles is model_builder.JointAngles is robot_model.JointAngles  # RobotModel.angles too
+    assert model_builder.JointAngles is robot_model.JointAngles  # the simulated bus reads RobotModel.angles
     assert evaluator_module.RobotModel is physics.RobotModel is compare_module.RobotModel is robot_model.RobotModel
     reality = load_reality({"backlash_deg": 2.0})
     now = [0.0]

@@ -170,3 +170,16 @@ def test_xacro_left_in_comments_is_not_xacro(tmp_path):
     commented.write_text(text)
     spec = load_model_spec(commented)
     assert any(j.name == "r_knee_joint" for j in spec.joints)
+
+
+def test_a_model_robot_hangs_for_system_identification(imported):
+    """Hung by its root (``biped excite``'s simulated bus), a URDF robot keeps its base as a
+    body, though the base then has no joint (a compile fuses such a body into the world)."""
+    for robot in (load_robot(imported), load_robot("op3")):
+        model = build_model(robot, suspended=True)
+        parts = RobotModel.of(model, robot)
+        data = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+        mujoco.mj_forward(model, data)
+        assert model.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE
+        assert parts.sole_positions(data.site_xpos)[:, 2].min() > 0.1  # feet well off the floor

@@ -20,7 +20,7 @@ from typing import Any, Callable, Mapping, Protocol
 
 import numpy as np
 
-from sim2real.controller.symmetry import turn_rad
+from sim2real.controller.channels import turn_rad
 
 
 # "walked": 2.2 leg lengths forward, upright to the end (seed 000's 2 m for a 0.9 m human leg)
@@ -85,8 +85,8 @@ class WalkObjective:
     def __init__(self, ev, n: int):
         task = ev.task
         self.ev, self.task = ev, task
-        self.start_x = ev.parts.sole_positions(ev.site_xpos[:n])[..., 0].mean(axis=1)
-        self.start_pelvis = ev.parts.root_com(ev.xipos[:n]).copy()
+        self.start_x = ev.parts.sole_positions(ev.site_xpos)[:n][..., 0].mean(axis=1)
+        self.start_pelvis = ev.parts.root_com(ev.xipos)[:n].copy()
         self.distance_term = np.full(n, task.epsilon)  # [leg lengths]
         self.time_term = np.zeros(n)  # [s]
         self.progress_best = np.zeros(n)  # hindmost foot [leg lengths], for stagnation
@@ -100,10 +100,10 @@ class WalkObjective:
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, task = self.ev, self.task
-        hind = ev.parts.sole_positions(ev.site_xpos[alive])[..., 0].min(axis=1) - self.start_x[alive]
+        hind = ev.parts.sole_positions(ev.site_xpos)[alive][..., 0].min(axis=1) - self.start_x[alive]
         progress = hind / ev.leg
-        pelvis_z = ev.parts.root_com(ev.xipos[alive])[:, 2]
-        up_z = ev.parts.up(ev.sensordata[alive])[:, 2]
+        pelvis_z = ev.parts.root_com(ev.xipos)[alive][:, 2]
+        up_z = ev.parts.up(ev.sensordata)[alive][:, 2]
         down = (pelvis_z < task.fall_height * self.start_pelvis[alive, 2]) | (up_z < self.min_up_z)
         ok = ~down & ~bad
         live = alive[ok]
@@ -112,7 +112,7 @@ class WalkObjective:
         self.time_term[live] = elapsed[live]
         self.distance[live] = hind[ok]
         self.pelvis_best[live] = np.maximum(
-            self.pelvis_best[live], (ev.parts.root_com(ev.xipos[live])[:, 0] - self.start_pelvis[live, 0]) / ev.leg)
+            self.pelvis_best[live], (ev.parts.root_com(ev.xipos)[live][:, 0] - self.start_pelvis[live, 0]) / ev.leg)
         gained = progress > self.progress_best[alive] + task.epsilon
         self.progress_best[alive[gained]] = progress[gained]
         self.last_gain[alive[gained]] = elapsed[alive[gained]]
@@ -184,7 +184,7 @@ class PoseObjective:
         self.ev, self.weights, self.limits = ev, weights, limits
         self.target = target_rad
         self.com_target = ev.subtree_com[:n, ev.root].copy()
-        self.sole_z0 = ev.parts.sole_positions(ev.site_xpos[:n])[..., 2].copy()
+        self.sole_z0 = ev.parts.sole_positions(ev.site_xpos)[:n][..., 2].copy()
         self.pose_error = np.zeros(n)
         self.ticks = np.zeros(n)
         self.fell = np.zeros(n, dtype=bool)  # failed a rule (instability aside)
@@ -200,10 +200,10 @@ class PoseObjective:
         fail = bad | ~(self.pose_error[alive] <= limits.rest_pose)
         com = ev.subtree_com[alive, ev.root]
         com_err = ((com - self.com_target[alive]) ** 2).sum(axis=1) / ev.leg ** 2
-        height = (ev.parts.sole_positions(ev.site_xpos[alive])[..., 2] - self.sole_z0[alive]) / ev.leg
+        height = (ev.parts.sole_positions(ev.site_xpos)[alive][..., 2] - self.sole_z0[alive]) / ev.leg
         feet_err = (height ** 2).sum(axis=1)
         if limits.standing:
-            soles = ev.parts.sole_positions(ev.site_xpos[alive])[..., :2]
+            soles = ev.parts.sole_positions(ev.site_xpos)[alive][..., :2]
             apart = np.linalg.norm(soles[:, 0] - soles[:, 1], axis=1) / ev.leg
             fail |= ((com[:, 2] - self.com_target[alive, 2]) / ev.leg < -limits.com_drop) \
                 | (height.max(axis=1) > limits.foot_height) | (apart > limits.feet_apart)

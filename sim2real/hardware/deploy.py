@@ -35,6 +35,7 @@ from typing import Any, Callable, Protocol
 
 import numpy as np
 
+from sim2real.controller.channels import CHANNELS
 from sim2real.controller.file import Controller
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
@@ -363,7 +364,8 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
                          f"({policy.tick_s} s)")  # before any servo moves
     for sensor in getattr(policy, "sensors", ()):  # before any servo moves
         if not board_reports(robot, sensor):
-            raise UsageError(f"the controller reads the torso's {sensor} ({sensor}_input), but robot {robot.name}'s "
+            switch = next(c.switch for c in CHANNELS if c.sensor == sensor)
+            raise UsageError(f"the controller reads the torso's {sensor} ({switch}), but robot {robot.name}'s "
                              f"sensor board reports none (no {sensor} register in its profile)")
     report = RunReport()
     log = _SafeLog(log)

@@ -56,12 +56,12 @@ def servo_model_name(name: str) -> str:
     gives ``XM430-W350``); KeyError naming the servo models there otherwise."""
     from sim2real.robot.profiles import available_profiles, load_profile
 
-    servos = [m for m in available_profiles() if load_profile(m).is_servo]
     try:
         profile = load_profile(name)
     except KeyError:
         profile = None
     if profile is None or not profile.is_servo:
+        servos = [m for m in available_profiles() if load_profile(m).is_servo]
         raise KeyError(f"{name!r} is no servo profile (servos: {', '.join(servos)})")
     return profile.model
 

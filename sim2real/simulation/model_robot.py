@@ -79,6 +79,7 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
     if suspended:
         for joint in frees:
             spec.delete(joint)
+        spec.compiler.fusestatic = False  # else a compile fuses the jointless root into the world
     elif not frees:
         add_free_joint(spec, source.root)
     mapped = {j.name: j for j in robot.joints}
@@ -199,13 +200,22 @@ def _foot_geoms(model: mujoco.MjModel, robot: RobotSpec, side: str) -> list[int]
     return ids
 
 
+def _rotated(mat: np.ndarray, points: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """(k, 3) ``mat`` (9,) applied to each point, plus ``offset``: MuJoCo's own arithmetic, not
+    BLAS's (whose rounding depends on the CPU: these numbers end up in the compiled model)."""
+    out = np.empty((len(points), 3))
+    for i, point in enumerate(points):
+        mujoco.mju_mulMatVec3(out[i], mat, np.ascontiguousarray(point, dtype=float))
+    return out + offset
+
+
 def _corners_in_body(model: mujoco.MjModel, geom: int) -> np.ndarray:
     """(8, 3) the corners of a geom's bounding box in its body's frame [m]."""
     centre, half = model.geom_aabb[geom, :3], model.geom_aabb[geom, 3:]
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, model.geom_quat[geom])
     local = np.array([centre + np.array(c) * half for c in itertools.product((-1, 1), repeat=3)])
-    return local @ rot.reshape(3, 3).T + model.geom_pos[geom]
+    return _rotated(rot, local, model.geom_pos[geom])
 
 
 def _foot_box(model: mujoco.MjModel, robot: RobotSpec, side: str) -> tuple[np.ndarray, np.ndarray]:
@@ -220,7 +230,7 @@ def lowest_sole_point(model: mujoco.MjModel, data: mujoco.MjData, robot: RobotSp
     for side in FEET:
         for geom in _foot_geoms(model, robot, side):
             body = model.geom_bodyid[geom]
-            world = _corners_in_body(model, geom) @ data.xmat[body].reshape(3, 3).T + data.xpos[body]
+            world = _rotated(data.xmat[body], _corners_in_body(model, geom), data.xpos[body])
             lowest = min(lowest, float(world[:, 2].min()))
     return lowest
 
@@ -236,11 +246,16 @@ def level_feet(model: mujoco.MjModel, data: mujoco.MjData, robot: RobotSpec) -> 
     mujoco.mj_kinematics(model, zero)
     mujoco.mj_kinematics(model, data)
     # each foot's local direction that points up at the zero pose, seen in the world now
-    up_now = sum(data.xmat[b].reshape(3, 3) @ (zero.xmat[b].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0]))
-                 for b in feet)
-    up_now /= np.linalg.norm(up_now)
-    axis = np.cross(up_now, [0.0, 0.0, 1.0])
-    sin, cos = np.linalg.norm(axis), float(up_now[2])
+    up_now = np.zeros(3)
+    for b in feet:
+        local, world = np.zeros(3), np.zeros(3)
+        mujoco.mju_mulMatTVec3(local, zero.xmat[b], np.array([0.0, 0.0, 1.0]))
+        mujoco.mju_mulMatVec3(world, data.xmat[b], local)
+        up_now += world
+    mujoco.mju_normalize3(up_now)
+    axis = np.zeros(3)
+    mujoco.mju_cross(axis, up_now, np.array([0.0, 0.0, 1.0]))
+    sin, cos = mujoco.mju_norm3(axis), float(up_now[2])
     if sin < 1e-12:
         return
     turn = np.zeros(4)
@@ -262,8 +277,8 @@ def measure_physique(robot: RobotSpec) -> Physique:
     mass = float(model.body_mass.sum())
     collision = [g for g in range(model.ngeom) if model.geom_bodyid[g] > 0
                  and is_collision_geom(model.geom_contype[g], model.geom_conaffinity[g])]
-    zs = np.concatenate([(_corners_in_body(model, g) @ data.xmat[model.geom_bodyid[g]].reshape(3, 3).T
-                          + data.xpos[model.geom_bodyid[g]])[:, 2] for g in collision])
+    zs = np.concatenate([_rotated(data.xmat[model.geom_bodyid[g]], _corners_in_body(model, g),
+                                  data.xpos[model.geom_bodyid[g]])[:, 2] for g in collision])
     sole = lowest_sole_point(model, data, robot)
     hips = [model.joint(j.name).id for j in robot.joints if j.location == "hip"]
     if not hips:

@@ -162,8 +162,7 @@ class ServoChain:
         if self.board_id is None:
             raise ValueError(f"robot {self.robot.name} has no sensor board")
         profile = self.devices[self.board_id]
-        has_heading = Reg.HEADING in profile.control_table
-        has_gyro = Reg.GYRO_Z in profile.control_table
+        has_heading, has_gyro = (board_reports(self.robot, sensor) for sensor in ("heading", "gyro"))
         first = profile.register(Reg.FOOT_SWITCH_LEFT)
         present = [Reg.UP_VECTOR_Z] + [Reg.HEADING] * has_heading + [Reg.GYRO_X, Reg.GYRO_Y, Reg.GYRO_Z] * has_gyro
         last = max((profile.register(r) for r in present), key=lambda reg: reg.address)

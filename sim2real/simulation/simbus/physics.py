@@ -29,14 +29,14 @@ import mujoco
 import numpy as np
 
 from sim2real.controller.mapping import ServoMapping
-from sim2real.controller.symmetry import turn_rad
-from sim2real.hardware.dynamixel.chain import decode
+from sim2real.controller.channels import turn_rad
+from sim2real.hardware.dynamixel.chain import board_reports, decode
 from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
 from sim2real.simulation.model_builder import instability
-from sim2real.simulation.robot_model import JointAngles, RobotModel
+from sim2real.simulation.robot_model import RobotModel
 from sim2real.simulation.reality import EFFECTS, NOMINAL, Reality, perturbed_model
 
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
@@ -84,14 +84,14 @@ class PhysicsChain:
         self.mapping = ServoMapping(robot)
         self.ids = [int(i) for i in self.mapping.ids]
         names = list(robot.joint_names)
-        self.angles = JointAngles.of(self.model, names)  # (the robot's joints: RobotModel.of reads them alike)
+        self.parts = RobotModel.of(self.model, robot)
+        self.angles = self.parts.angles
         self.kp = self.model.actuator_gainprm[:, 0].copy()
         self.kv = -self.model.actuator_biasprm[:, 2].copy()  # the D term, if the reality draws one
         self.stall = np.array([j.servo.profile.motor.stall_torque_nm for j in robot.joints])  # datasheet
         self.torque_limit = self.model.actuator_forcerange[:, 1].copy()  # this robot's
         self.effects = (ServoEffects(self.model, reality, seed, self.angles.servo_dof, self.stall)
                         if reality.effects else None)
-        self.parts = RobotModel.of(self.model, robot)
         self.board = robot.sensor_board.id if robot.sensor_board else None
         self.saturated = np.zeros(len(names))
         self.overload_at: dict[int, float] = {}  # fault injection: servo id -> simulated time
@@ -185,10 +185,10 @@ class PhysicsChain:
             up = self.parts.up(self.data.sensordata) + self.rng.normal(0.0, 1.0, 3) * p.up_noise_sd[0]
             for reg, value in zip((Reg.UP_VECTOR_X, Reg.UP_VECTOR_Y, Reg.UP_VECTOR_Z), up):
                 board.set_named(reg, int(round(float(value) / board.profile.units["up_vector_unit"])))
-            if Reg.HEADING in board.profile.control_table:  # the IMU's yaw, drifting as this robot's gyro does
+            if board_reports(self.robot, "heading"):  # the IMU's yaw, drifting as this robot's gyro does
                 yaw = float(turn_rad(self.heading() + p.heading_drift_rad_s[0] * self.data.time, 0.0))
                 board.set_named(Reg.HEADING, int(round(yaw / board.profile.units["heading_unit"])))
-            if Reg.GYRO_Z in board.profile.control_table:  # the torso's angular rates, with this gyro's bias and noise
+            if board_reports(self.robot, "gyro"):  # the torso's angular rates, with this gyro's bias and noise
                 rates = self.parts.gyro(self.data.sensordata) + p.gyro_bias_rad_s[0]
                 if p.gyro_noise_sd_rad_s[0]:  # drawn only then: a reality without it draws as before the gyro
                     rates = rates + self.rng.normal(0.0, 1.0, 3) * p.gyro_noise_sd_rad_s[0]
