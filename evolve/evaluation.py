@@ -16,6 +16,7 @@ import numpy as np
 
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.objectives import Episodes
+from evolve.locomotion.heading_commands import turn_schedule
 from evolve.locomotion.pushes import Pushes, push_schedule
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
@@ -57,10 +58,11 @@ class Job:
     stage: Stage | None  # None: the walk objective
     intensity: float  # randomization strength: 0 nominal, 1 the evaluator's reality in full
     pushes: Pushes | None = None  # training's pushes (selection only), their speeds times intensity
+    selection: bool = False  # selection's episodes: the task's heading commands too (heading_commands.py)
 
     def rows(self, lo: int, hi: int) -> "Job":
         return Job(self.genomes[lo:hi], self.keys[lo:hi], self.steepness, self.harness, self.stage, self.intensity,
-                   self.pushes)
+                   self.pushes, self.selection)
 
 
 def run_job(evaluator: LocomotionEvaluator, job: Job) -> Episodes:
@@ -69,9 +71,14 @@ def run_job(evaluator: LocomotionEvaluator, job: Job) -> Episodes:
     pushes = None
     if job.pushes is not None and job.intensity > 0:
         pushes = push_schedule(job.pushes, job.keys, evaluator.n_ticks, evaluator.tick_s, job.intensity)
+    task = evaluator.task
+    turns = None
+    if job.selection and task.heading_turn_share > 0:
+        turns = turn_schedule(job.keys, evaluator.n_ticks, evaluator.tick_s, task.heading_turn_share,
+                              task.heading_turn_max_deg)
     objective = job.stage.make_objective if job.stage is not None else None
     return evaluator.evaluate(job.genomes, job.steepness, job.harness, perturbation=perturbation,
-                              objective=objective, pushes=pushes)
+                              objective=objective, pushes=pushes, turns=turns)
 
 
 class Backend(Protocol):
@@ -120,7 +127,7 @@ def score_population(backend: Backend, genomes: list[Genome], *, steepness: floa
     runs = episodes if intensity > 0 else 1
     sims = [g for g in genomes for _ in range(runs)]
     keys = np.array([[*key, 0 if shared else i, e] for i in range(n) for e in range(runs)], dtype=np.int64)
-    per_sim = backend.run(Job(sims, keys, steepness, harness, stage, intensity, pushes))
+    per_sim = backend.run(Job(sims, keys, steepness, harness, stage, intensity, pushes, selection=True))
     if episodes == 1:
         return per_sim
     if runs == 1:

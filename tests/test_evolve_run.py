@@ -74,7 +74,7 @@ def test_stats_log_the_champions_fitness_terms_by_name(config_file, tmp_path):
     with open(out / "stats.csv", newline="") as f:
         reader = csv.DictReader(f)
         rows = list(reader)
-    assert reader.fieldnames[-3:] == ["distance", "time", "progress"]  # seed 000 eq. 3 and its tie-breaker
+    assert reader.fieldnames[-5:] == ["distance", "time", "progress", "velocity", "yaw_rate"]  # eq. 3, selection's terms
     task = TaskConfig()
     for row in rows:  # f = c_d distance + c_t time, to the 6 digits stats.csv keeps
         fitness = task.distance_coeff * float(row["distance"]) + task.time_coeff * float(row["time"])

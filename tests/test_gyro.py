@@ -48,11 +48,11 @@ def test_the_gyro_comes_after_the_sensors_and_is_mirrored_as_an_angular_rate():
     rng = np.random.default_rng(3)
     readings = channels.Readings(angles=rng.uniform(-0.3, 0.3, (n, len(ROBOT.joints))), feet=rng.random((n, 2)) < 0.5,
                                  up=rng.normal(0, 0.1, (n, 3)) + [0, 0, 1], heading=rng.uniform(-3, 3, n),
-                                 start_heading=rng.uniform(-3, 3, n), gyro=rng.normal(0, 2.0, (n, 3)))
+                                 target_heading=rng.uniform(-3, 3, n), gyro=rng.normal(0, 2.0, (n, 3)))
     low, high = (np.array([j.range_rad[k] for j in ROBOT.joints]) for k in (0, 1))
     fast = channels.InputWiring(layout, low, high).inputs(readings)
     scale = np.radians(180.0)
-    turn = np.angle(np.exp(1j * (readings.heading - readings.start_heading)))
+    turn = np.angle(np.exp(1j * (readings.heading - readings.target_heading)))
     oracle = network_inputs(layout, normalized_angle(readings.angles, low, high), np.where(readings.feet, -1.0, 1.0),
                             readings.up, heading=np.clip(-turn / np.pi, -1, 1),
                             gyro=np.clip(readings.gyro / scale, -1, 1))

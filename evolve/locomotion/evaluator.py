@@ -97,6 +97,7 @@ class LocomotionEvaluator:
         self.site_xpos, self.xipos = self.batch.bind("site_xpos"), self.batch.bind("xipos")
         self.subtree_com = self.batch.bind("subtree_com")
         self._perturbed = np.zeros(max_population, dtype=bool)
+        self.turns: np.ndarray | None = None  # the episode's heading commands (evaluate's turns)
 
     def heading(self, ids: np.ndarray, tick: int, p: Perturbation | None) -> np.ndarray:
         """The heading the boards of simulations ``ids`` report at ``tick`` [rad]: the torso's
@@ -105,10 +106,12 @@ class LocomotionEvaluator:
         return yaw if p is None else yaw + p.heading_drift_rad_s[ids] * (tick * self.tick_s)
 
     def readings(self, alive: np.ndarray, t: int, p: Perturbation | None, goal: np.ndarray,
-                 start_heading: np.ndarray | None) -> Readings:
+                 start_heading: np.ndarray | None, turns: np.ndarray | None = None) -> Readings:
         """What the boards and servos of simulations ``alive`` report at tick ``t``: the
         encoders quantized, every reading with this simulation's noise, what the layout's
-        inputs need (``goal``: every simulation's last driven goals)."""
+        inputs need (``goal``: every simulation's last driven goals; ``start_heading``: each
+        board's heading at the first tick, which ``turns`` (n, ticks) [rad] turn the heading to
+        hold by)."""
         sensors = self.sensordata[alive]
         q = self.joint_angles(alive)
         touch = self.parts.feet_touching(sensors)
@@ -127,7 +130,8 @@ class LocomotionEvaluator:
         heading = self.heading(alive, t, p) if self.layout.heading else None
         return Readings(angles=quantize(q, self.resolution), feet=touch, up=up, time_s=t * self.tick_s,
                         previous_goal=sent, heading=heading,
-                        start_heading=None if start_heading is None else start_heading[alive], gyro=gyro)
+                        target_heading=None if start_heading is None else
+                        start_heading[alive] + (0.0 if turns is None else turns[alive, t]), gyro=gyro)
 
     def joint_angles(self, ids: np.ndarray) -> np.ndarray:
         """Joint angles of simulations ``ids`` (len(ids), joints) [rad], unquantized and
@@ -158,12 +162,14 @@ class LocomotionEvaluator:
                  on_tick: Callable[["LocomotionEvaluator", np.ndarray], None] | None = None,
                  perturbation: Perturbation | None = None,
                  objective: Callable[["LocomotionEvaluator", int], Objective] | None = None,
-                 pushes: np.ndarray | None = None) -> Episodes:
+                 pushes: np.ndarray | None = None, turns: np.ndarray | None = None) -> Episodes:
         """Run one episode per genome, with the support harness at ``harness`` strength
         (0: none, 1: full), each simulation perturbed by its row of ``perturbation`` (None:
         the nominal robot) and pushed by its row of ``pushes`` (n, ticks, 2): the whole robot's
         velocity change [m/s] at each tick, as :func:`evolve.locomotion.pushes.push_schedule`
-        draws them; scored by ``objective(self, n)`` (default :class:`WalkObjective`);
+        draws them; commanded to turn by its row of ``turns`` (n, ticks): the heading to hold
+        at each tick, from the start's [rad] (:func:`evolve.locomotion.heading_commands.turn_schedule`;
+        None: hold the start's); scored by ``objective(self, n)`` (default :class:`WalkObjective`);
         ``on_tick(self, alive_ids)`` is called after every tick (to record frames of a replay)."""
         n = len(genomes)
         if n > self.max_population:
@@ -172,6 +178,9 @@ class LocomotionEvaluator:
             raise ValueError(f"{len(perturbation)} perturbations for {n} genomes")
         if pushes is not None and pushes.shape != (n, self.n_ticks, 2):
             raise ValueError(f"pushes of shape {pushes.shape} for {n} genomes of {self.n_ticks} ticks")
+        if turns is not None and turns.shape != (n, self.n_ticks):
+            raise ValueError(f"turns of shape {turns.shape} for {n} genomes of {self.n_ticks} ticks")
+        self.turns = turns  # the objective scores the walk along the heading to hold
         task, tick = self.task, self.tick_s
         ids = np.arange(n)
         self._perturb(ids, perturbation)
@@ -195,7 +204,7 @@ class LocomotionEvaluator:
         d_low, d_high, d_step = self.low[self.driven], self.high[self.driven], self.max_step[self.driven]
         start_heading = self.heading(ids, 0, p) if self.layout.heading else None
         for t in range(self.n_ticks):
-            readings = self.readings(alive, t, p, goal, start_heading)
+            readings = self.readings(alive, t, p, goal, start_heading, turns)
             inputs = self.wiring.inputs(readings)
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
             goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)

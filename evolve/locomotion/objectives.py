@@ -78,9 +78,20 @@ class WalkObjective:
     ``selection_heading_deg`` > 0 only for a walk whose heading (the torso's yaw) never turned
     further than that from the start's: seed 000's sensors give no heading, and a walker
     that turns may end up walking back on a robot a little off the model.
+
+    Two per-tick terms pay a steady, straight walk in selection (the reported fitness stays
+    eq. 3), each the mean over the episode's ticks of a kernel (0 after a fall), weighted by
+    the task's ``selection_velocity_coeff`` and ``selection_yaw_coeff``: ``velocity``,
+    ``exp(-((v - v*) / (v* / 2))^2)`` of the root's speed v along the heading to hold against
+    the target ``selection_speed_leg_s`` [leg lengths/s] (ToddlerBot's and Open Duck's velocity
+    tracking); ``yaw_rate``, ``exp(-((w - w*) / sigma)^2)`` of the torso's yaw rate w against
+    w* = 0.5/s x the turn to the heading to hold (Berkeley Humanoid Lite's heading P-loop),
+    sigma ``selection_yaw_sigma_deg_s``.  The heading to hold is the start's, turned by the
+    episode's command (``evaluator.turns``).
     """
 
-    TERMS = ("distance", "time", "progress")
+    TERMS = ("distance", "time", "progress", "velocity", "yaw_rate")
+    HEADING_GAIN = 0.5  # [1/s] the yaw rate asked for per radian of turn still to go
 
     def __init__(self, ev, n: int):
         task = ev.task
@@ -97,6 +108,11 @@ class WalkObjective:
         self.min_up_z = np.cos(np.radians(task.fall_tilt_deg))
         self.start_yaw = ev.heading(np.arange(n), 0, None)  # the true yaw, as the board's IMU would read it
         self.turned = np.zeros(n)  # [rad] the largest turn from the start's heading while upright
+        self.ticks = 0
+        self.last_xy = self.start_pelvis[:, :2].copy()
+        self.last_yaw = self.start_yaw.copy()
+        self.velocity_sum = np.zeros(n)  # sums of the kernels over live ticks
+        self.yaw_sum = np.zeros(n)
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, task = self.ev, self.task
@@ -120,17 +136,43 @@ class WalkObjective:
         if task.selection_heading_deg:
             turn = np.abs(turn_rad(ev.heading(live, 0, None), self.start_yaw[live]))
             self.turned[live] = np.maximum(self.turned[live], turn)
+        self._steady(alive, ok)
         self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
         self.time_term[alive[bad]] = 0.0
         stagnant = elapsed[alive] - self.last_gain[alive] > task.stagnation_s
         return down | bad | stagnant
 
+    def _steady(self, alive: np.ndarray, ok: np.ndarray) -> None:
+        """This tick's velocity and yaw-rate kernels, added up for the simulations still up."""
+        ev, task = self.ev, self.task
+        t, self.ticks = self.ticks, self.ticks + 1
+        xy = ev.parts.root_com(ev.xipos)[alive][:, :2]
+        yaw = ev.parts.heading(ev.sensordata)[alive]
+        target = self.start_yaw[alive] + (0.0 if ev.turns is None else ev.turns[alive, t])
+        step = xy - self.last_xy[alive]
+        along = (step[:, 0] * np.cos(target) + step[:, 1] * np.sin(target)) / (ev.tick_s * ev.leg)
+        rate = turn_rad(yaw, self.last_yaw[alive]) / ev.tick_s
+        wanted = self.HEADING_GAIN * turn_rad(target, yaw)
+        speed = task.selection_speed_leg_s
+        velocity = np.exp(-((along - speed) / (0.5 * speed)) ** 2)
+        steady = np.exp(-((rate - wanted) / np.radians(task.selection_yaw_sigma_deg_s)) ** 2)
+        live = alive[ok]
+        self.velocity_sum[live] += velocity[ok]
+        self.yaw_sum[live] += steady[ok]
+        self.last_xy[alive], self.last_yaw[alive] = xy, yaw
+
     def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes:
         task = self.task
+        ticks = self.ev.n_ticks
         terms = {"distance": self.distance_term, "time": self.time_term,
-                 "progress": np.where(unstable, 0.0, self.pelvis_best)}
+                 "progress": np.where(unstable, 0.0, self.pelvis_best),
+                 "velocity": np.where(unstable, 0.0, self.velocity_sum / ticks),
+                 "yaw_rate": np.where(unstable, 0.0, self.yaw_sum / ticks)}
         fitness = task.distance_coeff * terms["distance"] + task.time_coeff * terms["time"]
         selection = fitness + task.progress_coeff * terms["progress"]
+        if task.selection_velocity_coeff or task.selection_yaw_coeff:  # (0 x term: selection as it was)
+            selection = (selection + task.selection_velocity_coeff * terms["velocity"]
+                         + task.selection_yaw_coeff * terms["yaw_rate"])
         if task.selection_distance_cap > 0:
             selection = selection - task.distance_coeff * np.maximum(terms["distance"] - task.selection_distance_cap, 0.0)
         episodes = Episodes(fitness, selection, self.distance, upright, self.fell, unstable, steps, terms)

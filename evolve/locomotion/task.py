@@ -54,10 +54,17 @@ class TaskConfig:
     selection_distance_cap: float = 0.0  # > 0: selection counts distance up to this many leg lengths
     selection_walk_bonus: float = 0.0  # selection adds this for a walk (upright to the end, >= 2.2 leg lengths)
     selection_heading_deg: float = 0.0  # > 0: the bonus only for a walk whose heading stayed this close to the start's
+    # selection's per-tick terms for a steady, straight walk (WalkObjective): their weights and kernels
+    selection_velocity_coeff: float = 0.0  # times the velocity term: speed along the heading to hold, near the target
+    selection_yaw_coeff: float = 0.0  # times the yaw-rate term: turning rate near 0 (or toward the heading to hold)
+    selection_speed_leg_s: float = 0.6  # [leg lengths/s] the target speed of the velocity kernel
+    selection_yaw_sigma_deg_s: float = 11.5  # [deg/s] the yaw-rate kernel's width (ToddlerBot: exp(-25 e^2), e in rad/s)
     phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (channels.Clock)
     efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (channels.EfferenceCopy)
     heading_input: bool = False  # the networks get the torso's turn since the start (channels.Heading)
     heading_scale_deg: float = channels.Heading.settings[0].default  # [deg] the turn that input reads as 1 (clipped beyond)
+    heading_turn_share: float = 0.0  # share of selection's episodes commanded to turn (heading_commands.py)
+    heading_turn_max_deg: float = 30.0  # [deg] a commanded turn is drawn within +- this
     gyro_input: bool = False  # the networks get the torso's angular rate (channels.Gyro)
     gyro_scale_dps: float = channels.Gyro.settings[0].default  # [deg/s] the rate that input reads as 1 (clipped beyond)
     harness_generations: int = 100  # generations with the support harness (0: never)
@@ -99,6 +106,16 @@ class TaskConfig:
             raise ConfigError(source, prefix + "selection_heading_deg", "limits which walks earn "
                               "selection_walk_bonus: give the bonus too, and less than 180 deg")
         _check_input_settings(config, source, prefix)
+        if not config.heading_turn_share <= 1:
+            raise ConfigError(source, prefix + "heading_turn_share", f"is a share (0-1), got {config.heading_turn_share:g}")
+        if config.heading_turn_share and not config.heading_input:
+            raise ConfigError(source, prefix + "heading_turn_share", "commands a heading to hold: give heading_input: true")
+        if not 0 < config.heading_turn_max_deg <= 180:
+            raise ConfigError(source, prefix + "heading_turn_max_deg", f"must be within (0, 180], got "
+                              f"{config.heading_turn_max_deg:g}")
+        for key in ("selection_speed_leg_s", "selection_yaw_sigma_deg_s"):
+            if not getattr(config, key) > 0:
+                raise ConfigError(source, prefix + key, f"must be > 0, got {getattr(config, key):g}")
         if not 0 < config.fall_height < 1:
             raise ConfigError(source, prefix + "fall_height", "must be within (0, 1)")
         return config

@@ -31,6 +31,19 @@ from sim2real.robot import DEFAULT_ROBOT, load_robot
 from sim2real.simulation.simbus import service as simbus_service
 
 TRACE_FILE = output_file(exclude=(".json",))  # a trace's sidecar takes its name with .json
+HEADING_HELP = ("steer a controller with a heading input: hold the start's heading turned by DEG (left "
+                "positive), or follow a schedule SECONDS:DEG,... (e.g. 0:0,5:90,12:-45: 90 deg left from 5 s on, "
+                "45 deg right from 12 s on)")
+
+
+def heading_schedule(text: str):
+    """``--heading``'s value: the heading to hold over time (argparse type)."""
+    from sim2real.controller.steering import parse_schedule, schedule_command
+
+    try:
+        return schedule_command(parse_schedule(text))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 # A run's length: at most what a trace's reader accepts as a loop's time (a week; longer is
 # a slip of units, and 1e308 s overflowed the tick count); without --duration `run` goes on
 # until stopped.
@@ -59,6 +72,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--lost-after-ms", type=LOST_AFTER_MS, default=LOST_AFTER_S * 1e3, metavar="MS",
                      help="stop when no read has succeeded for this long (default %(default).0f ms; single "
                      "missed replies are retried and their ticks hold the last goals)")
+    run.add_argument("--heading", type=heading_schedule, metavar="DEG|T:DEG,...", help=HEADING_HELP)
     run.add_argument("--json", action="store_true", help="print the report as one JSON object")
     add_realtime_arguments(run)
     run.set_defaults(func=cmd_run, check=check_run)
@@ -82,6 +96,7 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
     dry.add_argument("--trace", type=TRACE_FILE, help="trace CSV (+ JSON sidecar)")
     dry.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                      help="switch a control module off (repeatable)")
+    dry.add_argument("--heading", type=heading_schedule, metavar="DEG|T:DEG,...", help=HEADING_HELP)
     dry.add_argument("--json", action="store_true", help="print the report as one JSON object")
     add_realtime_arguments(dry)
     dry.set_defaults(func=cmd_dry_run, check=check_dry_run)
@@ -207,7 +222,7 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
     result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults, log=log,
                      reality=args.reality, seed=args.seed, disabled_modules=tuple(args.disable_module),
                      realtime=realtime_request(args),
-                     simbus_realtime=realtime_flags(args))
+                     simbus_realtime=realtime_flags(args), heading=args.heading)
     print_result(result, args.json)
     return run_exit_code(result, log)
 
@@ -229,7 +244,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             bus = MockBus(robot)
         report = drive(bus, robot, data, duration_s=args.duration, trace_path=args.trace,
                        disabled_modules=tuple(args.disable_module), log=log, lost_after_s=args.lost_after_ms / 1e3,
-                       realtime=realtime)
+                       realtime=realtime, heading=args.heading)
         result = report.summary()
     else:  # neither: the simulated bus, as in a dry run
         from sim2real.simulation.dry_run import dry_run
@@ -237,7 +252,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         log("no --port: running on the simulated bus (MuJoCo behind a pseudo-terminal)")
         result = dry_run(args.controller, robot.name if args.robot else None, args.duration or 10.0,
                          args.trace, log=log, disabled_modules=tuple(args.disable_module), realtime=realtime,
-                         simbus_realtime=realtime_flags(args))
+                         simbus_realtime=realtime_flags(args), heading=args.heading)
     print_result(result, args.json)
     return run_exit_code(result, log)
 

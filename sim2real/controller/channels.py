@@ -50,7 +50,7 @@ class Readings:
     time_s: float = 0.0  # since the first tick [s]: the gait clock's time
     previous_goal: np.ndarray | None = None  # (n, joints) the goals sent last tick [rad]
     heading: np.ndarray | None = None  # (n,) the IMU's yaw, counter-clockwise seen from above [rad]
-    start_heading: np.ndarray | None = None  # (n,) the heading at the first tick [rad]
+    target_heading: np.ndarray | None = None  # (n,) the heading to hold [rad]: the first tick's, turned by a command
     gyro: np.ndarray | None = None  # (n, 3) the torso's angular rate about its x, y, z axes [rad/s]
 
 
@@ -186,8 +186,8 @@ class UpVector(Channel):
 class Heading(Channel):
     key = "heading"
     width = 1
-    doc = ("the torso's turn since the first tick toward the network's own side, over heading_scale_deg, "
-           "clipped to [-1, 1] (mirrored)")
+    doc = ("the torso's turn from the heading to hold (the first tick's, turned by a command) toward the "
+           "network's own side, over heading_scale_deg, clipped to [-1, 1] (mirrored)")
     switch = "heading_input"
     settings = (Setting.of_schema("heading_scale_deg", 180.0, "deg"),)
     sensor = "heading"
@@ -196,9 +196,9 @@ class Heading(Channel):
         return ["heading"]
 
     def raw(self, r, wiring):
-        if r.start_heading is None:
-            raise ValueError("the heading input needs the start heading")
-        turn = turn_rad(r.heading, r.start_heading)
+        if r.target_heading is None:
+            raise ValueError("the heading input needs the target heading")
+        turn = turn_rad(r.heading, r.target_heading)
         scale = np.radians(self.setting(wiring, "heading_scale_deg"))
         return np.clip(-turn / scale, -1.0, 1.0)[:, None]  # turning right is positive for the right network
 

@@ -12,7 +12,7 @@ computed as in evolution, bit for bit.
 
 from __future__ import annotations
 
-from typing import Iterable
+from typing import Callable, Iterable
 
 import numpy as np
 
@@ -36,6 +36,8 @@ class Policy:
         self.wiring = InputWiring(self.layout, self.low, self.high)
         self.ticks = 0  # since reset: the clock's time
         self.start_heading: float | None = None  # [rad] the board's heading at the first tick since reset
+        # [rad] the heading to hold, from the start's, at a time since the start [s]: a user's command
+        self.heading_command: Callable[[float], float] = lambda t_s: 0.0
         self.max_step = max_steps(robot, self.tick_s)
         self.hold = hold_pose(robot, self.layout.driven)
         self._first, self._second = self._output_gather()
@@ -87,10 +89,10 @@ class Policy:
         if "heading" in self.sensors:
             if self.start_heading is None:
                 self.start_heading = float(heading)
-            start = np.array([self.start_heading])
+            start = np.array([self.start_heading + self.heading_command(tick * self.tick_s)])
         readings = Readings(angles=angles[None], feet=np.asarray(feet_touching)[None], up=np.asarray(up)[None],
                             time_s=tick * self.tick_s, previous_goal=previous_goal[None],
-                            heading=None if heading is None else np.array([float(heading)]), start_heading=start,
+                            heading=None if heading is None else np.array([float(heading)]), target_heading=start,
                             gyro=None if gyro is None else np.asarray(gyro, dtype=float)[None])
         out = self.networks.activate(self.wiring.inputs(readings)).reshape(-1)
         wanted = output_to_angle(0.5 * (out[self._first] + out[self._second]), self._d_low, self._d_high)

@@ -346,15 +346,23 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
           log: Callable[[str], None] = print, clock: Callable[[], float] = time.monotonic,
           sleep: Callable[[float], None] = time.sleep, ramp_s: float = RAMP_S,
           lost_after_s: float = LOST_AFTER_S, realtime: RealtimeRequest | None = None,
-          on_loop_end: Callable[[], None] | None = None) -> RunReport:
+          on_loop_end: Callable[[], None] | None = None,
+          heading: Callable[[float], float] | None = None) -> RunReport:
     """Start up, ramp, run the loop, and always end with torque off, read back; returns what
     happened (``report.torque_off`` lists servos confirmed off and those that are not).
     ``controller`` is a controller file's contents or any other :class:`GoalSource`.
     ``realtime``: ask the OS for real-time treatment first (None: do not ask).
     ``on_loop_end`` is called once the loop has ended, however, before the stop (a dry run
-    takes its ground truth then); nothing it raises delays the torque-off."""
+    takes its ground truth then); nothing it raises delays the torque-off.  ``heading``: the
+    heading to hold [rad, from the start's] at a time since the start [s], for a controller with
+    a heading input (:mod:`sim2real.controller.steering`; None: the start's)."""
     if isinstance(controller, Controller):
         policy: GoalSource = Policy(controller, robot, disabled_modules)
+        if heading is not None:
+            if not controller.heading_input:
+                raise UsageError("a heading to hold was given, but the controller has no heading input "
+                                 "(heading_input): it cannot be steered")  # before any servo moves
+            policy.heading_command = heading
         metadata = {"controller_hash": controller.joint_map_hash,
                     "controller_provenance": controller.to_dict()["provenance"]}
     else:

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from sim2real.controller.file import Controller
-from sim2real.errors import BipedError, ConfigError
+from sim2real.errors import BipedError, ConfigError, UsageError
 from sim2real.hardware.deploy import drive
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.hardware.realtime import RealtimeRequest
@@ -168,14 +168,16 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
             trace_path: Path | str | None = None, faults: str | None = None,
             log: Callable[[str], None] = print, ramp_s: float = 2.0,
             disabled_modules: tuple[str, ...] = (), reality: str | None = None, seed: int = 0,
-            realtime: RealtimeRequest | None = None, simbus_realtime: list[str] | None = None) -> dict[str, Any]:
+            realtime: RealtimeRequest | None = None, simbus_realtime: list[str] | None = None,
+            heading: Callable[[float], float] | None = None) -> dict[str, Any]:
     """Run a controller through the real runtime on the simulated bus, the robot behind it
     perturbed by the reality profile ``reality`` (None: nominal); see ``biped dry-run``.
 
     The simulated bus runs in its own process.  ``realtime`` is the runtime's real-time
     request (None: none; this process keeps its scheduling); ``simbus_realtime`` the simulated
     bus's as its command-line flags (None: its default, real-time scheduling - a simulated
-    robot starved of CPU would fall, or go silent, for the wrong reason).
+    robot starved of CPU would fall, or go silent, for the wrong reason); ``heading`` the
+    heading to hold over time (:func:`sim2real.hardware.deploy.drive`).
     """
     from sim2real.simulation.reality import (
         load_reality,  # MuJoCo: only a dry run needs it, not `biped run`
@@ -184,6 +186,9 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     data, robot = Controller.load_for_robot(controller_path, robot_name)
     robot_arg = robot_name or data.robot_name
     profile = load_reality(reality)  # every input checked before anything starts
+    if heading is not None and not data.heading_input:
+        raise UsageError("a heading to hold was given, but the controller has no heading input (heading_input): "
+                         "it cannot be steered")
     check_fault_times(parse_faults(faults, robot), duration_s)
     args = ["--robot", robot_arg, "--seed", str(seed), "--fault-delay", str(ramp_s),
             *(["--reality", reality] if reality else []), *(["--faults", faults] if faults else []),
@@ -191,7 +196,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     with SimulatedBusProcess(args, log) as simbus:
         report = drive(DynamixelBus(simbus.port, robot.bus.baud, robot), robot, data, duration_s=duration_s,
                        trace_path=trace_path, log=log, ramp_s=ramp_s, disabled_modules=disabled_modules,
-                       realtime=realtime, on_loop_end=simbus.mark_end_of_run)
+                       realtime=realtime, on_loop_end=simbus.mark_end_of_run, heading=heading)
     truth = simbus.ground_truth
     if "distance_m" not in truth:
         raise BipedError("the simulated bus ended without its report (it crashed?)")
