@@ -64,11 +64,14 @@ def robustness(controller: Path, draws: int, default_episodes: int = 3) -> dict[
 
 
 def sustained(controller: Path, reality: str | None, episodes: int) -> dict[str, Any]:
-    """A 60 s walk without the stagnation stop: seconds upright, distance, speed (means)."""
+    """A 60 s walk without the stagnation stop: seconds upright, distance, speed, and how fast
+    it turns (the torso's net turn per minute upright, unwrapped) - means over the episodes."""
     r = evaluate_controller(controller, seconds=SUSTAINED_S, episodes=episodes, randomize=reality,
                             seed=TEST_SEED, stagnation_stop=False)
+    per_minute = [abs(e["turn_deg"]) / (e["upright_s"] / 60.0) for e in r["per_episode"] if e["upright_s"] > 0]
     return {"upright_s": r["upright_s"], "distance_m": r["distance_m"], "falls": r["falls"],
             "speed_m_s": r["distance_m"] / r["upright_s"] if r["upright_s"] > 0 else 0.0,
+            "heading_deg_per_min": statistics.mean(per_minute) if per_minute else None,
             "per_episode": r["per_episode"]}
 
 
@@ -161,6 +164,10 @@ def summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
         "sustained_m_median": median(r["sustained"]["default"]["distance_m"] for r in robust),
         "speed_m_s_median": median(r["sustained"]["nominal"]["speed_m_s"] for r in robust),
         "walk_rate_median": median(r["rate"]["share"] for r in robust),
+        "walk_rate_50_median": median(r["rate"]["share"] for r in robust if r["rate"].get("robots") == RATE_ROBOTS),
+        # the worse of the nominal and the default.yaml robot's 60 s walks
+        "heading_deg_per_min_median": median(max(r["sustained"][k].get("heading_deg_per_min") or 0.0
+                                                 for k in ("nominal", "default")) for r in robust),
         "runs": runs,
     }
 
