@@ -80,6 +80,28 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ea.add_argument("--json", action="store_true", help="print one JSON object")
     ea.set_defaults(func=cmd_eval, check=check_eval)
 
+    po = sub.add_parser("polish", help="tune a walker's weights with CMA-ES on many randomized robots",
+                        description="Freeze the walker's topology and tune its weights with CMA-ES: every update "
+                        "runs each candidate on the same freshly drawn robots; the search's mean is judged every "
+                        "few updates on fixed validation robots, the best kept; at the end the kept weights and "
+                        "the original are judged on fresh robots.  Writes OUT/polished.json and OUT/result.json.")
+    po.add_argument("controller", type=Path)
+    po.add_argument("--out", type=output_dir, required=True, help="folder for polished.json and result.json")
+    po.add_argument("--updates", type=int_within(1, 100_000), default=60, help="CMA-ES updates (default 60)")
+    po.add_argument("--popsize", type=int_within(2, 1024), default=16, help="candidates an update (default 16)")
+    po.add_argument("--robots", type=int_within(1, 1024), default=8, help="robots each candidate meets in an "
+                    "update, the same for all (default 8)")
+    po.add_argument("--sigma", type=positive_float_at_most(20.0, "weights are bounded by 20"), default=0.1,
+                    help="CMA-ES's first step size in weight units (default 0.1)")
+    po.add_argument("--every", type=int_within(1, 100_000), default=5, help="validate every this many updates")
+    po.add_argument("--validation", type=int_within(1, 10_000), default=30, help="validation robots (default 30)")
+    po.add_argument("--test", type=int_within(1, 10_000), default=100, help="fresh test robots (default 100)")
+    po.add_argument("--randomize", type=reality_name, default="randomize", metavar="RANGES",
+                    help="ranges the robots are drawn from (default configs/reality/randomize.yaml)")
+    po.add_argument("--seed", type=seed, default=0, help="seed of the search and every draw")
+    po.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    po.set_defaults(func=cmd_polish)
+
 
 def cmd_render_controller(args: argparse.Namespace) -> int:
     from evolve.replay import frames
@@ -99,9 +121,9 @@ def cmd_view_controller(args: argparse.Namespace) -> int:
     import mujoco
     import mujoco.viewer
 
-    from evolve.replay import _setup
+    from evolve.replay import controller_setup
 
-    data, _, evaluator, genome = _setup(Path(args.robot), None, None, keep_going=True,
+    data, _, evaluator, genome = controller_setup(Path(args.robot), None, None, keep_going=True,
                                         disabled_modules=tuple(args.disable_module))
     shown = mujoco.MjData(evaluator.model)
     with mujoco.viewer.launch_passive(evaluator.model, shown) as viewer:
@@ -248,6 +270,19 @@ def check_eval(args: argparse.Namespace) -> None:
         raise UsageError("eval --by-perturbation: give --randomize (the draws to sort the episodes by)")
     if args.by_perturbation and args.ablate:
         raise UsageError("eval: --by-perturbation or --ablate, not both")
+
+
+def cmd_polish(args: argparse.Namespace) -> int:
+    require_module("cmaes", "biped polish", extra="sim")
+    from evolve.polish import polish
+
+    log = (lambda line: None) if args.json else (lambda line: print(line, file=sys.stderr, flush=True))
+    result = polish(args.controller, args.out, updates=args.updates, popsize=args.popsize, robots=args.robots,
+                    sigma=args.sigma, every=args.every, validation=args.validation, test=args.test, seed=args.seed,
+                    reality=args.randomize, log=log)
+    if args.json:
+        print(json.dumps(result))
+    return 0
 
 
 def cmd_eval(args: argparse.Namespace) -> int:

@@ -25,9 +25,12 @@ from sim2real.simulation.model_builder import SimulationUnstable
 from sim2real.simulation.reality import NOMINAL, Reality, load_reality
 
 
-def _setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
-           keep_going: bool = False, reality: Reality = NOMINAL, disabled_modules: tuple[str, ...] = (),
-           stagnation_stop: bool = True):
+def controller_setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
+                     keep_going: bool = False, reality: Reality = NOMINAL, disabled_modules: tuple[str, ...] = (),
+                     stagnation_stop: bool = True):
+    """A controller file and its robot, an evaluator of ``episodes`` simulations on its task
+    (the file's inputs whatever its task block says; ``seconds`` long, default the task's) and
+    the genome it expresses: (controller, robot, evaluator, genome)."""
     data, spec = Controller.load_for_robot(path, robot)
     check_disabled_modules(data, disabled_modules)
     task = TaskConfig.from_mapping(dict(data.task), str(path), "task.")
@@ -75,7 +78,7 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
     ``stagnation_stop`` only a fall (or the clock) ends an episode.  ``by_perturbation`` adds
     where it fails: the walk rate by third of each drawn perturbation (:func:`walk_rate_by_draw`)."""
     reality = load_reality(randomize)
-    data, spec, evaluator, genome = _setup(path, robot, seconds, episodes, reality=reality,
+    data, spec, evaluator, genome = controller_setup(path, robot, seconds, episodes, reality=reality,
                                            disabled_modules=disabled_modules, stagnation_stop=stagnation_stop)
     keys = np.array([[seed, e] for e in range(episodes)])
     perturbation = None if reality.is_nominal else evaluator.sample(keys)
@@ -175,7 +178,7 @@ def gait(path: Path | str, robot: str | None = None, seconds: float | None = Non
     """One episode's joint angles and foot contacts, tick by tick, until the episode ends or
     the robot falls (no stagnation stop), on the nominal robot or one of ``reality``."""
     reality = load_reality(reality)
-    data, spec, evaluator, genome = _setup(path, robot, seconds, reality=reality, disabled_modules=disabled_modules,
+    data, spec, evaluator, genome = controller_setup(path, robot, seconds, reality=reality, disabled_modules=disabled_modules,
                                            stagnation_stop=False)
     perturbation = None if reality.is_nominal else evaluator.sample(np.array([[seed, 0]]))
     times, angles, feet = [], [], []
@@ -206,7 +209,7 @@ def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | N
     )
 
     # the film goes on after a fall or a stall (the score would have stopped there)
-    data, spec, evaluator, genome = _setup(path, robot, seconds, keep_going=True, disabled_modules=disabled_modules)
+    data, spec, evaluator, genome = controller_setup(path, robot, seconds, keep_going=True, disabled_modules=disabled_modules)
     images: list[np.ndarray] = []
     count = [0]
     with open_renderer(evaluator.model, width, height) as renderer:
@@ -233,7 +236,7 @@ def strip(paths: list[Path | str], columns: int = 6, seconds: float | None = Non
 
     from sim2real.simulation.rendering import open_renderer
 
-    setups = [_setup(p, None, seconds, keep_going=True) for p in paths]
+    setups = [controller_setup(p, None, seconds, keep_going=True) for p in paths]
     tallest = max(spec.height for _, spec, _, _ in setups)
     length = min(ev.episode_s for _, _, ev, _ in setups)
     tick_s = setups[0][2].tick_s  # the moments in the first controller's ticks

@@ -1,0 +1,142 @@
+"""Weight polish: an evolved walker's topology frozen, its weights tuned by CMA-ES on many
+randomized robots (issue 33, after NEAT).
+
+NEAT finds a topology and weights that walk on the robots it met; a walker that walks on half
+of the robots a little off the model may need its weights nudged together, which mutation one
+weight at a time rarely does.  Here the enabled connections' weights are one vector, and
+CMA-ES (the ``cmaes`` package: Hansen's covariance matrix adaptation) moves it: every update
+asks ``popsize`` candidates, runs each on the *same* ``robots`` robots drawn afresh for that
+update (common random numbers: candidates differ by their weights, not their luck), and ranks
+them by their mean selection score (the controller's task: eq. 3 plus any selection terms and
+walk bonus).  Every ``every`` updates the search's mean is judged on ``validation`` fixed
+robots that no update meets; the best of those (walk rate, then mean score) is kept.  At the
+end the kept weights and the original walker are judged on ``test`` (100) fresh robots: the
+polish is worth keeping only if it lifts the walk rate (``lifted``).
+
+    result = polish(Path("walker.json"), out=Path("runs/polish"), updates=60)
+    result["test"]["polished"]["walk_rate"], result["test"]["original"]["walk_rate"]
+
+Each draw comes from a key of its own (``[seed, stream, update, robot]``): a seed fixes the
+polish.  The evaluator is the evolution's (``mujoco.batch``), so the numbers are evolution's.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from evolve.locomotion.export import controller_from_genome
+from evolve.neat import Genome, NeatConfig
+from evolve.replay import controller_setup
+from sim2real.atomic_json import write_json_atomic
+from sim2real.simulation.reality import load_reality
+
+WEIGHT_LIMIT = NeatConfig().weight_limit  # [the weights' unit] as evolution clips them
+UPDATE_STREAM, VALIDATION_STREAM, TEST_STREAM = 0x504F_4C31, 0x504F_4C32, 0x504F_4C33  # keys' second entry
+
+
+def weights_of(genome: Genome) -> tuple[list[int], np.ndarray]:
+    """The enabled connections' innovations, and their weights as one vector."""
+    enabled = [k for k, gene in genome.conns.items() if gene.enabled]
+    return enabled, np.array([genome.conns[k].weight for k in enabled])
+
+
+def with_weights(genome: Genome, enabled: list[int], weights: np.ndarray, key: int = 0) -> Genome:
+    """A copy of ``genome`` whose enabled connections carry ``weights`` (clipped as evolution clips them)."""
+    out = genome.copy(key)
+    for k, w in zip(enabled, np.clip(weights, -WEIGHT_LIMIT, WEIGHT_LIMIT)):
+        out.conns[k].weight = float(w)
+    return out
+
+
+class Judge:
+    """Runs weight vectors on drawn robots with the controller's evaluator."""
+
+    def __init__(self, path: Path, reality: str, capacity: int):
+        self.data, self.robot, self.evaluator, self.genome = controller_setup(path, None, None, episodes=capacity,
+                                                                             reality=load_reality(reality))
+        self.enabled, self.start = weights_of(self.genome)
+        self.steps = 0
+
+    def run(self, candidates: list[np.ndarray], keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each candidate on every robot of ``keys`` (r, k): (candidates, r) selection scores and
+        walked flags; simulations in batches of the evaluator's capacity."""
+        r = len(keys)
+        genomes = [with_weights(self.genome, self.enabled, x, i) for i, x in enumerate(candidates) for _ in range(r)]
+        all_keys = np.tile(keys, (len(candidates), 1))
+        ev = self.evaluator
+        score, walked = np.empty(len(genomes)), np.empty(len(genomes), dtype=bool)
+        for lo in range(0, len(genomes), ev.max_population):
+            hi = min(lo + ev.max_population, len(genomes))
+            episodes = ev.evaluate(genomes[lo:hi], self.data.sigmoid_steepness, perturbation=ev.sample(all_keys[lo:hi]))
+            score[lo:hi] = episodes.selection
+            walked[lo:hi] = episodes.walked(ev.leg, ev.episode_s)
+            self.steps += episodes.steps
+        return score.reshape(len(candidates), r), walked.reshape(len(candidates), r)
+
+
+def _keys(seed: int, stream: int, index: int, robots: int) -> np.ndarray:
+    return np.array([[seed, stream, index, k] for k in range(robots)], dtype=np.int64)
+
+
+def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robots: int = 8, sigma: float = 0.1,
+           every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str = "randomize",
+           log: Callable[[str], None] = print) -> dict[str, Any]:
+    """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
+    ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
+    step size [weight units] (NEAT perturbs a weight by about 0.5)."""
+    from cmaes import CMA  # the `sim` extra's: only the polish needs it
+
+    out.mkdir(parents=True, exist_ok=True)
+    started = time.monotonic()
+    judge = Judge(path, reality, max(popsize * robots, validation, 1))
+    x0 = judge.start
+    optimizer = CMA(mean=x0.copy(), sigma=sigma, population_size=popsize, seed=seed,
+                    bounds=np.tile([-WEIGHT_LIMIT, WEIGHT_LIMIT], (len(x0), 1)))
+    checks = _keys(seed, VALIDATION_STREAM, 0, validation)
+
+    def validate(x: np.ndarray) -> dict[str, float]:
+        score, walked = judge.run([x], checks)
+        return {"walk_rate": float(walked.mean()), "score": float(score.mean())}
+
+    best = {"update": 0, "weights": x0.copy(), **validate(x0)}
+    history = [{"update": 0, **{k: best[k] for k in ("walk_rate", "score")}}]
+    log(f"polish {path.name}: {len(x0)} weights, {popsize} candidates x {robots} robots an update; "
+        f"validation walk rate {best['walk_rate']:.2f} at the start")
+    for update in range(1, updates + 1):
+        candidates = [optimizer.ask() for _ in range(popsize)]
+        score, walked = judge.run(candidates, _keys(seed, UPDATE_STREAM, update, robots))
+        optimizer.tell([(x, -float(s)) for x, s in zip(candidates, score.mean(axis=1))])  # CMA minimizes
+        if update % every == 0 or update == updates:
+            checked = validate(optimizer.mean)
+            history.append({"update": update, "candidates_walked": float(walked.mean()), **checked})
+            if (checked["walk_rate"], checked["score"]) > (best["walk_rate"], best["score"]):
+                best = {"update": update, "weights": optimizer.mean.copy(), **checked}
+            log(f"update {update}/{updates}: candidates walked {walked.mean():.2f}, validation walk rate "
+                f"{checked['walk_rate']:.2f} (best {best['walk_rate']:.2f} at update {best['update']}), "
+                f"{time.monotonic() - started:.0f} s")
+    fresh = _keys(seed, TEST_STREAM, 0, test)
+    _, walked = judge.run([x0, best["weights"]], fresh)
+    test_rates = {"original": float(walked[0].mean()), "polished": float(walked[1].mean())}
+    polished = with_weights(judge.genome, judge.enabled, best["weights"])
+    task = judge.evaluator.task
+    provenance = {**dict(judge.data.provenance), "polished_from": str(path), "polish": {
+        "updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed, "reality": reality,
+        "kept_update": best["update"], "validation_walk_rate": best["walk_rate"], "test_walk_rate": test_rates}}
+    controller = controller_from_genome(polished, judge.robot, judge.evaluator.layout, task,
+                                        judge.data.sigmoid_steepness, provenance)
+    controller.save(out / "polished.json")
+    result = {"controller": str(path), "polished": str(out / "polished.json"), "weights": len(x0),
+              "updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed,
+              "reality": reality, "kept_update": best["update"], "history": history,
+              "test": {"robots": test, "original": {"walk_rate": test_rates["original"]},
+                       "polished": {"walk_rate": test_rates["polished"]}},
+              "lifted": test_rates["polished"] > test_rates["original"],
+              "physics_steps": judge.steps, "minutes": (time.monotonic() - started) / 60}
+    write_json_atomic(out / "result.json", result)
+    log(f"test on {test} fresh robots: walk rate {test_rates['original']:.2f} -> {test_rates['polished']:.2f}"
+        f" ({'lifted' if result['lifted'] else 'not lifted: keep the original'}); wrote {out / 'polished.json'}")
+    return result

@@ -1,0 +1,42 @@
+"""The weight polish (biped polish): the topology kept, the weights moved by CMA-ES, every
+candidate of an update on the same robots, a seed fixing the whole polish."""
+
+import json
+
+import numpy as np
+
+from evolve.cli import main
+from evolve.locomotion.export import genome_from_controller
+from evolve.polish import weights_of, with_weights
+from sim2real.controller.file import Controller
+
+WALKER = "configs/controllers/xl430_biped.json"
+
+
+def test_weights_round_trip_through_a_genome_and_stay_within_the_format():
+    genome = genome_from_controller(Controller.load(WALKER))
+    enabled, weights = weights_of(genome)
+    moved = with_weights(genome, enabled, weights + 100.0)
+    assert [moved.conns[k].weight for k in enabled] == [20.0] * len(enabled)  # clipped to the bound
+    again = with_weights(genome, enabled, weights)
+    assert weights_of(again)[1].tolist() == weights.tolist()
+    assert {k: (g.src, g.dst, g.enabled) for k, g in again.conns.items()} == \
+        {k: (g.src, g.dst, g.enabled) for k, g in genome.conns.items()}  # the topology frozen
+
+
+def test_biped_polish_writes_a_loadable_walker_and_a_seed_fixes_it(tmp_path, capsys):
+    args = ["polish", WALKER, "--updates", "2", "--popsize", "4", "--robots", "2", "--every", "1",
+            "--validation", "3", "--test", "3", "--seed", "5", "--json"]
+    results = []
+    for name in ("a", "b"):
+        assert main([*args, "--out", str(tmp_path / name)]) == 0
+        results.append(json.loads(capsys.readouterr().out.strip().splitlines()[-1]))
+    a, b = results
+    assert a["history"] == b["history"] and a["test"] == b["test"]  # the seed fixes every draw and step
+    assert len(a["history"]) == 3 and a["weights"] > 50
+    polished = Controller.load(tmp_path / "a" / "polished.json")
+    original = Controller.load(WALKER)
+    assert [c[:2] for c in polished.connections] == [c[:2] for c in original.connections]
+    assert polished.provenance["polish"]["updates"] == 2 and "test_walk_rate" in polished.provenance["polish"]
+    if a["kept_update"]:
+        assert not np.allclose([c[2] for c in polished.connections], [c[2] for c in original.connections])
