@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from benchmarks.common import command_line, parser, progress, report, ship_controller
-from benchmarks.transfer import transfer_check
+from evolve.transfer import transfer_check
 from evolve.cli_commands import resolve_config
 from evolve.config import load_evolve_config
 from evolve.replay import evaluate_controller

@@ -110,7 +110,7 @@ def loop(profile: str, identified: Path, folder: Path, minutes: float, quiet: bo
     """Evolve around the identified robot, then check the champion's transfer to the true one."""
     import dataclasses
 
-    from benchmarks.transfer import transfer_check
+    from evolve.transfer import transfer_check
     from evolve.cli_commands import resolve_config
     from evolve.config import load_evolve_config
     from evolve.run import Run

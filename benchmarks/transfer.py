@@ -18,18 +18,15 @@ worst distance; it is saved as ``RUN/robust_walker.json``.
 
 from __future__ import annotations
 
-import statistics
 from pathlib import Path
-from typing import Any, Callable
 
 import numpy as np
 
 from benchmarks.common import parser, progress, report
 from evolve.evaluation import EvaluatorSpec, build_evaluator
 from evolve.neat import Population
-from evolve.replay import evaluate_controller
 from evolve.run import Best, Run
-from sim2real.simulation.dry_run import dry_run
+from evolve.transfer import transfer_check
 
 
 def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tuple[Path, dict]:
@@ -55,35 +52,6 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
                         float(nominal.upright_s[best]), pop.generation, 0.0, genome)).save(path)
     return path, {"genome": genome.key, "walks_share": float(share[best, 0]), "worst_distance_m": float(worst[best]),
                   "population_walks_share_mean": float(share.mean()), "selected_from": n, "episodes": episodes + 1}
-
-
-def transfer_check(controller: Path, reality: str = "default", runs: int = 3, keep: float = 0.8,
-                   log: Callable[[str], None] = print, simulated: str | None = None) -> dict[str, Any]:
-    """The controller's simulated distance (on the nominal robot, or on the fixed profile
-    ``simulated``: the robot it was evolved for) against ``runs`` dry runs of the same length on
-    the simulated bus under ``reality`` (noise seeds 0..runs-1); see the module docstring."""
-    sim = evaluate_controller(controller, randomize=simulated)
-    log(f"simulation: {sim['distance_m']:.3f} m in {sim['seconds']:.1f} s, fell={sim['fell']}")
-    dry = []
-    for seed in range(runs):
-        r = dry_run(controller, duration_s=sim["seconds"], reality=reality, seed=seed, log=lambda line: None)
-        if r["unstable"]:  # no distance to average
-            raise RuntimeError(f"dry run {seed} ({reality}): the simulated robot went {r['unstable']}")
-        log(f"dry run {seed} ({reality}): {r['distance_m']:.3f} m, facing {r['heading_deg']:+.0f} deg, "
-            f"fell={r['fell']}, stop: {r['stop_reason']}, bus errors {r['bus_errors']}, overruns {r['overruns']}")
-        dry.append({k: r[k] for k in ("distance_m", "heading_deg", "fell", "ticks", "overruns", "bus_errors",
-                                      "stop_reason")})
-    mean = statistics.mean(r["distance_m"] for r in dry)
-    ratio = mean / sim["distance_m"] if sim["distance_m"] > 0 else 0.0
-    walked = sim["walked_share"] == 1.0  # without a walk in simulation there is no distance to keep
-    return {
-        "controller": str(controller), "reality": reality, "simulated": simulated or "nominal",
-        "sim_distance_m": sim["distance_m"], "sim_fell": sim["fell"], "seconds": sim["seconds"],
-        "dry_run_distance_m": mean, "dry_run_min_m": min(r["distance_m"] for r in dry),
-        "ratio": ratio, "keep": keep, "sim_walked": walked,
-        "passed": walked and ratio >= keep and not any(r["fell"] for r in dry),
-        "runs": dry,
-    }
 
 
 def main(argv=None) -> None:

@@ -102,6 +102,29 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     po.add_argument("--json", action="store_true", help="print the result as one JSON object")
     po.set_defaults(func=cmd_polish)
 
+    ad = sub.add_parser("adapt", help="continue evolving a walker on a robot biped sysid identified",
+                        description="Grow a population from the walker and evolve it on robots drawn from narrow "
+                        "ranges around the identified robot (no harness, full strength from the start, the champion "
+                        "chosen on validation robots), until --generations or --minutes; then judge the champion on "
+                        "fresh robots around it and with the transfer check through the simulated bus on the "
+                        "identified profile.  The loop: excite -> sysid -> adapt -> dry-run -> run.")
+    ad.add_argument("controller", type=Path)
+    ad.add_argument("--reality", type=reality_name, required=True, metavar="IDENTIFIED",
+                    help="the identified robot: a reality file of fixed values, as `biped sysid` writes")
+    ad.add_argument("--out", type=output_dir, required=True, help="run folder (controller.json, adapt.json)")
+    ad.add_argument("--ranges", type=reality_name, default="narrow",
+                    help="ranges drawn around the identified robot (default configs/reality/narrow.yaml)")
+    ad.add_argument("--generations", type=int_within(1, MAX_GENERATIONS), default=100)
+    ad.add_argument("--minutes", type=positive_float_at_most(7 * 24 * 60, "a week"), help="stop after this long")
+    ad.add_argument("--population", type=int_within(2, MAX_POPULATION, "memory grows with it"), default=64)
+    ad.add_argument("--episodes", type=int_within(1, 64), default=3, help="robots each genome meets a generation")
+    ad.add_argument("--validation", type=int_within(1, 1000), default=20, help="validation robots (default 20)")
+    ad.add_argument("--test", type=int_within(1, 10_000), default=50, help="fresh robots to judge on (default 50)")
+    ad.add_argument("--seed", type=seed, default=1)
+    ad.add_argument("--threads", type=int_within(0, MAX_THREADS, "each holds a simulation's memory"), default=0)
+    ad.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    ad.set_defaults(func=cmd_adapt)
+
 
 def cmd_render_controller(args: argparse.Namespace) -> int:
     from evolve.replay import frames
@@ -270,6 +293,18 @@ def check_eval(args: argparse.Namespace) -> None:
         raise UsageError("eval --by-perturbation: give --randomize (the draws to sort the episodes by)")
     if args.by_perturbation and args.ablate:
         raise UsageError("eval: --by-perturbation or --ablate, not both")
+
+
+def cmd_adapt(args: argparse.Namespace) -> int:
+    from evolve.adapt import adapt
+
+    log = (lambda line: None) if args.json else (lambda line: print(line, file=sys.stderr, flush=True))
+    result = adapt(args.controller, args.reality, args.out, ranges=args.ranges, generations=args.generations,
+                   minutes=args.minutes, population=args.population, episodes=args.episodes,
+                   validation=args.validation, test=args.test, seed=args.seed, threads=args.threads, log=log)
+    if args.json:
+        print(json.dumps(result))
+    return 0
 
 
 def cmd_polish(args: argparse.Namespace) -> int:

@@ -22,7 +22,7 @@ from evolve.neat.config import NeatConfig
 from evolve.neat.genome import Genome, InnovationTracker, Layout
 from evolve.neat.reproduction import reproduce
 from evolve.neat.species import SpeciesSet
-from evolve.neat.variation import initial_genome
+from evolve.neat.variation import initial_genome, mutate_weights
 from sim2real.atomic_json import read_json, write_json_atomic
 from sim2real.errors import ConfigError
 
@@ -63,6 +63,23 @@ class Population:
         tracker = InnovationTracker(next_innovation=0, next_node=layout.n_interface)
         genomes = [initial_genome(k, layout, config, tracker, rng, modules) for k in range(config.population_size)]
         self._set_state(config, layout, seed, rng, tracker, genomes)
+
+    @classmethod
+    def from_genome(cls, config: NeatConfig, layout: Layout, seed: int, genome: Genome) -> "Population":
+        """A population grown from one genome (a walker to adapt): the genome itself, and
+        ``population_size - 1`` copies with their weights mutated once (structure comes later,
+        by evolution); new innovations and nodes numbered after the genome's."""
+        rng = np.random.default_rng(seed)
+        tracker = InnovationTracker(next_innovation=max(genome.conns, default=-1) + 1,
+                                    next_node=max(genome.node_ids()) + 1)
+        genomes = [genome.copy(0)]
+        for k in range(1, config.population_size):
+            child = genome.copy(k)
+            mutate_weights(child, config, rng)
+            genomes.append(child)
+        population = cls.__new__(cls)
+        population._set_state(config, layout, seed, rng, tracker, genomes)
+        return population
 
     def _set_state(self, config: NeatConfig, layout: Layout, seed: int, rng: np.random.Generator,
                    tracker: InnovationTracker, genomes: list[Genome], species: SpeciesSet | None = None,
