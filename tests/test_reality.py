@@ -31,6 +31,19 @@ def test_shipped_files_load_and_default_is_a_fixed_profile():
     assert load_reality("nominal").is_nominal and not default.is_nominal
 
 
+def test_narrow_is_randomize_milder_and_centres_on_a_fit():
+    """narrow.yaml: randomize.yaml's keys, each range within randomize.yaml's, around a fit."""
+    narrow, wide = load_reality("narrow"), load_reality("randomize")
+    assert set(narrow.ranges) == set(wide.ranges)
+    for key, (lo, hi) in narrow.ranges.items():
+        w_lo, w_hi = wide.range(key)
+        assert w_lo <= lo <= hi <= w_hi, key
+    assert any(narrow.range(k) != wide.range(k) for k in narrow.ranges)
+    fitted = load_reality({**narrow.to_dict(), "centre": {"kp_scale": 0.8, "latency_ms": 10.0}})
+    assert fitted.range("kp_scale") == pytest.approx((0.72, 0.88))
+    assert fitted.range("latency_ms") == (10.0, 10.0) and fitted.range("latency_ticks") == narrow.range("latency_ticks")
+
+
 @pytest.mark.parametrize("doc, key, problem", [
     ({"mass_scal": 1.0}, "mass_scal", "unknown key"),
     ({"kp_scale": [1.2, 0.8]}, "kp_scale", "low must be below high"),
