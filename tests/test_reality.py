@@ -231,3 +231,19 @@ def test_only_keeps_one_perturbation():
     assert soft.perturbed == ["kp_scale"] and soft.range("kp_scale") == default.range("kp_scale")
     assert soft.range("mass_scale") == (1.0, 1.0)
     assert NOMINAL.perturbed == [] and "latency_ticks" in default.perturbed
+
+
+def test_a_slicker_floor_is_felt_by_the_soles():
+    """A contact takes the larger friction of its two geoms: the draw scales every geom's, so
+    that 0.6 under soles of 1.0 is 0.6 (it was 1.0: the floor's alone was scaled)."""
+    import mujoco
+
+    from sim2real.simulation.reality import perturbed_model
+
+    for scale in (0.6, 1.0, 1.2):
+        model, _ = perturbed_model(ROBOT, load_reality({"floor_friction_scale": scale}))
+        data = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+        for _ in range(20):
+            mujoco.mj_step(model, data)
+        assert data.ncon and all(abs(c.friction[0] - scale) < 1e-12 for c in data.contact[:data.ncon])
