@@ -87,11 +87,30 @@ def walk_rate(controller: Path, robots: int = RATE_ROBOTS) -> dict[str, Any]:
     return {"robots": robots, "walked": r["walked"], "falls": r["falls"], "share": r["walked"] / robots}
 
 
+STEER_DEG, STEER_AT_S, STEER_WITHIN_S, STEER_TOLERANCE_DEG = 90.0, 2.0, 10.0, 15.0
+
+
+def steering(controller: Path) -> dict[str, Any] | None:
+    """Told at 2 s to hold a heading 90 deg to the left, does it get there within 10 s without
+    a fall (within 15 deg of it at the end)?  None for a controller without a heading input."""
+    from sim2real.controller.file import Controller
+    from sim2real.controller.steering import schedule_command
+
+    if not Controller.load(controller).heading_input:
+        return None
+    command = schedule_command([(0.0, 0.0), (STEER_AT_S, STEER_DEG)])
+    r = evaluate_controller(controller, seconds=STEER_AT_S + STEER_WITHIN_S, heading=command, stagnation_stop=False)
+    error = r["per_episode"][0]["heading_error_deg"]
+    return {"turn_deg": STEER_DEG, "fell": r["fell"], "heading_error_deg": error,
+            "reached": not r["fell"] and abs(error) <= STEER_TOLERANCE_DEG}
+
+
 def after_test(walker: Path, log: Callable[[str], None]) -> dict[str, Any]:
-    """What is measured of a robust walker: its walk rate on 50 more robots, the transfer check
-    and the 60 s walks."""
+    """What is measured of a robust walker: its walk rate on 50 more robots, the transfer check,
+    the 60 s walks and (with a heading input) a commanded 90 deg turn."""
     return {"rate": walk_rate(walker), "transfer": transfer_check(walker, "default", 3, 0.8, log),
-            "sustained": {"nominal": sustained(walker, None, 1), "default": sustained(walker, "default", 3)}}
+            "sustained": {"nominal": sustained(walker, None, 1), "default": sustained(walker, "default", 3)},
+            "steering": steering(walker)}
 
 
 def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws: int, need: int,
@@ -168,6 +187,7 @@ def summary(runs: list[dict[str, Any]]) -> dict[str, Any]:
         # the worse of the nominal and the default.yaml robot's 60 s walks
         "heading_deg_per_min_median": median(max(r["sustained"][k].get("heading_deg_per_min") or 0.0
                                                  for k in ("nominal", "default")) for r in robust),
+        "steering_reached": sum(bool((r.get("steering") or {}).get("reached")) for r in robust),
         "runs": runs,
     }
 

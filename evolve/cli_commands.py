@@ -21,6 +21,7 @@ from sim2real.cli.args import (
     robot_name,
     seed,
 )
+from sim2real.arg_types import HEADING_HELP, heading_schedule
 from sim2real.errors import UsageError
 
 DEFAULT_CONFIG = "walk"
@@ -77,6 +78,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                     "--episodes), to see where the controller fails")
     ea.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                     help="switch a module off to get the lower behaviour back (repeatable)")
+    ea.add_argument("--heading", type=heading_schedule, metavar="DEG|T:DEG,...",
+                    help=HEADING_HELP + "; each episode then reports how far it ends from that heading")
     ea.add_argument("--json", action="store_true", help="print one JSON object")
     ea.set_defaults(func=cmd_eval, check=check_eval)
 
@@ -293,6 +296,8 @@ def check_eval(args: argparse.Namespace) -> None:
         raise UsageError("eval --by-perturbation: give --randomize (the draws to sort the episodes by)")
     if args.by_perturbation and args.ablate:
         raise UsageError("eval: --by-perturbation or --ablate, not both")
+    if args.heading is not None and args.ablate:
+        raise UsageError("eval: --heading or --ablate, not both")
 
 
 def cmd_adapt(args: argparse.Namespace) -> int:
@@ -327,7 +332,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     options = {"robot": args.robot, "seconds": args.seconds, "disabled_modules": tuple(args.disable_module)}
     if not args.ablate:
         result = evaluate_controller(args.controller, episodes=args.episodes or 1, randomize=reality,
-                                     seed=args.seed, by_perturbation=args.by_perturbation, **options)
+                                     seed=args.seed, by_perturbation=args.by_perturbation, heading=args.heading,
+                                     **options)
         table = result.pop("by_perturbation", None)
         if args.json:
             print(json.dumps({**result, **({"by_perturbation": table} if table is not None else {})}))

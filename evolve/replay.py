@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -72,19 +72,30 @@ class TurnTracker:
 def evaluate_controller(path: Path | str, robot: str | None = None, seconds: float | None = None,
                         episodes: int = 1, disabled_modules: tuple[str, ...] = (),
                         randomize: str | Reality | None = None, seed: int = 0,
-                        stagnation_stop: bool = True, by_perturbation: bool = False) -> dict[str, Any]:
+                        stagnation_stop: bool = True, by_perturbation: bool = False,
+                        heading: Callable[[float], float] | None = None) -> dict[str, Any]:
     """Measure a controller on ``episodes`` episodes, each drawn from ``randomize`` (a reality
     file's ranges or fixed profile; None: the nominal robot) with seed ``seed``; without
     ``stagnation_stop`` only a fall (or the clock) ends an episode.  ``by_perturbation`` adds
-    where it fails: the walk rate by third of each drawn perturbation (:func:`walk_rate_by_draw`)."""
+    where it fails: the walk rate by third of each drawn perturbation (:func:`walk_rate_by_draw`).
+    ``heading``: steer a controller with a heading input - the heading to hold [rad, from the
+    start's] at a time [s] (:mod:`sim2real.controller.steering`); each episode then reports how
+    far its torso ends from the heading it was told to hold (``heading_error_deg``)."""
     reality = load_reality(randomize)
     data, spec, evaluator, genome = controller_setup(path, robot, seconds, episodes, reality=reality,
                                            disabled_modules=disabled_modules, stagnation_stop=stagnation_stop)
     keys = np.array([[seed, e] for e in range(episodes)])
     perturbation = None if reality.is_nominal else evaluator.sample(keys)
     turn = TurnTracker(episodes)
+    turns = None
+    if heading is not None:
+        if not data.heading_input:
+            raise UsageError(f"{path}: a heading to hold was given, but the controller has no heading input")
+        told = np.array([heading(t * evaluator.tick_s) for t in range(evaluator.n_ticks)])
+        turns = np.broadcast_to(told, (episodes, evaluator.n_ticks)).copy()
     result = evaluator.evaluate([genome] * episodes, data.sigmoid_steepness, harness=0.0,
-                                disabled_modules=disabled_modules, perturbation=perturbation, on_tick=turn)
+                                disabled_modules=disabled_modules, perturbation=perturbation, on_tick=turn,
+                                turns=turns)
     _refuse_unstable(result.unstable, reality)
     leg = spec.leg_length
     walked = result.walked(leg, evaluator.episode_s)
@@ -98,7 +109,9 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         "walked_share": float(walked.mean()),
         "walked": int(walked.sum()),
         "per_episode": [{"distance_m": float(d), "upright_s": float(u), "fell": bool(f), "turn_deg": float(t),
-                         "max_turn_deg": float(m)}
+                         "max_turn_deg": float(m),
+                         **({} if turns is None else {"heading_error_deg": float(np.degrees(turn_rad(
+                             np.radians(t), turns[0, max(0, int(round(u / evaluator.tick_s)) - 1)])))})}
                         for d, u, f, t, m in zip(result.distance_m, result.upright_s, result.fell,
                                                  np.degrees(turn.turn), np.degrees(turn.max_turn))],
         "fitness": float(np.mean(result.fitness)),

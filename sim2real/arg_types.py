@@ -219,3 +219,18 @@ def reality_name(text: str) -> str:
     from sim2real.simulation.reality import load_reality
 
     return _loads(load_reality, text)
+
+
+HEADING_HELP = ("steer a controller with a heading input: hold the start's heading turned by DEG (left "
+                "positive), or follow a schedule SECONDS:DEG,... (e.g. 0:0,5:90,12:-45: 90 deg left from 5 s on, "
+                "45 deg right from 12 s on)")
+
+
+def heading_schedule(text: str):
+    """``--heading``'s value: the heading to hold over time (argparse type)."""
+    from sim2real.controller.steering import parse_schedule, schedule_command
+
+    try:
+        return schedule_command(parse_schedule(text))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None

@@ -126,3 +126,18 @@ def test_the_shipped_walker_is_paid_for_its_speed_and_less_for_its_turning():
 def test_heading_commands_and_selection_terms_are_checked(values, problem):
     with pytest.raises(ConfigError, match=problem):
         TaskConfig.from_mapping(values, "walk.yaml")
+
+
+def test_biped_eval_steers_and_reports_how_far_from_the_heading_it_ends(tmp_path):
+    from evolve.replay import evaluate_controller
+
+    _, controller = _heading_genome(TaskConfig(heading_input=True))
+    path = tmp_path / "heading.json"
+    controller.save(path)
+    told = schedule_command([(0.0, 0.0), (0.5, 40.0)])
+    walk = evaluate_controller(path, seconds=1.0, heading=told, stagnation_stop=False)
+    episode = walk["per_episode"][0]
+    # still standing where it started, it is 40 deg off the heading it was told to hold
+    assert abs(abs(episode["heading_error_deg"]) - 40.0) < 5.0
+    with pytest.raises(Exception, match="no heading input"):
+        evaluate_controller("configs/controllers/xl430_biped.json", seconds=1.0, heading=told)

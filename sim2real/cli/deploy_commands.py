@@ -24,6 +24,7 @@ from sim2real.cli.args import (
     run_failed,
     seed,
 )
+from sim2real.arg_types import HEADING_HELP, heading_schedule
 from sim2real.errors import UsageError
 from sim2real.hardware.deploy import LOST_AFTER_S
 from sim2real.hardware.trace import MAX_TIME_S, sidecar_path
@@ -31,19 +32,7 @@ from sim2real.robot import DEFAULT_ROBOT, load_robot
 from sim2real.simulation.simbus import service as simbus_service
 
 TRACE_FILE = output_file(exclude=(".json",))  # a trace's sidecar takes its name with .json
-HEADING_HELP = ("steer a controller with a heading input: hold the start's heading turned by DEG (left "
-                "positive), or follow a schedule SECONDS:DEG,... (e.g. 0:0,5:90,12:-45: 90 deg left from 5 s on, "
-                "45 deg right from 12 s on)")
 
-
-def heading_schedule(text: str):
-    """``--heading``'s value: the heading to hold over time (argparse type)."""
-    from sim2real.controller.steering import parse_schedule, schedule_command
-
-    try:
-        return schedule_command(parse_schedule(text))
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 # A run's length: at most what a trace's reader accepts as a loop's time (a week; longer is
 # a slip of units, and 1e308 s overflowed the tick count); without --duration `run` goes on
 # until stopped.
