@@ -97,6 +97,11 @@ class ValidationConfig:
     # the transfer check's question (does the robot walk the way the model did?) on every
     # validation robot.  0: off.
     consistency: float = 0.0
+    # > 0: a draw counts as walked only if its torso never turned further than this from the
+    # start's heading [deg] - a walker that circles is no walker (issue 33)
+    heading_deg: float = 0.0
+    # > 0: validation episodes this long [s] instead of the task's: long enough to see circling
+    episode_s: float = 0.0
 
     @property
     def active(self) -> bool:
@@ -110,6 +115,10 @@ class ValidationConfig:
         out = {"draws": self.draws, "every": self.every, "candidates": self.candidates}
         if self.consistency:
             out["consistency"] = self.consistency
+        if self.heading_deg:
+            out["heading_deg"] = self.heading_deg
+        if self.episode_s:
+            out["episode_s"] = self.episode_s
         return out
 
 
@@ -190,12 +199,15 @@ def parse_randomize(doc: Any, source: str) -> RandomizeConfig:
     strength = node["strength"].number(hi=1.0, positive=True) if node.has("strength") else 1.0
     validation = ValidationConfig()
     if node.has("validation"):
-        v = node["validation"].mapping(required=("draws",), optional=("every", "candidates", "consistency"))
+        v = node["validation"].mapping(required=("draws",), optional=("every", "candidates", "consistency",
+                                                                       "heading_deg", "episode_s"))
         validation = ValidationConfig(
             draws=v["draws"].integer(1, MAX_VALIDATION_DRAWS),
             every=v["every"].integer(1, MAX_GENERATIONS) if v.has("every") else ValidationConfig.every,
             candidates=v["candidates"].integer(1, MAX_CANDIDATES) if v.has("candidates") else ValidationConfig.candidates,
-            consistency=v["consistency"].number(hi=1.0, positive=True) if v.has("consistency") else 0.0)
+            consistency=v["consistency"].number(hi=1.0, positive=True) if v.has("consistency") else 0.0,
+            heading_deg=v["heading_deg"].number(hi=180.0, positive=True, unit="deg") if v.has("heading_deg") else 0.0,
+            episode_s=v["episode_s"].number(hi=MAX_EPISODE_S, positive=True, unit="s") if v.has("episode_s") else 0.0)
         if reality == "nominal":
             raise v.error("validates on randomized draws: give randomize.reality (ranges to draw from)")
     centre = None

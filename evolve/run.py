@@ -121,6 +121,21 @@ class Run:
             raise ValueError(f"unknown backend {backend!r} (local or ray)")
         self.randomized = not self.evaluator.reality.is_nominal
         self.capacity = spec.capacity
+        # validation episodes longer than training's (validation.episode_s): their own evaluator
+        self.validation_backend, self.validation_episode_s = self.backend, self.evaluator.episode_s
+        v = config.randomize.validation
+        if v.active and v.episode_s and v.episode_s != config.task.episode_s:
+            longer = dataclasses.replace(spec, task=dataclasses.replace(config.task, episode_s=v.episode_s).to_dict(),
+                                         capacity=max(1, v.candidates) * v.draws)
+            if backend == "ray":
+                from evolve.ray_backend import RayBackend
+
+                self.validation_backend = RayBackend(longer, address)
+                self.validation_episode_s = build_evaluator(dataclasses.replace(longer, capacity=1,
+                                                                                threads=1)).episode_s
+            else:
+                self.validation_backend = LocalBackend(longer)
+                self.validation_episode_s = self.validation_backend.evaluator.episode_s
         check_stage_joints(config.stages, self.evaluator.layout.driven, str(self.out / "config.yaml"))
         self.finished: list[dict] = read_json(self.out / "stages.json") if (self.out / "stages.json").exists() else []
         first_module = (config.stages[0].name,) if config.stages else ("main",)
@@ -320,12 +335,16 @@ class Run:
         v, pop = self.config.randomize.validation, self.population
         top = np.argsort(-selection, kind="stable")[:v.candidates]
         genomes = [pop.genomes[i] for i in top]
-        episodes = functools.partial(validation_episodes, self.backend, genomes,
+        backend = self.validation_backend
+        capacity = self.capacity if backend is self.backend else len(top) * v.draws
+        episodes = functools.partial(validation_episodes, backend, genomes,
                                      steepness=self.config.neat.sigmoid_steepness, stage=self.stage, draws=v.draws,
-                                     seed=self.config.seed, stage_index=stage_index, capacity=self.capacity)
+                                     seed=self.config.seed, stage_index=stage_index, capacity=capacity)
         e = episodes()
-        leg, episode_s = self.robot.leg_length, self.evaluator.episode_s
+        leg, episode_s = self.robot.leg_length, self.validation_episode_s
         walked = e.walked(leg, episode_s).reshape(len(top), v.draws)
+        if v.heading_deg and "turn" in e.terms:  # a walker that turns away is no walker
+            walked &= e.terms["turn"].reshape(len(top), v.draws) <= v.heading_deg
         if v.consistency:
             model = episodes(on_model=True)
             kept = e.distance_m.reshape(len(top), v.draws) >= v.consistency * model.distance_m[:, None]

@@ -6,6 +6,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 import yaml
 
@@ -74,7 +75,7 @@ def test_stats_log_the_champions_fitness_terms_by_name(config_file, tmp_path):
     with open(out / "stats.csv", newline="") as f:
         reader = csv.DictReader(f)
         rows = list(reader)
-    assert reader.fieldnames[-5:] == ["distance", "time", "progress", "velocity", "yaw_rate"]  # eq. 3, selection's terms
+    assert reader.fieldnames[-6:] == ["distance", "time", "progress", "velocity", "yaw_rate", "turn"]  # eq. 3, selection's terms
     task = TaskConfig()
     for row in rows:  # f = c_d distance + c_t time, to the 6 digits stats.csv keeps
         fitness = task.distance_coeff * float(row["distance"]) + task.time_coeff * float(row["time"])
@@ -283,6 +284,33 @@ def test_with_consistency_a_draw_counts_only_if_it_keeps_the_share_of_the_walk_o
     doc["randomize"]["validation"]["consistency"] = 1.5
     with pytest.raises(ConfigError, match="consistency.*<= 1"):
         parse_evolve_config(doc, "bad.yaml")
+
+
+def test_validation_can_be_longer_than_training_and_refuse_walkers_that_turn(tmp_path):
+    """validation.episode_s: validation's own, longer episodes; validation.heading_deg: a draw
+    counts only if the torso never turned further than that from the start's heading."""
+    from evolve.config import parse_evolve_config
+    from evolve.evaluation import validation_episodes
+    from evolve.run import Run
+
+    doc = {**VALIDATED, "randomize": {**VALIDATED["randomize"], "validation": {
+        **VALIDATED["randomize"]["validation"], "episode_s": 2.0, "heading_deg": 0.5}}}
+    config = parse_evolve_config(doc, "long.yaml")
+    assert config.randomize.validation.to_dict()["episode_s"] == 2.0
+    run = Run.create(config, tmp_path / "run", log=lambda line: None)
+    assert run.validation_backend is not run.backend and run.validation_episode_s > run.evaluator.episode_s
+    run.evolve()
+    best = json.loads((tmp_path / "run" / "best.json").read_text())["validation"]
+    again = validation_episodes(run.validation_backend, [run.best.genome], steepness=config.neat.sigmoid_steepness,
+                                stage=None, draws=3, seed=config.seed, stage_index=0, capacity=3)
+    assert np.all(again.upright_s <= run.validation_episode_s + 1e-9) and again.upright_s.max() > run.evaluator.episode_s
+    counted = again.walked(run.robot.leg_length, run.validation_episode_s) & (again.terms["turn"] <= 0.5)
+    assert best["walked"] == int(counted.sum())
+    for key, value in (("heading_deg", 200.0), ("episode_s", 0.0)):
+        doc["randomize"]["validation"][key] = value
+        with pytest.raises(ConfigError, match=f"validation.{key}"):
+            parse_evolve_config(doc, "bad.yaml")
+        doc["randomize"]["validation"][key] = 1.0
 
 
 def test_validation_needs_ranges_to_draw_from(tmp_path):

@@ -87,10 +87,11 @@ class WalkObjective:
     tracking); ``yaw_rate``, ``exp(-((w - w*) / sigma)^2)`` of the torso's yaw rate w against
     w* = 0.5/s x the turn to the heading to hold (Berkeley Humanoid Lite's heading P-loop),
     sigma ``selection_yaw_sigma_deg_s``.  The heading to hold is the start's, turned by the
-    episode's command (``evaluator.turns``).
+    episode's command (``evaluator.turns``).  ``turn`` [deg], weighted by nothing, is the
+    largest turn from the start's heading while upright (validation can refuse walks that turn).
     """
 
-    TERMS = ("distance", "time", "progress", "velocity", "yaw_rate")
+    TERMS = ("distance", "time", "progress", "velocity", "yaw_rate", "turn")
     HEADING_GAIN = 0.5  # [1/s] the yaw rate asked for per radian of turn still to go
 
     def __init__(self, ev, n: int):
@@ -133,9 +134,8 @@ class WalkObjective:
         self.progress_best[alive[gained]] = progress[gained]
         self.last_gain[alive[gained]] = elapsed[alive[gained]]
         self.fell[alive[down & ~bad]] = True
-        if task.selection_heading_deg:
-            turn = np.abs(turn_rad(ev.heading(live, 0, None), self.start_yaw[live]))
-            self.turned[live] = np.maximum(self.turned[live], turn)
+        turn = np.abs(turn_rad(ev.heading(live, 0, None), self.start_yaw[live]))
+        self.turned[live] = np.maximum(self.turned[live], turn)
         self._steady(alive, ok)
         self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
         self.time_term[alive[bad]] = 0.0
@@ -167,7 +167,8 @@ class WalkObjective:
         terms = {"distance": self.distance_term, "time": self.time_term,
                  "progress": np.where(unstable, 0.0, self.pelvis_best),
                  "velocity": np.where(unstable, 0.0, self.velocity_sum / ticks),
-                 "yaw_rate": np.where(unstable, 0.0, self.yaw_sum / ticks)}
+                 "yaw_rate": np.where(unstable, 0.0, self.yaw_sum / ticks),
+                 "turn": np.degrees(self.turned)}
         fitness = task.distance_coeff * terms["distance"] + task.time_coeff * terms["time"]
         selection = fitness + task.progress_coeff * terms["progress"]
         if task.selection_velocity_coeff or task.selection_yaw_coeff:  # (0 x term: selection as it was)
