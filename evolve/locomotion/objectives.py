@@ -134,20 +134,20 @@ class WalkObjective:
         self.progress_best[alive[gained]] = progress[gained]
         self.last_gain[alive[gained]] = elapsed[alive[gained]]
         self.fell[alive[down & ~bad]] = True
-        turn = np.abs(turn_rad(ev.heading(live, 0, None), self.start_yaw[live]))
-        self.turned[live] = np.maximum(self.turned[live], turn)
-        self._steady(alive, ok)
+        yaw = ev.parts.heading(ev.sensordata)[alive]  # the true yaw, as the board's IMU would read it
+        self.turned[live] = np.maximum(self.turned[live], np.abs(turn_rad(yaw[ok], self.start_yaw[live])))
+        self._steady(alive, ok, yaw)
         self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
         self.time_term[alive[bad]] = 0.0
         stagnant = elapsed[alive] - self.last_gain[alive] > task.stagnation_s
         return down | bad | stagnant
 
-    def _steady(self, alive: np.ndarray, ok: np.ndarray) -> None:
-        """This tick's velocity and yaw-rate kernels, added up for the simulations still up."""
+    def _steady(self, alive: np.ndarray, ok: np.ndarray, yaw: np.ndarray) -> None:
+        """This tick's velocity and yaw-rate kernels (``yaw``: the torso's yaw of ``alive``
+        [rad]), added up for the simulations still up."""
         ev, task = self.ev, self.task
         t, self.ticks = self.ticks, self.ticks + 1
         xy = ev.parts.root_com(ev.xipos)[alive][:, :2]
-        yaw = ev.parts.heading(ev.sensordata)[alive]
         target = self.start_yaw[alive] + (0.0 if ev.turns is None else ev.turns[alive, t])
         step = xy - self.last_xy[alive]
         along = (step[:, 0] * np.cos(target) + step[:, 1] * np.sin(target)) / (ev.tick_s * ev.leg)
