@@ -25,13 +25,11 @@ from typing import Any, Callable
 from evolve.config import EvolveConfig, RandomizeConfig, ValidationConfig
 from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import genome_from_controller
-from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population
-from evolve.replay import evaluate_controller
+from evolve.replay import controller_task, evaluate_controller
 from evolve.run import Run
 from evolve.transfer import transfer_check
 from sim2real.atomic_json import write_json_atomic
-from sim2real.controller import channels
 from sim2real.controller.file import Controller
 from sim2real.simulation.reality import centred, load_reality
 
@@ -50,8 +48,7 @@ def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = 
     data, robot = Controller.load_for_robot(controller)
     centre = load_reality(identified)
     around = centred(load_reality(ranges), centre)  # refused here, with the file named, unless fixed values
-    task = TaskConfig.from_mapping({**dict(data.task), **channels.every_key(data.input_channels)}, str(controller),
-                                   "task.")
+    task = controller_task(data, str(controller))
     task = dataclasses.replace(task, harness_generations=0, harness_fade_generations=0,
                                episode_s=episode_s or task.episode_s)
     randomize = RandomizeConfig(reality=ranges, episodes=episodes, centre=str(identified),

@@ -25,6 +25,13 @@ from sim2real.simulation.model_builder import SimulationUnstable
 from sim2real.simulation.reality import NOMINAL, Reality, load_reality
 
 
+def controller_task(data: Controller, source: str) -> TaskConfig:
+    """The task a controller file was evolved for, reading the file's own inputs whatever its
+    task block says (the file is what the runtime runs)."""
+    task = TaskConfig.from_mapping(dict(data.task), source, "task.")
+    return dataclasses.replace(task, **channels.every_key(data.input_channels))
+
+
 def controller_setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
                      keep_going: bool = False, reality: Reality = NOMINAL, disabled_modules: tuple[str, ...] = (),
                      stagnation_stop: bool = True):
@@ -33,9 +40,8 @@ def controller_setup(path: Path | str, robot: str | None, seconds: float | None,
     the genome it expresses: (controller, robot, evaluator, genome)."""
     data, spec = Controller.load_for_robot(path, robot)
     check_disabled_modules(data, disabled_modules)
-    task = TaskConfig.from_mapping(dict(data.task), str(path), "task.")
+    task = controller_task(data, str(path))
     changes = {"episode_s": float(seconds)} if seconds is not None else {}
-    changes.update(channels.every_key(data.input_channels))  # the file's inputs, whatever its task block says
     if keep_going:
         changes.update(fall_height=1e-6, fall_tilt_deg=180.0)
     if keep_going or not stagnation_stop:

@@ -678,7 +678,7 @@ def _with_heading(valid: dict) -> dict:
 
 
 @pytest.mark.parametrize("extend, has", [
-    (_with_clock, lambda c: c.phase_period_s == 0.6 and c.layout(ROBOT).phase),
+    (_with_clock, lambda c: c.phase_period_s == 0.6 and "clock" in c.layout(ROBOT).inputs),
     (_with_efference, lambda c: c.efference_copy and c.layout(ROBOT).efference),
     (_with_heading, lambda c: c.heading_input and c.input_channels["heading"]["heading_scale_deg"] == 45.0
      and c.layout(ROBOT).heading),

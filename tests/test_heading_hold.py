@@ -109,9 +109,10 @@ def test_selection_pays_a_steady_straight_walk_by_its_terms():
 def test_the_shipped_walker_is_paid_for_its_speed_and_less_for_its_turning():
     """The shipped walker walks 1.2 m in 10 s turning about 100 deg on the nominal robot."""
     from evolve.locomotion.export import genome_from_controller
+    from evolve.replay import controller_task
 
     controller = Controller.load("configs/controllers/xl430_biped.json")
-    task = TaskConfig.from_mapping({**dict(controller.task), "phase_period_s": controller.phase_period_s or 0.0})
+    task = controller_task(controller, "xl430_biped.json")
     ev = LocomotionEvaluator(ROBOT, task, 1, threads=1)
     walk = ev.evaluate([genome_from_controller(controller)], controller.sigmoid_steepness)
     assert walk.terms["velocity"][0] > 0.05 and walk.terms["yaw_rate"][0] < 0.95

@@ -99,10 +99,11 @@ class LocomotionEvaluator:
         self._perturbed = np.zeros(max_population, dtype=bool)
         self.turns: np.ndarray | None = None  # the episode's heading commands (evaluate's turns)
 
-    def heading(self, ids: np.ndarray, tick: int, p: Perturbation | None) -> np.ndarray:
+    def heading(self, ids: np.ndarray, tick: int, p: Perturbation | None,
+                sensors: np.ndarray | None = None) -> np.ndarray:
         """The heading the boards of simulations ``ids`` report at ``tick`` [rad]: the torso's
-        yaw, plus the gyro's drift since the start."""
-        yaw = self.parts.heading(self.sensordata[ids])
+        yaw, plus the gyro's drift since the start (``sensors``: their sensordata, if read already)."""
+        yaw = self.parts.heading(self.sensordata[ids] if sensors is None else sensors)
         return yaw if p is None else yaw + p.heading_drift_rad_s[ids] * (tick * self.tick_s)
 
     def readings(self, alive: np.ndarray, t: int, p: Perturbation | None, goal: np.ndarray,
@@ -127,7 +128,7 @@ class LocomotionEvaluator:
         if self.layout.efference:  # the goals of last tick, every joint (undriven ones hold)
             sent = np.broadcast_to(self.hold, (len(alive), len(self.hold))).copy()
             sent[:, self.driven] = goal[alive]
-        heading = self.heading(alive, t, p) if self.layout.heading else None
+        heading = self.heading(alive, t, p, sensors) if self.layout.heading else None
         return Readings(angles=quantize(q, self.resolution), feet=touch, up=up, time_s=t * self.tick_s,
                         previous_goal=sent, heading=heading,
                         target_heading=None if start_heading is None else

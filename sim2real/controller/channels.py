@@ -84,7 +84,6 @@ class Channel:
     """One kind of input; see the module docstring.  Subclasses fill in the three methods."""
 
     key: str = ""
-    doc: str = ""
     switch: str | None = None  # the key that turns it on (None: always on, or on by its first setting > 0)
     settings: tuple[Setting, ...] = ()
     sensor: str | None = None  # the Readings field it needs beyond angles, feet and up
@@ -131,8 +130,10 @@ def _same(width: int, signs: tuple[float, ...] | None = None) -> tuple[np.ndarra
 
 
 class JointAngles(Channel):
+    """Driven joint angles, own leg, other leg, centre (mirrored: yaw and roll), over each range to
+    [-1, 1]."""
+
     key = "joints"
-    doc = "driven joint angles, own leg, other leg, centre (mirrored: yaw and roll), over each range to [-1, 1]"
 
     def names(self, angles):
         return list(angles)
@@ -152,9 +153,10 @@ class JointAngles(Channel):
 
 
 class Feet(Channel):
+    """Foot switches, own foot first: -1 touching, +1 not (seed 000 section 7.1)."""
+
     key = "feet"
     width = 2
-    doc = "foot switches, own foot first: -1 touching, +1 not (seed 000 section 7.1)"
 
     def names(self, angles):
         return ["own_foot", "other_foot"]
@@ -167,10 +169,11 @@ class Feet(Channel):
 
 
 class UpVector(Channel):
+    """The torso's tilt forward (both networks alike) and toward the network's own side (mirrored),
+    from the IMU's up-vector."""
+
     key = "up"
     width = 2
-    doc = ("the torso's tilt forward (both networks alike) and toward the network's own side "
-           "(mirrored), from the IMU's up-vector")
 
     def names(self, angles):
         return ["up_forward", "up_sideways"]
@@ -184,10 +187,11 @@ class UpVector(Channel):
 
 
 class Heading(Channel):
+    """The torso's turn from the heading to hold (the first tick's, turned by a command) toward the
+    network's own side, over heading_scale_deg, clipped to [-1, 1] (mirrored)."""
+
     key = "heading"
     width = 1
-    doc = ("the torso's turn from the heading to hold (the first tick's, turned by a command) toward the "
-           "network's own side, over heading_scale_deg, clipped to [-1, 1] (mirrored)")
     switch = "heading_input"
     settings = (Setting.of_schema("heading_scale_deg", 180.0, "deg"),)
     sensor = "heading"
@@ -207,10 +211,11 @@ class Heading(Channel):
 
 
 class Gyro(Channel):
+    """The torso's angular rate (roll, pitch, yaw) over gyro_scale_dps, clipped to [-1, 1]; roll
+    and yaw rate mirrored, pitch rate not."""
+
     key = "gyro"
     width = 3
-    doc = ("the torso's angular rate (roll, pitch, yaw) over gyro_scale_dps, clipped to [-1, 1]; roll and "
-           "yaw rate mirrored, pitch rate not")
     switch = "gyro_input"
     settings = (Setting.of_schema("gyro_scale_dps", 180.0, "deg/s"),)
     sensor = "gyro"
@@ -227,9 +232,11 @@ class Gyro(Channel):
 
 
 class Clock(Channel):
+    """The gait clock: sin and cos of 2 pi t / phase_period_s, the left network's half a period
+    later."""
+
     key = "clock"
     width = 2
-    doc = "the gait clock: sin and cos of 2 pi t / phase_period_s, the left network's half a period later"
     settings = (Setting.of_schema("phase_period_s", 0.0, "s"),)
 
     def names(self, angles):
@@ -245,8 +252,9 @@ class Clock(Channel):
 
 
 class EfferenceCopy(Channel):
+    """The goals sent last tick, read as the joint angles are."""
+
     key = "efference"
-    doc = "the goals sent last tick, read as the joint angles are"
     switch = "efference_copy"
 
     def names(self, angles):
@@ -265,8 +273,6 @@ class EfferenceCopy(Channel):
 JOINT_ANGLES = JointAngles()
 CHANNELS: tuple[Channel, ...] = (JOINT_ANGLES, Feet(), UpVector(), Heading(), Gyro(), Clock(), EfferenceCopy())
 BY_KEY: dict[str, Channel] = {c.key: c for c in CHANNELS}
-SETTING_KEYS: tuple[str, ...] = tuple(k for c in CHANNELS for k in ((c.switch,) if c.switch else ())
-                                      + tuple(s.key for s in c.settings))
 
 
 def selection(values: Mapping[str, Any]) -> dict[str, dict[str, float]]:

@@ -211,12 +211,6 @@ class Controller:
     def heading_input(self) -> bool:
         return "heading" in self.input_channels
 
-    @property
-    def sensors(self) -> tuple[str, ...]:
-        """What it reads beyond joint angles, feet and up-vector (``heading``, ``gyro``): the
-        sensor board must report each."""
-        return channels.sensors_needed(self.input_channels)
-
     # -- files ---------------------------------------------------------------------------------
     @classmethod
     def load(cls, path: Path | str, robot: RobotSpec | None = None) -> "Controller":

@@ -103,10 +103,6 @@ class SymmetricLayout:
         return len(self.leg_slots)
 
     @property
-    def phase(self) -> bool:
-        return "clock" in self.inputs
-
-    @property
     def efference(self) -> bool:
         return "efference" in self.inputs
 
