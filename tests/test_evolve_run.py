@@ -75,7 +75,7 @@ def test_stats_log_the_champions_fitness_terms_by_name(config_file, tmp_path):
     with open(out / "stats.csv", newline="") as f:
         reader = csv.DictReader(f)
         rows = list(reader)
-    assert reader.fieldnames[-6:] == ["distance", "time", "progress", "velocity", "yaw_rate", "turn"]  # eq. 3, selection's terms
+    assert reader.fieldnames[-7:] == ["distance", "time", "progress", "velocity", "yaw_rate", "straight", "turn"]  # eq. 3, selection's terms
     task = TaskConfig()
     for row in rows:  # f = c_d distance + c_t time, to the 6 digits stats.csv keeps
         fitness = task.distance_coeff * float(row["distance"]) + task.time_coeff * float(row["time"])

@@ -99,11 +99,13 @@ def test_selection_pays_a_steady_straight_walk_by_its_terms():
     still = ev.evaluate([Genome(0, ev.neat_layout), Genome(1, ev.neat_layout)], 1.0, harness=1.0)
     # standing still: no speed along the heading (the kernel's tail), no turning (its top)
     assert np.all(still.terms["velocity"] < 0.05) and np.all(still.terms["yaw_rate"] > 0.95)
+    assert np.all(still.terms["straight"] <= still.terms["velocity"])  # facing the heading pays no standing
     weighted = LocomotionEvaluator(ROBOT, TaskConfig(episode_s=1.0, selection_velocity_coeff=2.0,
-                                                     selection_yaw_coeff=3.0), 2, threads=1)
+                                                     selection_yaw_coeff=3.0, selection_straight_coeff=4.0), 2, threads=1)
     paid = weighted.evaluate([Genome(0, ev.neat_layout), Genome(1, ev.neat_layout)], 1.0, harness=1.0)
     assert np.array_equal(paid.fitness, still.fitness)  # eq. 3 as reported is unchanged
-    assert np.allclose(paid.selection, still.selection + 2.0 * still.terms["velocity"] + 3.0 * still.terms["yaw_rate"])
+    assert np.allclose(paid.selection, still.selection + 2.0 * still.terms["velocity"] + 3.0 * still.terms["yaw_rate"]
+                       + 4.0 * still.terms["straight"])
 
 
 def test_the_shipped_walker_is_paid_for_its_speed_and_less_for_its_turning():
@@ -116,6 +118,8 @@ def test_the_shipped_walker_is_paid_for_its_speed_and_less_for_its_turning():
     ev = LocomotionEvaluator(ROBOT, task, 1, threads=1)
     walk = ev.evaluate([genome_from_controller(controller)], controller.sigmoid_steepness)
     assert walk.terms["velocity"][0] > 0.05 and walk.terms["yaw_rate"][0] < 0.95
+    # it turns about 100 deg: the heading kernel (sigma 15 deg) takes most of its velocity away
+    assert 0 < walk.terms["straight"][0] < 0.7 * walk.terms["velocity"][0]
 
 
 @pytest.mark.parametrize("values, problem", [

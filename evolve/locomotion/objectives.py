@@ -86,12 +86,17 @@ class WalkObjective:
     the target ``selection_speed_leg_s`` [leg lengths/s] (ToddlerBot's and Open Duck's velocity
     tracking); ``yaw_rate``, ``exp(-((w - w*) / sigma)^2)`` of the torso's yaw rate w against
     w* = 0.5/s x the turn to the heading to hold (Berkeley Humanoid Lite's heading P-loop),
-    sigma ``selection_yaw_sigma_deg_s``.  The heading to hold is the start's, turned by the
+    sigma ``selection_yaw_sigma_deg_s``; ``straight``, the velocity kernel times
+    ``exp(-(e / sigma_h)^2)`` of the heading error e (ToddlerBot's torso-orientation term against
+    the commanded path's yaw), sigma_h ``selection_heading_sigma_deg``, weighted by
+    ``selection_straight_coeff``: standing still earns the yaw-rate kernel in full and this
+    product nothing, and a walker that circles earns it only while it faces the heading.
+    The heading to hold is the start's, turned by the
     episode's command (``evaluator.turns``).  ``turn`` [deg], weighted by nothing, is the
     largest turn from the start's heading while upright (validation can refuse walks that turn).
     """
 
-    TERMS = ("distance", "time", "progress", "velocity", "yaw_rate", "turn")
+    TERMS = ("distance", "time", "progress", "velocity", "yaw_rate", "straight", "turn")
     HEADING_GAIN = 0.5  # [1/s] the yaw rate asked for per radian of turn still to go
 
     def __init__(self, ev, n: int):
@@ -114,6 +119,7 @@ class WalkObjective:
         self.last_yaw = self.start_yaw.copy()
         self.velocity_sum = np.zeros(n)  # sums of the kernels over live ticks
         self.yaw_sum = np.zeros(n)
+        self.straight_sum = np.zeros(n)
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, task = self.ev, self.task
@@ -143,7 +149,7 @@ class WalkObjective:
         return down | bad | stagnant
 
     def _steady(self, alive: np.ndarray, ok: np.ndarray, yaw: np.ndarray) -> None:
-        """This tick's velocity and yaw-rate kernels (``yaw``: the torso's yaw of ``alive``
+        """This tick's velocity, yaw-rate and straight kernels (``yaw``: the torso's yaw of ``alive``
         [rad]), added up for the simulations still up."""
         ev, task = self.ev, self.task
         t, self.ticks = self.ticks, self.ticks + 1
@@ -156,9 +162,11 @@ class WalkObjective:
         speed = task.selection_speed_leg_s
         velocity = np.exp(-((along - speed) / (0.5 * speed)) ** 2)
         steady = np.exp(-((rate - wanted) / np.radians(task.selection_yaw_sigma_deg_s)) ** 2)
+        facing = np.exp(-(turn_rad(yaw, target) / np.radians(task.selection_heading_sigma_deg)) ** 2)
         live = alive[ok]
         self.velocity_sum[live] += velocity[ok]
         self.yaw_sum[live] += steady[ok]
+        self.straight_sum[live] += (velocity * facing)[ok]
         self.last_xy[alive], self.last_yaw[alive] = xy, yaw
 
     def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes:
@@ -168,12 +176,14 @@ class WalkObjective:
                  "progress": np.where(unstable, 0.0, self.pelvis_best),
                  "velocity": np.where(unstable, 0.0, self.velocity_sum / ticks),
                  "yaw_rate": np.where(unstable, 0.0, self.yaw_sum / ticks),
+                 "straight": np.where(unstable, 0.0, self.straight_sum / ticks),
                  "turn": np.degrees(self.turned)}
         fitness = task.distance_coeff * terms["distance"] + task.time_coeff * terms["time"]
         selection = fitness + task.progress_coeff * terms["progress"]
-        if task.selection_velocity_coeff or task.selection_yaw_coeff:  # (0 x term: selection as it was)
+        if task.selection_velocity_coeff or task.selection_yaw_coeff or task.selection_straight_coeff:
             selection = (selection + task.selection_velocity_coeff * terms["velocity"]
-                         + task.selection_yaw_coeff * terms["yaw_rate"])
+                         + task.selection_yaw_coeff * terms["yaw_rate"]
+                         + task.selection_straight_coeff * terms["straight"])
         if task.selection_distance_cap > 0:
             selection = selection - task.distance_coeff * np.maximum(terms["distance"] - task.selection_distance_cap, 0.0)
         episodes = Episodes(fitness, selection, self.distance, upright, self.fell, unstable, steps, terms)
