@@ -36,7 +36,7 @@ from sim2real.robot import RobotSpec
 from sim2real.robot.spec import GRAVITY
 from sim2real.robot.timing import control_timing
 from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import RobotModel
+from sim2real.simulation.robot_model import RobotModel, imu_between
 from sim2real.simulation.reality import (
     NOMINAL,
     PERTURBED_FIELDS,
@@ -118,6 +118,10 @@ class LocomotionEvaluator:
         touch = self.parts.feet_touching(sensors)
         up = self.parts.up(sensors)
         gyro = self.parts.gyro(sensors) if self.layout.gyro else None
+        yaw = None
+        if p is not None and p.imu_delay_s.any():
+            imu = self._delayed_imu(alive, t, p, sensors)
+            up, gyro, yaw = imu[:, :3], (imu[:, 3:6] if self.layout.gyro else None), imu[:, 6]
         if p is not None:
             q = q + p.joint_noise_rad[alive, t]
             touch = touch ^ p.foot_flip[alive, t]
@@ -128,11 +132,27 @@ class LocomotionEvaluator:
         if self.layout.efference:  # the goals of last tick, every joint (undriven ones hold)
             sent = np.broadcast_to(self.hold, (len(alive), len(self.hold))).copy()
             sent[:, self.driven] = goal[alive]
-        heading = self.heading(alive, t, p, sensors) if self.layout.heading else None
+        heading = None
+        if self.layout.heading:
+            heading = self.heading(alive, t, p, sensors) if yaw is None else yaw + p.heading_drift_rad_s[alive] * (t * self.tick_s)
         return Readings(angles=quantize(q, self.resolution), feet=touch, up=up, time_s=t * self.tick_s,
                         previous_goal=sent, heading=heading,
                         target_heading=None if start_heading is None else
                         start_heading[alive] + (0.0 if turns is None else turns[alive, t]), gyro=gyro)
+
+    def _delayed_imu(self, alive: np.ndarray, t: int, p: Perturbation, sensors: np.ndarray) -> np.ndarray:
+        """The IMU readings (packed as :meth:`RobotModel.imu`) the boards of ``alive`` report at
+        tick ``t``: each ``p.imu_delay_s`` old, between the ticks' own readings, which a history
+        from tick 0 keeps (a reading older than the episode is its first)."""
+        if t == 0:
+            self._imu_history = np.zeros((len(p), self.n_ticks + 1, 7))
+        history = self._imu_history
+        history[alive, t] = self.parts.imu(sensors)
+        lag = p.imu_delay_s[alive] / self.tick_s  # [ticks]
+        whole = np.floor(lag).astype(np.intp)
+        newer = history[alive, np.maximum(t - whole, 0)]
+        older = history[alive, np.maximum(t - whole - 1, 0)]
+        return imu_between(newer, older, lag - whole)
 
     def joint_angles(self, ids: np.ndarray) -> np.ndarray:
         """Joint angles of simulations ``ids`` (len(ids), joints) [rad], unquantized and

@@ -70,6 +70,8 @@ PERTURBATIONS: dict[str, tuple[float, str]] = {
     "gyro_noise_dps": (0.0, "standard deviation of the noise on each gyro rate [deg/s]"),
     "gyro_bias_dps": (0.0, "each gyro rate's bias [deg/s] (drawn per episode and axis; give a range about 0 "
                            "for either sign)"),
+    "imu_delay_ms": (0.0, "age of the IMU's readings (up vector, heading, gyro) when the board reports them "
+                          "[ms]: its fusion's output period and filter lag"),
 }
 # Effects only the simulated bus gives its robot: it steps one model in Python and can change
 # it between physics steps, which mujoco.batch (evolution, `biped eval`) cannot.  They make the
@@ -109,6 +111,7 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
     # +-20 deg/s (MPU-6050, uncalibrated).  The bounds are wide enough to test a bad one.
     "gyro_noise_dps": (0.0, 100.0),
     "gyro_bias_dps": (-100.0, 100.0),
+    "imu_delay_ms": (0.0, 500.0),
     "stribeck_nm": (0.0, 5.0),
     "stribeck_rad_s": (0.001, 10.0),  # it divides: never 0
     "load_friction": (0.0, 1.0),
@@ -359,6 +362,7 @@ class Perturbation:
     gyro_noise_sd_rad_s: np.ndarray  # (n,)
     gyro_noise_rad_s: np.ndarray  # (n, n_ticks, 3)
     gyro_bias_rad_s: np.ndarray  # (n, 3)
+    imu_delay_s: np.ndarray  # (n,)
 
     def __len__(self) -> int:
         return len(self.latency_s)
@@ -419,6 +423,7 @@ def sample(reality: Reality, keys: np.ndarray, model: mujoco.MjModel, n_ticks: i
         out["gyro_noise_rad_s"].append(rng.normal(0.0, 1.0, (n_ticks, 3)) * gyro_sd if gyro_sd else
                                        np.zeros((n_ticks, 3)))
         out["gyro_bias_rad_s"].append(np.radians(draw("gyro_bias_dps", 3)))
+        out["imu_delay_s"].append(draw("imu_delay_ms") / 1e3)  # last of all, as the gyro's
     return Perturbation(**{k: np.array(v) for k, v in out.items()})
 
 

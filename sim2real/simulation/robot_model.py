@@ -24,6 +24,7 @@ from typing import Sequence
 import mujoco
 import numpy as np
 
+from sim2real.controller.channels import turn_rad
 from sim2real.robot import RobotSpec
 
 FEET = ("left", "right")  # the order of every per-foot array
@@ -50,6 +51,16 @@ def joint_sensor(joint: str) -> str:
 def is_collision_geom(contype: int, conaffinity: int) -> bool:
     """Whether a geom takes part in contacts (a visual-only geom has both bitmasks 0)."""
     return bool(contype) or bool(conaffinity)
+
+
+def imu_between(newer: np.ndarray, older: np.ndarray, share: np.ndarray | float) -> np.ndarray:
+    """IMU readings (..., 7) as :meth:`RobotModel.imu` packs them, ``share`` (0-1, broadcast
+    over the leading axes) of the way from ``newer`` back to ``older``: what a board reports
+    whose readings are that old.  The yaw (last) is interpolated the short way round."""
+    share = np.asarray(share, dtype=float)[..., None]
+    out = newer + share * (older - newer)
+    out[..., 6] = newer[..., 6] + share[..., 0] * turn_rad(older[..., 6], newer[..., 6])
+    return out
 
 
 def heading_rad(forward: np.ndarray) -> np.ndarray:
@@ -153,6 +164,11 @@ class RobotModel:
     def gyro(self, sensordata: np.ndarray) -> np.ndarray:
         """(..., 3) the torso's angular rate about its x, y, z axes [rad/s], noise-free."""
         return sensordata[..., self.gyro_adr:self.gyro_adr + 3]
+
+    def imu(self, sensordata: np.ndarray) -> np.ndarray:
+        """(..., 7) everything the board's IMU reports, packed: up (3), gyro (3), yaw [rad] -
+        what a delayed IMU keeps a history of (:func:`imu_between`)."""
+        return np.concatenate([self.up(sensordata), self.gyro(sensordata), self.heading(sensordata)[..., None]], axis=-1)
 
     def root_com(self, xipos: np.ndarray) -> np.ndarray:
         """(..., 3) the root body's centre of mass [m] from ``xipos`` (..., nbody, 3)."""

@@ -20,6 +20,7 @@ for ``biped excite``.
 
 from __future__ import annotations
 
+import collections
 import math
 import threading
 import time
@@ -36,7 +37,7 @@ from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
 from sim2real.simulation.model_builder import instability
-from sim2real.simulation.robot_model import RobotModel
+from sim2real.simulation.robot_model import RobotModel, imu_between
 from sim2real.simulation.reality import EFFECTS, NOMINAL, Reality, perturbed_model
 
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
@@ -97,6 +98,10 @@ class PhysicsChain:
         self.overload_at: dict[int, float] = {}  # fault injection: servo id -> simulated time
         self.end_of_run: dict[str, float | bool] | None = None  # ground truth when the loop ended
         self.lock = threading.Lock()
+        # a delayed IMU: its readings after each physics step, as long back as the delay reaches
+        delay_steps = int(math.ceil(self.perturbation.imu_delay_s[0] / self.model.opt.timestep))
+        self._imu_history: collections.deque | None = (collections.deque(maxlen=delay_steps + 2)
+                                                        if delay_steps else None)
         self._started = clock()
         self._publish()
         self._start_soles, self._start_height = self.sole_x(), self.root_height()
@@ -139,6 +144,8 @@ class PhysicsChain:
                     self.effects.apply(self.model, self.data)
                 mujoco.mj_step(self.model, self.data)
                 self._check_overload(on)
+                if self._imu_history is not None:
+                    self._imu_history.append((self.data.time, self.parts.imu(self.data.sensordata)))
             self._publish()
 
     def _check_overload(self, on: np.ndarray) -> None:
@@ -182,18 +189,34 @@ class PhysicsChain:
                         for closed in self.parts.feet_touching(self.data.sensordata)]
             board.set_named(Reg.FOOT_SWITCH_LEFT, int(touching[0]))
             board.set_named(Reg.FOOT_SWITCH_RIGHT, int(touching[1]))
-            up = self.parts.up(self.data.sensordata) + self.rng.normal(0.0, 1.0, 3) * p.up_noise_sd[0]
+            imu = self._imu()
+            up = imu[:3] + self.rng.normal(0.0, 1.0, 3) * p.up_noise_sd[0]
             for reg, value in zip((Reg.UP_VECTOR_X, Reg.UP_VECTOR_Y, Reg.UP_VECTOR_Z), up):
                 board.set_named(reg, int(round(float(value) / board.profile.units["up_vector_unit"])))
             if board_reports(self.robot, "heading"):  # the IMU's yaw, drifting as this robot's gyro does
-                yaw = float(turn_rad(self.heading() + p.heading_drift_rad_s[0] * self.data.time, 0.0))
+                yaw = float(turn_rad(imu[6] + p.heading_drift_rad_s[0] * self.data.time, 0.0))
                 board.set_named(Reg.HEADING, int(round(yaw / board.profile.units["heading_unit"])))
             if board_reports(self.robot, "gyro"):  # the torso's angular rates, with this gyro's bias and noise
-                rates = self.parts.gyro(self.data.sensordata) + p.gyro_bias_rad_s[0]
+                rates = imu[3:6] + p.gyro_bias_rad_s[0]
                 if p.gyro_noise_sd_rad_s[0]:  # drawn only then: a reality without it draws as before the gyro
                     rates = rates + self.rng.normal(0.0, 1.0, 3) * p.gyro_noise_sd_rad_s[0]
                 for reg, value in zip((Reg.GYRO_X, Reg.GYRO_Y, Reg.GYRO_Z), rates):
                     board.set_named(reg, int(round(float(value) / board.profile.units["gyro_unit"])))
+
+    def _imu(self) -> np.ndarray:
+        """What the board's IMU reports now (packed as :meth:`RobotModel.imu`): this robot's
+        ``imu_delay_s`` old, between the physics steps' readings (before the first, the oldest)."""
+        now = self.parts.imu(self.data.sensordata)
+        if self._imu_history is None or not self._imu_history:
+            return now
+        when = self.data.time - self.perturbation.imu_delay_s[0]
+        newer_t, newer = self.data.time, now
+        for older_t, older in reversed(self._imu_history):
+            if older_t <= when:
+                share = (newer_t - when) / (newer_t - older_t) if newer_t > older_t else 0.0
+                return imu_between(newer, older, share)
+            newer_t, newer = older_t, older
+        return newer
 
     # -- ground truth, for dry-run reports ---------------------------------------------------------
     def sole_x(self) -> np.ndarray:
