@@ -59,7 +59,7 @@ from evolve.limits import (
 from evolve.locomotion.pushes import Pushes
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig
-from evolve.stages import Stage, check_stage_joints, parse_stages
+from evolve.stages import Stage, check_stage_joints, parse_stages, with_task
 from sim2real.errors import ConfigError
 from sim2real.robot import DEFAULT_ROBOT, RobotSpec, load_robot
 from sim2real.robot.spec import JOINT_ANGLE_DEG
@@ -295,6 +295,7 @@ def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
     values["randomize"] = parse_randomize(doc.get("randomize"), source)
     values["stages"] = parse_stages(doc.get("stages"), source)
     check_stage_joints(values["stages"], robot.control_sets[control_set], source)
+    values["stages"] = with_task(values["stages"], values["task"], robot, source)
     _check_stages(values["stages"], source)
     config = EvolveConfig(**values)
     check_sizes(config, robot, source)

@@ -23,7 +23,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
-from evolve.locomotion.objectives import OBJECTIVES, Objective, ObjectiveType, PoseWeights
+from evolve.locomotion.objectives import OBJECTIVES, REACH_BONUS, Objective, ObjectiveType, PoseWeights
 from sim2real.errors import ConfigError
 from sim2real.robot.validation import Node, dataclass_from_mapping, show, show_key
 
@@ -36,6 +36,7 @@ class Stage:
     threshold: float = 0.0  # share of the theoretical maximum that ends the stage (0: run the budget)
     weights: PoseWeights | None = None  # eq. 4.1 error weights (pose and stand)
     target_pose_deg: dict[str, float] = field(default_factory=dict)  # joint -> target; others: home
+    bonus_max: float = 0.0  # the objective's largest bonus (reaching's 100 T / i), from the task
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"name": self.name, "objective": self.objective, "generations": self.generations}
@@ -53,7 +54,7 @@ class Stage:
 
     @property
     def max_fitness(self) -> float:
-        return math.inf if self.weights is None else self.weights.max_fitness()
+        return math.inf if self.weights is None else self.weights.max_fitness() + self.bonus_max
 
     def solved(self, fitness: float) -> bool:
         return bool(self.threshold) and fitness >= self.threshold * self.max_fitness
@@ -96,6 +97,26 @@ def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
             target = {k: v.number() for k, v in item["target_pose_deg"].items()}
         stages.append(Stage(name, objective, generations, threshold, weights, target))
     return tuple(stages)
+
+
+def with_task(stages: tuple[Stage, ...], task, robot, source: str) -> tuple[Stage, ...]:
+    """The stages with what they take from the task and robot: a reach stage needs the reach
+    input (the state machine's state reaches the networks through it) and a right hand, and
+    its theoretical maximum adds seed 002's largest bonus, 100 T / i: a goal every
+    ``reach_phase_s`` of the episode."""
+    out = []
+    for i, stage in enumerate(stages):
+        if stage.objective == "reach":
+            if not task.reach_input:
+                raise ConfigError(source, f"stages[{i}].objective", "a reach stage needs task.reach_input: true "
+                                  "(the networks read the reach state through it)")
+            hands = robot.model.hands if robot.model is not None else {}
+            if "right" not in hands:
+                raise ConfigError(source, f"stages[{i}].objective", f"robot {robot.name} has no right hand "
+                                  "(model.hands.right in its config): nothing to reach with")
+            stage = dataclasses.replace(stage, bonus_max=REACH_BONUS * math.floor(task.episode_s / task.reach_phase_s))
+        out.append(stage)
+    return tuple(out)
 
 
 def check_stage_joints(stages: tuple[Stage, ...], driven: tuple[str, ...], source: str) -> None:

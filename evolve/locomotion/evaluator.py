@@ -36,7 +36,7 @@ from sim2real.robot import RobotSpec
 from sim2real.robot.spec import GRAVITY
 from sim2real.robot.timing import control_timing
 from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import RobotModel, imu_between
+from sim2real.simulation.robot_model import Arm, RobotModel, imu_between
 from sim2real.simulation.reality import (
     NOMINAL,
     PERTURBED_FIELDS,
@@ -96,8 +96,20 @@ class LocomotionEvaluator:
         self.sensordata = self.batch.bind("sensordata")
         self.site_xpos, self.xipos = self.batch.bind("site_xpos"), self.batch.bind("xipos")
         self.subtree_com = self.batch.bind("subtree_com")
+        if self.layout.reach:  # what reaching reads: bound only then, as every bound output is copied each step
+            self.xpos, self.xmat = self.batch.bind("xpos"), self.batch.bind("xmat")
+            self.actuator_force = self.batch.bind("actuator_force")
         self._perturbed = np.zeros(max_population, dtype=bool)
         self.turns: np.ndarray | None = None  # the episode's heading commands (evaluate's turns)
+        self.objective: Objective | None = None  # the episode's, which may drive inputs (the reach state)
+        self._arm: Arm | None = None
+
+    @property
+    def arm(self) -> Arm:
+        """The right arm's parts (reaching needs them; refused, naming the robot, without)."""
+        if self._arm is None:
+            self._arm = Arm.of(self.model, self.robot)
+        return self._arm
 
     def heading(self, ids: np.ndarray, tick: int, p: Perturbation | None,
                 sensors: np.ndarray | None = None) -> np.ndarray:
@@ -135,10 +147,18 @@ class LocomotionEvaluator:
         heading = None
         if self.layout.heading:
             heading = self.heading(alive, t, p, sensors) if yaw is None else yaw + p.heading_drift_rad_s[alive] * (t * self.tick_s)
+        reach_state = reach_target = None
+        if self.layout.reach:  # the objective's state machine tells the networks when to reach
+            inputs = getattr(self.objective, "reach_inputs", None)
+            if inputs is not None:
+                reach_state, reach_target = inputs(alive)
+            else:  # a stage below reaching: never told to reach
+                reach_state, reach_target = np.zeros(len(alive)), np.zeros((len(alive), 3))
         return Readings(angles=quantize(q, self.resolution), feet=touch, up=up, time_s=t * self.tick_s,
                         previous_goal=sent, heading=heading,
                         target_heading=None if start_heading is None else
-                        start_heading[alive] + (0.0 if turns is None else turns[alive, t]), gyro=gyro)
+                        start_heading[alive] + (0.0 if turns is None else turns[alive, t]), gyro=gyro,
+                        reach_state=reach_state, reach_target=reach_target)
 
     def _delayed_imu(self, alive: np.ndarray, t: int, p: Perturbation, sensors: np.ndarray) -> np.ndarray:
         """The IMU readings (packed as :meth:`RobotModel.imu`) the boards of ``alive`` report at
@@ -210,7 +230,7 @@ class LocomotionEvaluator:
         self.xfrc[:n] = 0.0
         net = PopulationNetwork([g for g in genomes for _ in range(2)], steepness, disabled_modules,
                                 bias_values(n))
-        score = (objective or WalkObjective)(self, n)
+        score = self.objective = (objective or WalkObjective)(self, n)
         start_root = self.parts.root_com(self.xipos[:n]).copy()
         goal = self.hold[self.driven][None, :].repeat(n, axis=0)
         elapsed = np.zeros(n)

@@ -20,7 +20,8 @@ from typing import Any, Callable, Mapping, Protocol
 
 import numpy as np
 
-from sim2real.controller.channels import turn_rad
+from sim2real.controller.channels import Reach, turn_rad
+from sim2real.controller.reach import REACHING, ReachCycle
 
 
 # "walked": 2.2 leg lengths forward, upright to the end (seed 000's 2 m for a 0.9 m human leg)
@@ -203,10 +204,12 @@ class PoseWeights:
     rest_pose_end: float = 1.0  # E_restPoseEnd: squared joint errors at the end [rad^2]
     com: float = 0.0  # E_COM: squared distance of the CoM to its target at the end [leg lengths^2]
     feet: float = 0.0  # E_feet: squared altitudes of both feet at the end [leg lengths^2]
+    reaching: float = 0.0  # E_reaching (eq. 4.6): the hand's distance to its goal summed over ticks [arm lengths]
+    torque: float = 0.0  # E_torque (eq. 4.7): squared torques over joints and ticks [shares of each limit^2]
 
     def max_fitness(self) -> float:
         """Eq. 4.1's theoretical maximum: no failure, every error 0."""
-        return 100.0 * float(np.prod([1.0 + w for w in (self.rest_pose, self.rest_pose_end, self.com, self.feet)]))
+        return 100.0 * float(np.prod([1.0 + w for w in dataclasses.astuple(self)]))
 
 
 @dataclass(frozen=True)
@@ -248,9 +251,9 @@ class PoseObjective:
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, limits = self.ev, self.limits
         q = ev.joint_angles(alive)[:, ev.driven]
-        squared = ((q - self.target) ** 2).sum(axis=1)
+        squared = (((q - self.target) ** 2) * self._counted(alive)).sum(axis=1)
         self.pose_error[alive] += squared
-        fail = bad | ~(self.pose_error[alive] <= limits.rest_pose)
+        fail = bad | ~(self.pose_error[alive] <= limits.rest_pose) | self._failed(alive)
         com = ev.subtree_com[alive, ev.root]
         com_err = ((com - self.com_target[alive]) ** 2).sum(axis=1) / ev.leg ** 2
         height = (ev.parts.sole_positions(ev.site_xpos)[alive][..., 2] - self.sole_z0[alive]) / ev.leg
@@ -265,17 +268,109 @@ class PoseObjective:
         # the end state is the last one before a failure
         self.end_pose[ok], self.end_com[ok], self.end_feet[ok] = squared[~fail], com_err[~fail], feet_err[~fail]
         self.fell[alive[fail & ~bad]] = True
+        self._went_on(ok)
         return fail
+
+    def _counted(self, alive: np.ndarray) -> np.ndarray | float:
+        """Which driven joints the rest-pose errors count, (len(alive), driven) or 1: all."""
+        return 1.0
+
+    def _failed(self, alive: np.ndarray) -> np.ndarray | bool:
+        """A failure rule beyond the pose's and standing's (bool per ``alive``)."""
+        return False
+
+    def _went_on(self, ok: np.ndarray) -> None:
+        """After a tick's rules, for the simulations ``ok`` that passed them."""
 
     def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes:
         terms = {"survival": 100.0 * self.ticks / self.ev.n_ticks, "rest_pose": self.pose_error,
                  "rest_pose_end": self.end_pose, "com": self.end_com, "feet": self.end_feet}
         fitness = terms["survival"]
-        for name in self.TERMS[1:]:
+        for name in PoseObjective.TERMS[1:]:
             fitness = fitness * (1.0 + getattr(self.weights, name) / (1.0 + terms[name]))
         fitness = np.where(unstable, 0.0, fitness)
         distance = np.zeros(len(fitness))
         return Episodes(fitness, fitness.copy(), distance, upright, self.fell, unstable, steps, terms)
+
+
+REACH_BONUS = 100.0  # seed 002: fitness for each goal reached (its maximum, 100 T / i, for a goal every i of T frames)
+
+
+class ReachObjective(PoseObjective):
+    """Seed 002's reaching (section 4.1.1): standing's terms, the right arm left out of the rest
+    pose while it reaches, plus eq. 4.6 (``reaching``: the hand's distance to its goal - the
+    target while reaching, its rest while returning - summed over ticks [arm lengths]) and
+    eq. 4.7 (``torque``: squared actuator forces as shares of their limits, summed over joints
+    and ticks: one setting for every robot's torques), and :data:`REACH_BONUS` for each goal
+    reached (``reaches``), which :class:`sim2real.controller.reach.ReachCycle` counts and
+    toggles.  An elbow inside the torso's box (the upper arm through the thorax) fails the
+    trial, unless it is inside at the home pose already.
+
+    Positions are in the root body's frame, so that the target moves with the robot as it
+    does on a real one (whose hand the runtime knows only relative to its body).  The target
+    is the task's ``reach_forward``/``reach_left``/``reach_up`` from the right shoulder, fixed
+    as in the thesis; the arm length is the shoulder to the hand's centre of mass at home.
+    """
+
+    TERMS = PoseObjective.TERMS + ("reaching", "torque", "reaches")
+
+    def __init__(self, ev, n: int, weights: PoseWeights, limits: PoseLimits, target_rad: np.ndarray):
+        super().__init__(ev, n, weights, limits, target_rad)
+        task, arm = ev.task, ev.arm
+        self.arm = arm
+        self.xpos, self.xmat, self.force = ev.xpos, ev.xmat, ev.actuator_force
+        self.force_limit = np.abs(ev.model.actuator_forcerange).max(axis=1)
+        self.arm_joints = np.isin(np.array(ev.layout.driven), arm.joints)
+        ids = np.arange(n)
+        hand, shoulder = self._hand(ids), self._in_root(ids, self.xpos[:n, arm.shoulder])
+        self.arm_length = np.linalg.norm(hand - shoulder, axis=1)
+        self.rest = hand
+        self.offset = Reach.target(task.to_dict())
+        self.reach_target = shoulder + self.arm_length[:, None] * self.offset
+        self.cycle = ReachCycle(n, task.reach_phase_s, task.reach_tolerance)
+        self.reaching = np.zeros(n)
+        self.torque = np.zeros(n)
+        self.thorax_rule = ~self._elbow_in_torso(ids)
+
+    def reach_inputs(self, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The reach state and target (arm lengths from the shoulder) the networks of ``alive`` read."""
+        return self.cycle.state[alive], np.broadcast_to(self.offset, (len(alive), 3))
+
+    def _in_root(self, ids: np.ndarray, points: np.ndarray) -> np.ndarray:
+        root = self.ev.root
+        rotation = self.xmat[ids, root].reshape(-1, 3, 3)
+        return np.einsum("ni,nij->nj", points - self.xpos[ids, root], rotation)
+
+    def _hand(self, ids: np.ndarray) -> np.ndarray:
+        return self._in_root(ids, self.ev.xipos[ids, self.arm.hand])
+
+    def _elbow_in_torso(self, ids: np.ndarray) -> np.ndarray:
+        arm = self.arm
+        rotation = self.xmat[ids, arm.torso].reshape(-1, 3, 3)
+        local = np.einsum("ni,nij->nj", self.xpos[ids, arm.elbow] - self.xpos[ids, arm.torso], rotation)
+        return np.all((local > arm.torso_box[0]) & (local < arm.torso_box[1]), axis=1)
+
+    def _counted(self, alive):
+        reaching = self.cycle.state[alive] == REACHING
+        return np.where(reaching[:, None] & self.arm_joints[None, :], 0.0, 1.0)
+
+    def _failed(self, alive):
+        return self.thorax_rule[alive] & self._elbow_in_torso(alive)
+
+    def _went_on(self, ok):
+        goal = np.where((self.cycle.state[ok] == REACHING)[:, None], self.reach_target[ok], self.rest[ok])
+        error = np.linalg.norm(self._hand(ok) - goal, axis=1) / self.arm_length[ok]
+        self.reaching[ok] += error
+        self.torque[ok] += ((self.force[ok] / self.force_limit) ** 2).sum(axis=1)
+        self.cycle.update(ok, error, self.ev.tick_s)
+
+    def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes:
+        e = super().result(upright, unstable, steps)
+        terms = dict(e.terms, reaching=self.reaching, torque=self.torque, reaches=self.cycle.reached.astype(float))
+        fitness = e.fitness * (1.0 + self.weights.reaching / (1.0 + self.reaching)) \
+            * (1.0 + self.weights.torque / (1.0 + self.torque)) + REACH_BONUS * terms["reaches"]
+        fitness = np.where(unstable, 0.0, fitness)
+        return dataclasses.replace(e, fitness=fitness, selection=fitness.copy(), terms=terms)
 
 
 def pose_target(ev, target_pose_deg: Mapping[str, float]) -> np.ndarray:
@@ -303,10 +398,16 @@ def _posing(standing: bool) -> Callable[[Any, int, "PoseWeights | None", Mapping
     return make
 
 
-# every objective a stage can name; weights default to table 4.1 (pose 3, 1; stand 1, 1, 1, 1)
+def _reaching(ev, n: int, weights: PoseWeights | None, target_pose_deg: Mapping[str, float]) -> Objective:
+    return ReachObjective(ev, n, weights, PoseLimits(standing=True), pose_target(ev, target_pose_deg))
+
+
+# every objective a stage can name; weights default to table 4.1 (pose 3, 1; stand 1, 1, 1, 1;
+# reach 1, 1, 1, 1, 2, 1)
 OBJECTIVES: dict[str, ObjectiveType] = {
     "pose": ObjectiveType(PoseObjective.TERMS, PoseWeights(3.0, 1.0, 0.0, 0.0), False, _posing(False)),
     "stand": ObjectiveType(PoseObjective.TERMS, PoseWeights(1.0, 1.0, 1.0, 1.0), False, _posing(True)),
+    "reach": ObjectiveType(ReachObjective.TERMS, PoseWeights(1.0, 1.0, 1.0, 1.0, 2.0, 1.0), False, _reaching),
     "walk": ObjectiveType(WalkObjective.TERMS, None, True, lambda ev, n, weights, target: WalkObjective(ev, n)),
 }
 DEFAULT_OBJECTIVE = "walk"  # what a run without stages evolves on (the evaluator's default)

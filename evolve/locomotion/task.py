@@ -40,6 +40,9 @@ BOUNDED = (("episode_s", 0.0, MAX_EPISODE_S), ("fall_tilt_deg", 0.0, 180.0), ("s
 LEGACY_CONTACT_THRESHOLD = "contact_threshold"  # the task's key for it until the robot owned it
 
 
+SIGNED = ("reach_forward", "reach_left", "reach_up")  # offsets: either sign
+
+
 @dataclass(frozen=True)
 class TaskConfig:
     control_set: str = "walk"  # which joints the controller drives (robot's control_sets)
@@ -69,6 +72,14 @@ class TaskConfig:
     heading_turn_max_deg: float = 30.0  # [deg] a commanded turn is drawn within +- this
     gyro_input: bool = False  # the networks get the torso's angular rate (channels.Gyro)
     gyro_scale_dps: float = channels.Gyro.settings[0].default  # [deg/s] the rate that input reads as 1 (clipped beyond)
+    # seed 002's reaching (channels.Reach, objective "reach"): the target from the right shoulder
+    # [arm lengths], when the hand has reached a goal, and how soon the reach state may toggle
+    reach_input: bool = False
+    reach_forward: float = channels.REACH.settings[0].default
+    reach_left: float = channels.REACH.settings[1].default
+    reach_up: float = channels.REACH.settings[2].default
+    reach_tolerance: float = channels.REACH.settings[3].default
+    reach_phase_s: float = channels.REACH.settings[4].default
     harness_generations: int = 100  # generations with the support harness (0: never)
     harness_fade_generations: int = 50  # over its last this many generations it weakens to nothing
     harness_stiffness: float = 10.0  # harness spring: this many body weights per leg length [m g / L]
@@ -95,7 +106,7 @@ class TaskConfig:
             v = getattr(config, f.name)
             if isinstance(v, float) and not math.isfinite(v):  # a controller file holds the task
                 raise ConfigError(source, prefix + f.name, f"must be finite, got {v}")
-            if isinstance(v, (int, float)) and not isinstance(v, bool) and v < 0:
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and v < 0 and f.name not in SIGNED:
                 raise ConfigError(source, prefix + f.name, f"must not be negative, got {v}")
         if config.episode_s <= 0:
             raise ConfigError(source, prefix + "episode_s", "must be > 0")

@@ -52,6 +52,8 @@ class Readings:
     heading: np.ndarray | None = None  # (n,) the IMU's yaw, counter-clockwise seen from above [rad]
     target_heading: np.ndarray | None = None  # (n,) the heading to hold [rad]: the first tick's, turned by a command
     gyro: np.ndarray | None = None  # (n, 3) the torso's angular rate about its x, y, z axes [rad/s]
+    reach_state: np.ndarray | None = None  # (n,) 1 while the right hand reaches, 0 while it returns
+    reach_target: np.ndarray | None = None  # (n, 3) the target from the right shoulder [arm lengths], root frame
 
 
 @dataclass(frozen=True)
@@ -270,8 +272,44 @@ class EfferenceCopy(Channel):
         return JOINT_ANGLES.gather(layout)
 
 
+class Reach(Channel):
+    """Seed 002's "reach control" input and where to reach: the right network reads the reach
+    state (1 reaching, 0 returning to rest) and, while reaching, the target's offset from the
+    right shoulder [arm lengths] (x forward, y left, z up in the root body's frame); the left
+    network reads 0 for all four.  A symmetric controller meets a one-handed task this way: one
+    genome, but only the right copy is told to reach, so the left arm keeps its rest."""
+
+    key = "reach"
+    width = 5  # the state, the target (x, y, z), and the left network's zero
+    switch = "reach_input"
+    settings = (Setting.of_schema("reach_forward", 0.7, "arm lengths"),
+                Setting.of_schema("reach_left", 0.0, "arm lengths"),
+                Setting.of_schema("reach_up", 0.2, "arm lengths"),
+                Setting.of_schema("reach_tolerance", 0.15, "arm lengths"),
+                Setting.of_schema("reach_phase_s", 1.0, "s"))
+
+    def names(self, angles):
+        return ["reach_control", "target_forward", "target_left", "target_up"]
+
+    def raw(self, r, wiring):
+        if r.reach_state is None or r.reach_target is None:
+            raise ValueError("the reach input needs the reach state and target")
+        state = np.asarray(r.reach_state, dtype=float)[:, None]
+        return np.concatenate([state, state * r.reach_target, np.zeros_like(state)], axis=1)
+
+    def gather(self, layout):
+        return np.array([[0, 1, 2, 3], [4, 4, 4, 4]]), np.ones((2, 4))
+
+    @staticmethod
+    def target(settings: Mapping[str, float]) -> np.ndarray:
+        """(3,) the target a controller's settings give [arm lengths from the right shoulder]."""
+        return np.array([settings["reach_forward"], settings["reach_left"], settings["reach_up"]])
+
+
 JOINT_ANGLES = JointAngles()
-CHANNELS: tuple[Channel, ...] = (JOINT_ANGLES, Feet(), UpVector(), Heading(), Gyro(), Clock(), EfferenceCopy())
+REACH = Reach()
+CHANNELS: tuple[Channel, ...] = (JOINT_ANGLES, Feet(), UpVector(), Heading(), Gyro(), Clock(), EfferenceCopy(),
+                                 REACH)
 BY_KEY: dict[str, Channel] = {c.key: c for c in CHANNELS}
 
 

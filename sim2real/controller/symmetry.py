@@ -29,6 +29,9 @@ Each network reads its side's view of the robot and drives its side's joints:
   other leg and centre as the joint angles are (normalized, mirrored alike), after the clock
   - so that a network can tell what it asked for from what the servos did (Open Duck Mini
   feeds its last actions back the same way).
+* optionally seed 002's reach control (``reach_control``, ``target_forward``, ``target_left``,
+  ``target_up``): 1 while the right hand reaches, and the target from the right shoulder;
+  the left network reads zeros - a one-handed task told to one copy only.
 * two bias nodes (:data:`BIAS`): +1, and +1 on the right, -1 on the left.
 * outputs: its own leg's driven joints, then the centre joints; a centre joint gets the
   mean of the two networks' outputs (activations, as the paper says).
@@ -114,6 +117,10 @@ class SymmetricLayout:
     def gyro(self) -> bool:
         return "gyro" in self.inputs
 
+    @property
+    def reach(self) -> bool:
+        return "reach" in self.inputs
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, SymmetricLayout):
             return NotImplemented
@@ -181,7 +188,8 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
 
 def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray,
                    up: np.ndarray, phase: np.ndarray | None = None, goals: np.ndarray | None = None,
-                   heading: np.ndarray | None = None, gyro: np.ndarray | None = None) -> np.ndarray:
+                   heading: np.ndarray | None = None, gyro: np.ndarray | None = None,
+                   reach: np.ndarray | None = None) -> np.ndarray:
     """Inputs of both networks of every robot, side by side and name by name: the plain
     reference (test oracle) of :meth:`sim2real.controller.channels.InputWiring.inputs`,
     which evolution and the runtime run.
@@ -197,12 +205,16 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
         has one.
       gyro: (n, 3) the torso's angular rate over the layout's scale, clipped to [-1, 1]
         (roll, pitch, yaw: about x forward, y left, z up), if the layout reads it.
+      reach: (n, 4) the reach state (1 reaching, 0 returning) and the target's offset from the
+        right shoulder [arm lengths], if the layout reads them: the right network's; the left
+        network reads zeros.
 
     Returns:
       (2 n, n_inputs), rows interleaved right, left.
     """
     for given, (key, what) in ((phase, ("clock", "the phase")), (goals, ("efference", "the last goals")),
-                               (heading, ("heading", "the heading")), (gyro, ("gyro", "the gyro"))):
+                               (heading, ("heading", "the heading")), (gyro, ("gyro", "the gyro")),
+                               (reach, ("reach", "the reach state"))):
         if (key in layout.inputs) != (given is not None):
             raise ValueError(f"{what} given to a layout without that input" if given is not None
                              else f"this layout reads {what}: give {what}")
@@ -226,6 +238,11 @@ def network_inputs(layout: SymmetricLayout, joints: np.ndarray, feet: np.ndarray
                 gyro[:, 0] * side_sign, gyro[:, 1], gyro[:, 2] * side_sign
         if phase is not None:
             value["phase_sin"], value["phase_cos"] = phase[:, 0] * side_sign, phase[:, 1] * side_sign
+        if reach is not None:  # only the right hand reaches: the right network reads the state and target
+            state = reach[:, 0] if s == 0 else np.zeros(n)
+            target = reach[:, 1:] * state[:, None] if s == 0 else np.zeros((n, 3))
+            value["reach_control"] = state
+            value["target_forward"], value["target_left"], value["target_up"] = target.T
         out[:, s] = np.stack([value[name] for name in layout.input_names], axis=1)
     return out.reshape(2 * n, -1)
 

@@ -69,6 +69,67 @@ def heading_rad(forward: np.ndarray) -> np.ndarray:
     return np.arctan2(forward[..., 1], forward[..., 0])
 
 
+ARM_LOCATIONS = ("shoulder", "elbow", "wrist")
+
+
+@dataclass(frozen=True)
+class Arm:
+    """One arm's parts in a compiled model, as seed 002's reaching reads them: the hand (its
+    body's centre of mass), the shoulder (the origin of the arm's first jointed body), the
+    elbow (the origin of the elbow's body; the hand's, without an elbow joint), and the torso
+    (the body holding the IMU) with the box around its collision geoms in its own frame - the
+    elbow inside it is the upper arm through the thorax, which collisions between jointed
+    neighbours do not stop."""
+
+    joints: tuple[str, ...]  # the arm's joints, robot order
+    hand: int
+    shoulder: int
+    elbow: int
+    torso: int
+    torso_box: np.ndarray  # (2, 3) low and high corners [m], torso frame
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, robot: RobotSpec, side: str = "right") -> "Arm":
+        hands = robot.model.hands if robot.model is not None else {}
+        if side not in hands:
+            raise ValueError(f"robot {robot.name} names no {side} hand (model.hands in its config): "
+                             "reaching needs one")
+        joints = tuple(j.name for j in robot.joints if j.side == side and j.location in ARM_LOCATIONS)
+        if not joints:
+            raise ValueError(f"robot {robot.name} has no {side} arm joints (shoulder, elbow, wrist)")
+
+        def body(joint: str) -> int:
+            return int(model.jnt_bodyid[model.joint(joint).id])
+
+        def depth(b: int) -> int:
+            return 0 if b == 0 else 1 + depth(int(model.body_parentid[b]))
+
+        hand = model.body(hands[side]).id
+        shoulder = min((body(j) for j in joints), key=depth)
+        elbows = [body(j.name) for j in robot.joints if j.side == side and j.location == "elbow"]
+        torso = int(model.site_bodyid[model.site(IMU_SITE).id])
+        return cls(joints, hand, shoulder, min(elbows, key=depth) if elbows else hand, torso,
+                   _body_box(model, torso))
+
+
+def _body_box(model: mujoco.MjModel, body: int) -> np.ndarray:
+    """(2, 3) the box around a body's collision geoms in its own frame [m] (MuJoCo's geom
+    bounding boxes, turned into the body frame)."""
+    corners = []
+    signs = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+    for g in np.flatnonzero(model.geom_bodyid == body):
+        if not is_collision_geom(model.geom_contype[g], model.geom_conaffinity[g]):
+            continue
+        rotation = np.empty(9)
+        mujoco.mju_quat2Mat(rotation, model.geom_quat[g])
+        centre, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+        corners.append(model.geom_pos[g] + (centre + signs * half) @ rotation.reshape(3, 3).T)
+    if not corners:
+        return np.zeros((2, 3))
+    points = np.concatenate(corners)
+    return np.stack([points.min(axis=0), points.max(axis=0)])
+
+
 @dataclass(frozen=True)
 class JointAngles:
     """Where a model keeps the robot's joint angles: the one reader of them from ``qpos``.

@@ -1,0 +1,121 @@
+"""Seed 002's reaching: the reach input, the state machine, the objective and its stages."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from evolve.config import load_evolve_config, parse_evolve_config
+from evolve.locomotion.evaluator import LocomotionEvaluator
+from evolve.locomotion.objectives import REACH_BONUS, PoseWeights
+from evolve.locomotion.task import TaskConfig
+from evolve.neat import Genome
+from sim2real.controller.channels import InputWiring, Readings
+from sim2real.controller.reach import REACHING, RETURNING, ReachCycle
+from sim2real.controller.symmetry import network_inputs, symmetric_layout
+from sim2real.errors import ConfigError
+from sim2real.robot import load_robot
+
+OP3 = load_robot("op3")
+CONFIG = load_evolve_config("configs/evolve/reach_op3.yaml")
+
+
+def test_only_the_right_network_is_told_to_reach_and_where():
+    layout = symmetric_layout(OP3, OP3.control_sets["reach"], CONFIG.task.inputs)
+    assert layout.input_names[-4:] == ("reach_control", "target_forward", "target_left", "target_up")
+    low = np.array([j.range_rad[0] for j in OP3.joints])
+    high = np.array([j.range_rad[1] for j in OP3.joints])
+    rng = np.random.default_rng(2)
+    n = 3
+    angles = rng.uniform(low, high, (n, len(low)))
+    feet = rng.random((n, 2)) < 0.5
+    up = np.array([[0.1, -0.2, 0.97]] * n)
+    state = np.array([1.0, 0.0, 1.0])
+    target = rng.uniform(-1, 1, (n, 3))
+    fast = InputWiring(layout, low, high).inputs(Readings(angles=angles, feet=feet, up=up, reach_state=state,
+                                                          reach_target=target))
+    normalized = 2 * (angles - low) / (high - low) - 1
+    plain = network_inputs(layout, normalized, np.where(feet, -1.0, 1.0), up,
+                           reach=np.concatenate([state[:, None], target], axis=1))
+    assert np.allclose(fast, plain, atol=1e-12)
+    reach = fast[:, -4:]
+    assert np.array_equal(reach[1::2], np.zeros((n, 4)))  # the left network: nothing
+    assert np.allclose(reach[0::2], np.concatenate([state[:, None], state[:, None] * target], axis=1))
+    with pytest.raises(ValueError, match="reach state"):
+        InputWiring(layout, low, high).inputs(Readings(angles=angles, feet=feet, up=up))
+
+
+def test_the_state_toggles_once_a_goal_is_reached_but_not_sooner_than_its_phase():
+    cycle = ReachCycle(2, phase_s=1.0, tolerance=0.1)
+    ids = np.arange(2)
+    for _ in range(9):  # 0.9 s within tolerance: too soon
+        assert not cycle.update(ids, np.array([0.05, 0.5]), 0.1).any()
+    assert list(cycle.update(ids, np.array([0.05, 0.5]), 0.1)) == [True, False]  # 1.0 s: reached
+    assert list(cycle.state) == [RETURNING, REACHING] and list(cycle.reached) == [1, 0]
+    assert cycle.since[0] == 0.0
+    with pytest.raises(ValueError, match="must be > 0"):
+        ReachCycle(1, phase_s=0.0, tolerance=0.1)
+
+
+def test_the_reach_objective_scores_table_41s_terms_and_the_bonus():
+    reach = CONFIG.stages[-1]
+    assert reach.weights == PoseWeights(1.0, 1.0, 1.0, 1.0, 2.0, 1.0)
+    assert reach.max_fitness == pytest.approx(100 * 2 ** 5 * 3 + REACH_BONUS * 10)  # 100 T / i: a goal a second
+    ev = LocomotionEvaluator(OP3, dataclasses.replace(CONFIG.task, episode_s=2.0), 1, threads=1)
+    genome = Genome(0, ev.neat_layout)
+    e = ev.evaluate([genome], CONFIG.neat.sigmoid_steepness, objective=reach.make_objective)
+    score = ev.objective
+    assert set(e.terms) == {"survival", "rest_pose", "rest_pose_end", "com", "feet", "reaching", "torque", "reaches"}
+    assert score.thorax_rule[0]  # the elbow is outside the torso at home: the rule applies
+    assert 0.1 < score.arm_length[0] < 0.3  # OP3's shoulder to forearm [m]
+    assert e.terms["reaches"][0] == 0 and e.terms["reaching"][0] > 0 and e.terms["torque"][0] > 0
+    product = e.terms["survival"][0]
+    for name, w in dataclasses.asdict(reach.weights).items():
+        product *= 1 + w / (1 + e.terms[name][0])
+    assert e.fitness[0] == pytest.approx(product)
+    # the right arm is left out of the rest pose while it reaches, and counted while it returns
+    arm = np.isin(np.array(ev.layout.driven), ev.arm.joints)
+    assert arm.sum() == 3
+    counted = score._counted(np.array([0]))
+    assert np.array_equal(counted[0], np.where(arm, 0.0, 1.0))
+    score.cycle.state[0] = RETURNING
+    assert np.all(score._counted(np.array([0])) == 1.0)
+
+
+def test_a_hand_at_its_target_earns_the_bonus():
+    """The network without connections moves the arm to the middle of its ranges; a target
+    there is reached after the first phase (and the rest, where the hand is not, is not)."""
+    reach = CONFIG.stages[-1]
+    task = dataclasses.replace(CONFIG.task, episode_s=3.0)
+    ev = LocomotionEvaluator(OP3, task, 1, threads=1)
+    genome = Genome(0, ev.neat_layout)
+    ev.evaluate([genome], CONFIG.neat.sigmoid_steepness, objective=reach.make_objective)
+    score = ev.objective
+    shoulder = score._in_root(np.array([0]), ev.xpos[:1, ev.arm.shoulder])[0]
+    offset = (score._hand(np.array([0]))[0] - shoulder) / score.arm_length[0]
+    there = dataclasses.replace(task, reach_forward=offset[0], reach_left=offset[1], reach_up=offset[2])
+    ev = LocomotionEvaluator(OP3, there, 1, threads=1)
+    e = ev.evaluate([genome], CONFIG.neat.sigmoid_steepness, objective=reach.make_objective)
+    assert e.terms["reaches"][0] == 1
+    assert e.fitness[0] > REACH_BONUS
+
+
+def test_a_reach_stage_needs_the_reach_input_and_a_right_hand():
+    doc = {"robot": "op3", "task": {"control_set": "reach"},
+           "stages": [{"name": "reach", "objective": "reach", "generations": 5}]}
+    with pytest.raises(ConfigError, match=r"stages\[0\]\.objective: a reach stage needs task.reach_input"):
+        parse_evolve_config(doc, "reach.yaml")
+    doc = {"robot": "xl430_biped", "task": {"reach_input": True},
+           "stages": [{"name": "reach", "objective": "reach", "generations": 5}]}
+    with pytest.raises(ConfigError, match="robot xl430_biped has no right hand"):
+        parse_evolve_config(doc, "reach.yaml")
+
+
+@pytest.mark.parametrize("values, problem", [
+    ({"reach_forward": 0.5}, "reach_forward: is the reach input's setting: give it only with reach_input: true"),
+    ({"reach_input": True, "reach_tolerance": 0.0}, r"reach_tolerance: must be within \(0, 1\]"),
+    ({"reach_input": True, "reach_left": -3.0}, r"reach_left: must be within \[-2, 2\]"),
+])
+def test_reach_settings_are_checked(values, problem):
+    with pytest.raises(ConfigError, match=problem):
+        TaskConfig.from_mapping(values, "reach.yaml")
