@@ -67,7 +67,7 @@ def test_the_reach_objective_scores_table_41s_terms_and_the_bonus():
     score = ev.objective
     assert set(e.terms) == {"survival", "rest_pose", "rest_pose_end", "com", "feet", "reaching", "torque", "reaches"}
     assert score.thorax_rule[0]  # the elbow is outside the torso at home: the rule applies
-    assert 0.1 < score.arm_length[0] < 0.3  # OP3's shoulder to forearm [m]
+    assert 0.1 < score.control.arm_length < 0.3  # OP3's shoulder to forearm [m]
     assert e.terms["reaches"][0] == 0 and e.terms["reaching"][0] > 0 and e.terms["torque"][0] > 0
     product = e.terms["survival"][0]
     for name, w in dataclasses.asdict(reach.weights).items():
@@ -78,7 +78,7 @@ def test_the_reach_objective_scores_table_41s_terms_and_the_bonus():
     assert arm.sum() == 3
     counted = score._counted(np.array([0]))
     assert np.array_equal(counted[0], np.where(arm, 0.0, 1.0))
-    score.cycle.state[0] = RETURNING
+    score.control.cycle.state[0] = RETURNING
     assert np.all(score._counted(np.array([0])) == 1.0)
 
 
@@ -90,9 +90,8 @@ def test_a_hand_at_its_target_earns_the_bonus():
     ev = LocomotionEvaluator(OP3, task, 1, threads=1)
     genome = Genome(0, ev.neat_layout)
     ev.evaluate([genome], CONFIG.neat.sigmoid_steepness, objective=reach.make_objective)
-    score = ev.objective
-    shoulder = score._in_root(np.array([0]), ev.xpos[:1, ev.arm.shoulder])[0]
-    offset = (score._hand(np.array([0]))[0] - shoulder) / score.arm_length[0]
+    control = ev.objective.control
+    offset = (ev.objective.hand(np.array([0]))[0] - control.shoulder) / control.arm_length
     there = dataclasses.replace(task, reach_forward=offset[0], reach_left=offset[1], reach_up=offset[2])
     ev = LocomotionEvaluator(OP3, there, 1, threads=1)
     e = ev.evaluate([genome], CONFIG.neat.sigmoid_steepness, objective=reach.make_objective)
@@ -119,3 +118,85 @@ def test_a_reach_stage_needs_the_reach_input_and_a_right_hand():
 def test_reach_settings_are_checked(values, problem):
     with pytest.raises(ConfigError, match=problem):
         TaskConfig.from_mapping(values, "reach.yaml")
+
+
+def _reacher(task: TaskConfig) -> tuple[Genome, "Controller"]:
+    """Reach control -> own shoulder pitch and elbow: the right arm swings up while reaching."""
+    from evolve.locomotion.evaluator import neat_layout
+    from evolve.locomotion.export import controller_from_genome
+    from evolve.neat.genome import ConnectionGene
+    from sim2real.controller.file import Controller
+
+    layout = symmetric_layout(OP3, OP3.control_sets["reach"], task.inputs)
+    genome = Genome(0, neat_layout(layout))
+    out = layout.n_inputs + layout.n_bias
+    for k, (src, dst, weight) in enumerate([("reach_control", "own_shoulder_pitch", 6.0),
+                                            ("reach_control", "own_elbow_pitch", -4.0)]):
+        genome.add_connection(ConnectionGene(k, layout.input_names.index(src), out + layout.output_names.index(dst),
+                                             weight, True, genome.active_module))
+    data = controller_from_genome(genome, OP3, layout, task, 1.0, {}).to_dict()
+    return genome, Controller.from_dict(data)
+
+
+def test_the_arms_chain_finds_the_hand_where_the_simulation_has_it():
+    import mujoco
+    from sim2real.controller.kinematics import ArmChain
+    from sim2real.simulation.model_builder import build_model
+    from sim2real.simulation.robot_model import Arm, arm_chain
+
+    model = build_model(OP3)
+    data = mujoco.MjData(model)
+    arm = Arm.of(model, OP3)
+    chain = ArmChain.from_dict(arm_chain(model, OP3, arm), OP3.joint_names)
+    rng = np.random.default_rng(5)
+    root = model.body(OP3.root_body).id
+    for _ in range(5):
+        q = np.array([rng.uniform(*j.range_rad) for j in OP3.joints])
+        for name, angle in zip(OP3.joint_names, q):
+            data.qpos[model.jnt_qposadr[model.joint(name).id]] = angle
+        data.qpos[3:7] = rng.normal(size=4) / np.linalg.norm(rng.normal(size=4))
+        data.qpos[3:7] /= np.linalg.norm(data.qpos[3:7])
+        mujoco.mj_kinematics(model, data)
+        rotation = data.xmat[root].reshape(3, 3)
+        assert chain.hand(q)[0] == pytest.approx((data.xipos[arm.hand] - data.xpos[root]) @ rotation, abs=1e-12)
+        assert chain.shoulder(q)[0] == pytest.approx((data.xpos[arm.shoulder] - data.xpos[root]) @ rotation,
+                                                     abs=1e-12)
+
+
+def test_a_reaching_controller_runs_the_state_machine_in_the_runtime_as_in_evolution(tmp_path):
+    from sim2real.controller.file import Controller
+    from sim2real.controller.policy import Policy
+
+    task = dataclasses.replace(CONFIG.task, episode_s=4.0)
+    genome, _ = _reacher(task)
+    probe = LocomotionEvaluator(OP3, task, 1, threads=1)
+    probe.evaluate([genome], 1.0, objective=CONFIG.stages[-1].make_objective)
+    control = probe.objective.control  # a target where the swing takes the hand
+    offset = (probe.objective.hand(np.array([0]))[0] - control.shoulder) / control.arm_length
+    task = dataclasses.replace(task, reach_forward=offset[0], reach_left=offset[1], reach_up=offset[2])
+    genome, controller = _reacher(task)
+    path = tmp_path / "reach.json"
+    controller.save(path)
+    assert Controller.load(path, OP3).reach_arm == controller.reach_arm  # the chain rides in the file
+    ev = LocomotionEvaluator(OP3, task, 1, threads=1)
+    seen, goals = [], []
+    readings = ev.readings
+
+    def recorded(*args, **kwargs):  # what the networks read, tick by tick
+        r = readings(*args, **kwargs)
+        seen.append(r)
+        return r
+
+    ev.readings = recorded
+    ev.evaluate([genome], 1.0, objective=CONFIG.stages[-1].make_objective,
+                on_tick=lambda ev, alive: goals.append(ev.ctrl[0].copy()))
+    states = [float(r.reach_state[0]) for r in seen]
+    assert states[0] == 1.0 and 0.0 in states  # it reached its goal and toggled
+    policy = Policy(controller, OP3)
+    goal = policy.reset()
+    for k, r in enumerate(seen):
+        goal = policy.step(r.angles[0], r.feet[0], r.up[0], goal)
+        assert policy.reach.cycle.state[0] == r.reach_state[0], k
+        assert np.array_equal(goal[policy.driven], goals[k][policy.driven]), k
+    arm = [OP3.joint_names.index("r_sho_pitch")]
+    assert np.ptp(np.array(goals)[:, arm]) > 0.3  # the arm swung

@@ -29,6 +29,8 @@ from mujoco.batch import Batch, SimulationError
 from evolve.locomotion.objectives import Episodes, Objective, WalkObjective
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, Layout, PopulationNetwork
+from sim2real.controller.kinematics import ArmChain
+from sim2real.controller.reach import ReachControl
 from sim2real.controller.channels import InputWiring, Readings
 from sim2real.controller.mapping import hold_pose, max_steps, output_to_angle, quantize, rate_limit
 from sim2real.controller.symmetry import SymmetricLayout, bias_values, joint_outputs, symmetric_layout
@@ -36,7 +38,7 @@ from sim2real.robot import RobotSpec
 from sim2real.robot.spec import GRAVITY
 from sim2real.robot.timing import control_timing
 from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import Arm, RobotModel, imu_between
+from sim2real.simulation.robot_model import Arm, RobotModel, arm_chain, imu_between
 from sim2real.simulation.reality import (
     NOMINAL,
     PERTURBED_FIELDS,
@@ -101,8 +103,10 @@ class LocomotionEvaluator:
             self.actuator_force = self.batch.bind("actuator_force")
         self._perturbed = np.zeros(max_population, dtype=bool)
         self.turns: np.ndarray | None = None  # the episode's heading commands (evaluate's turns)
-        self.objective: Objective | None = None  # the episode's, which may drive inputs (the reach state)
+        self.objective: Objective | None = None  # the episode's
+        self.reach: ReachControl | None = None  # the episode's reach state machine, if its objective runs one
         self._arm: Arm | None = None
+        self._arm_chain: ArmChain | None = None
 
     @property
     def arm(self) -> Arm:
@@ -110,6 +114,14 @@ class LocomotionEvaluator:
         if self._arm is None:
             self._arm = Arm.of(self.model, self.robot)
         return self._arm
+
+    @property
+    def arm_chain(self) -> ArmChain:
+        """The right arm's chain, as a reaching controller's file carries it (its runtime's
+        forward kinematics, which the state machine runs here too)."""
+        if self._arm_chain is None:
+            self._arm_chain = ArmChain.from_dict(arm_chain(self.model, self.robot, self.arm), self.robot.joint_names)
+        return self._arm_chain
 
     def heading(self, ids: np.ndarray, tick: int, p: Perturbation | None,
                 sensors: np.ndarray | None = None) -> np.ndarray:
@@ -147,14 +159,15 @@ class LocomotionEvaluator:
         heading = None
         if self.layout.heading:
             heading = self.heading(alive, t, p, sensors) if yaw is None else yaw + p.heading_drift_rad_s[alive] * (t * self.tick_s)
+        angles = quantize(q, self.resolution)
         reach_state = reach_target = None
-        if self.layout.reach:  # the objective's state machine tells the networks when to reach
-            inputs = getattr(self.objective, "reach_inputs", None)
-            if inputs is not None:
-                reach_state, reach_target = inputs(alive)
+        if self.layout.reach:  # the state machine, on the angles the networks read, tells them when to reach
+            if self.reach is not None:
+                self.reach.step(alive, angles, self.tick_s if t else 0.0)
+                reach_state, reach_target = self.reach.inputs(alive)
             else:  # a stage below reaching: never told to reach
                 reach_state, reach_target = np.zeros(len(alive)), np.zeros((len(alive), 3))
-        return Readings(angles=quantize(q, self.resolution), feet=touch, up=up, time_s=t * self.tick_s,
+        return Readings(angles=angles, feet=touch, up=up, time_s=t * self.tick_s,
                         previous_goal=sent, heading=heading,
                         target_heading=None if start_heading is None else
                         start_heading[alive] + (0.0 if turns is None else turns[alive, t]), gyro=gyro,
@@ -230,6 +243,7 @@ class LocomotionEvaluator:
         self.xfrc[:n] = 0.0
         net = PopulationNetwork([g for g in genomes for _ in range(2)], steepness, disabled_modules,
                                 bias_values(n))
+        self.reach = None  # a reaching objective installs its state machine
         score = self.objective = (objective or WalkObjective)(self, n)
         start_root = self.parts.root_com(self.xipos[:n]).copy()
         goal = self.hold[self.driven][None, :].repeat(n, axis=0)

@@ -11,6 +11,8 @@ from evolve.neat.network import expressed
 from sim2real.controller.file import Controller
 from sim2real.controller.symmetry import SymmetricLayout
 from sim2real.robot import RobotSpec
+from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.robot_model import Arm, arm_chain
 
 
 def controller_from_genome(genome: Genome, robot: RobotSpec, layout: SymmetricLayout, task: TaskConfig,
@@ -23,7 +25,14 @@ def controller_from_genome(genome: Genome, robot: RobotSpec, layout: SymmetricLa
         robot, layout, sigmoid_steepness=steepness, modules=genome.modules,
         hidden=[(n, genome.hidden[n]) for n in nodes if n in genome.hidden],
         connections=[(s, d, w, module_of[(s, d)]) for s, d, w in conns],
-        task=task.to_dict(), provenance=provenance)
+        task=task.to_dict(), provenance=provenance, reach_arm=reach_arm(robot) if layout.reach else None)
+
+
+def reach_arm(robot: RobotSpec) -> dict[str, Any]:
+    """The right arm's chain a reaching controller carries (its runtime's forward kinematics),
+    from the robot's nominal model."""
+    model = build_model(robot)
+    return arm_chain(model, robot, Arm.of(model, robot))
 
 
 def genome_from_controller(controller: Controller) -> Genome:

@@ -21,7 +21,7 @@ from typing import Any, Callable, Mapping, Protocol
 import numpy as np
 
 from sim2real.controller.channels import Reach, turn_rad
-from sim2real.controller.reach import REACHING, ReachCycle
+from sim2real.controller.reach import REACHING, ReachControl
 
 
 # "walked": 2.2 leg lengths forward, upright to the end (seed 000's 2 m for a 0.9 m human leg)
@@ -302,14 +302,15 @@ class ReachObjective(PoseObjective):
     target while reaching, its rest while returning - summed over ticks [arm lengths]) and
     eq. 4.7 (``torque``: squared actuator forces as shares of their limits, summed over joints
     and ticks: one setting for every robot's torques), and :data:`REACH_BONUS` for each goal
-    reached (``reaches``), which :class:`sim2real.controller.reach.ReachCycle` counts and
-    toggles.  An elbow inside the torso's box (the upper arm through the thorax) fails the
-    trial, unless it is inside at the home pose already.
+    reached (``reaches``).  An elbow inside the torso's box (the upper arm through the thorax)
+    fails the trial, unless it is inside at the home pose already.
 
-    Positions are in the root body's frame, so that the target moves with the robot as it
-    does on a real one (whose hand the runtime knows only relative to its body).  The target
-    is the task's ``reach_forward``/``reach_left``/``reach_up`` from the right shoulder, fixed
-    as in the thesis; the arm length is the shoulder to the hand's centre of mass at home.
+    It installs the episode's state machine (:class:`sim2real.controller.reach.ReachControl`,
+    ``ev.reach``), which the evaluator steps on the encoder readings the networks get, as the
+    runtime does on a robot.  Positions are in the root body's frame, so that the target moves
+    with the robot as on a real one; the target is the task's ``reach_forward``/``reach_left``/
+    ``reach_up`` from the right shoulder, fixed as in the thesis.  Eq. 4.6 measures the hand's
+    centre of mass itself.
     """
 
     TERMS = PoseObjective.TERMS + ("reaching", "torque", "reaches")
@@ -321,27 +322,20 @@ class ReachObjective(PoseObjective):
         self.xpos, self.xmat, self.force = ev.xpos, ev.xmat, ev.actuator_force
         self.force_limit = np.abs(ev.model.actuator_forcerange).max(axis=1)
         self.arm_joints = np.isin(np.array(ev.layout.driven), arm.joints)
-        ids = np.arange(n)
-        hand, shoulder = self._hand(ids), self._in_root(ids, self.xpos[:n, arm.shoulder])
-        self.arm_length = np.linalg.norm(hand - shoulder, axis=1)
-        self.rest = hand
-        self.offset = Reach.target(task.to_dict())
-        self.reach_target = shoulder + self.arm_length[:, None] * self.offset
-        self.cycle = ReachCycle(n, task.reach_phase_s, task.reach_tolerance)
+        home = np.array([j.home_rad for j in ev.robot.joints])
+        self.control = ev.reach = ReachControl(ev.arm_chain, home, n, Reach.target(task.to_dict()),
+                                               task.reach_phase_s, task.reach_tolerance)
         self.reaching = np.zeros(n)
         self.torque = np.zeros(n)
-        self.thorax_rule = ~self._elbow_in_torso(ids)
-
-    def reach_inputs(self, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The reach state and target (arm lengths from the shoulder) the networks of ``alive`` read."""
-        return self.cycle.state[alive], np.broadcast_to(self.offset, (len(alive), 3))
+        self.thorax_rule = ~self._elbow_in_torso(np.arange(n))
 
     def _in_root(self, ids: np.ndarray, points: np.ndarray) -> np.ndarray:
         root = self.ev.root
         rotation = self.xmat[ids, root].reshape(-1, 3, 3)
         return np.einsum("ni,nij->nj", points - self.xpos[ids, root], rotation)
 
-    def _hand(self, ids: np.ndarray) -> np.ndarray:
+    def hand(self, ids: np.ndarray) -> np.ndarray:
+        """(len(ids), 3) the hands' centres of mass in their root's frame [m], as simulated."""
         return self._in_root(ids, self.ev.xipos[ids, self.arm.hand])
 
     def _elbow_in_torso(self, ids: np.ndarray) -> np.ndarray:
@@ -351,22 +345,21 @@ class ReachObjective(PoseObjective):
         return np.all((local > arm.torso_box[0]) & (local < arm.torso_box[1]), axis=1)
 
     def _counted(self, alive):
-        reaching = self.cycle.state[alive] == REACHING
+        reaching = self.control.cycle.state[alive] == REACHING
         return np.where(reaching[:, None] & self.arm_joints[None, :], 0.0, 1.0)
 
     def _failed(self, alive):
         return self.thorax_rule[alive] & self._elbow_in_torso(alive)
 
     def _went_on(self, ok):
-        goal = np.where((self.cycle.state[ok] == REACHING)[:, None], self.reach_target[ok], self.rest[ok])
-        error = np.linalg.norm(self._hand(ok) - goal, axis=1) / self.arm_length[ok]
+        error = np.linalg.norm(self.hand(ok) - self.control.goals(ok), axis=1) / self.control.arm_length
         self.reaching[ok] += error
         self.torque[ok] += ((self.force[ok] / self.force_limit) ** 2).sum(axis=1)
-        self.cycle.update(ok, error, self.ev.tick_s)
 
     def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes:
         e = super().result(upright, unstable, steps)
-        terms = dict(e.terms, reaching=self.reaching, torque=self.torque, reaches=self.cycle.reached.astype(float))
+        terms = dict(e.terms, reaching=self.reaching, torque=self.torque,
+                     reaches=self.control.cycle.reached.astype(float))
         fitness = e.fitness * (1.0 + self.weights.reaching / (1.0 + self.reaching)) \
             * (1.0 + self.weights.torque / (1.0 + self.torque)) + REACH_BONUS * terms["reaches"]
         fitness = np.where(unstable, 0.0, fitness)

@@ -187,6 +187,7 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
     n_modules = _check_modules(c, data["modules"])
     hidden = _check_hidden(c, data["hidden"], n_in + n_bias + n_out, n_modules)
     _check_connections(c, data["connections"], n_in, n_bias, n_out, hidden, n_modules)
+    _check_reach_arm(c, data, chosen, driven)
     for block in ("task", "provenance"):
         c.obj(data[block], block, free=True)
         c.finite_everywhere(data[block], block)
@@ -195,6 +196,51 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
     if robot is not None:
         _check_robot(c, data, robot)
     return data
+
+
+def _check_reach_arm(c: _Checker, data: dict[str, Any], chosen: dict[str, dict[str, float]],
+                     driven: list[str]) -> None:
+    """The arm's chain: present exactly with the reach input, its numbers within the schema's
+    bounds, rotations and axes of unit length, its hinges joints of the controller."""
+    if ("reach" in chosen) != ("reach_arm" in data):
+        raise c.error("reach_arm", "missing: a reach_input controller carries its arm's chain" if "reach" in chosen
+                      else "only with reach_input: true")
+    if "reach_arm" not in data:
+        return
+    schema = FIELDS["reach_arm"]
+    arm = c.obj(data["reach_arm"], "reach_arm", tuple(schema["required"]))
+    links = arm["links"]
+    limit = schema["properties"]["links"]["maxItems"]
+    if not isinstance(links, list) or not 1 <= len(links) <= limit:
+        raise c.error("reach_arm.links", f"must be a list of 1 to {limit} bodies, got {show(links)}")
+    known = set(driven) | set(data["joints"].get("hold_rad", {}))
+    for i, link in enumerate(links):
+        key = f"reach_arm.links[{i}]"
+        c.obj(link, key, ("pos", "quat", "joints"))
+        _vector(c, link["pos"], key + ".pos", 3, 10.0)
+        _vector(c, link["quat"], key + ".quat", 4, 1.0, unit=True)
+        if not isinstance(link["joints"], list) or len(link["joints"]) > 6:
+            raise c.error(key + ".joints", f"must be a list of at most 6 hinges, got {show(link['joints'])}")
+        for k, hinge in enumerate(link["joints"]):
+            hkey = f"{key}.joints[{k}]"
+            c.obj(hinge, hkey, ("name", "pos", "axis"))
+            if c.string(hinge["name"], hkey + ".name") not in known:
+                raise c.error(hkey + ".name", f"{show(hinge['name'])} is not one of the controller's joints")
+            _vector(c, hinge["pos"], hkey + ".pos", 3, 10.0)
+            _vector(c, hinge["axis"], hkey + ".axis", 3, 1.0, unit=True)
+    _vector(c, arm["hand_com"], "reach_arm.hand_com", 3, 10.0)
+    shoulder = arm["shoulder_link"]
+    if type(shoulder) is not int or not 0 <= shoulder < len(links):
+        raise c.error("reach_arm.shoulder_link", f"must be a link's index (0-{len(links) - 1}), got {show(shoulder)}")
+
+
+def _vector(c: _Checker, value: Any, key: str, size: int, bound: float, unit: bool = False) -> None:
+    if not isinstance(value, list) or len(value) != size:
+        raise c.error(key, f"must be {size} numbers, got {show(value)}")
+    for i, v in enumerate(value):
+        c.number(v, f"{key}[{i}]", -bound, bound)
+    if unit and abs(math.sqrt(sum(v * v for v in value)) - 1.0) > 1e-6:
+        raise c.error(key, f"must have length 1, got {show(value)}")
 
 
 def _check_modules(c: _Checker, modules: Any) -> int:

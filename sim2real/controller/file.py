@@ -131,6 +131,8 @@ class Controller:
     # the optional input channels on, with their settings (sim2real.controller.channels; a
     # file holds them as each channel's keys: heading_input, phase_period_s, ...)
     input_channels: Mapping[str, Mapping[str, float]] = field(default_factory=lambda: MappingProxyType({}))
+    # a reaching controller's right arm, root to hand (sim2real.controller.kinematics.ArmChain)
+    reach_arm: Mapping[str, Any] | None = None
 
     format: ClassVar[str] = FORMAT
     version: ClassVar[int] = VERSION
@@ -159,6 +161,7 @@ class Controller:
                             joints.get("output_rule")),
             task=_frozen(data["task"]), provenance=_frozen(data["provenance"]),
             input_channels=_frozen(channels.selection(data)),
+            reach_arm=_frozen(data["reach_arm"]) if "reach_arm" in data else None,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -173,14 +176,16 @@ class Controller:
             "sigmoid_steepness": self.sigmoid_steepness,
             "modules": [{"name": m, "enabled": True} for m in self.modules],
             "hidden": _thawed(self.hidden), "connections": _thawed(self.connections),
-            "joints": self.joints.to_dict(), "task": _thawed(self.task), "provenance": _thawed(self.provenance),
+            "joints": self.joints.to_dict(),
+            **({"reach_arm": _thawed(self.reach_arm)} if self.reach_arm is not None else {}),
+            "task": _thawed(self.task), "provenance": _thawed(self.provenance),
         }
 
     @classmethod
     def for_robot(cls, robot: RobotSpec, layout: SymmetricLayout, *, sigmoid_steepness: float,
                   modules: tuple[str, ...], hidden: list[tuple[int, int]],
                   connections: list[tuple[int, int, float, int]], task: Mapping[str, Any],
-                  provenance: Mapping[str, Any]) -> "Controller":
+                  provenance: Mapping[str, Any], reach_arm: Mapping[str, Any] | None = None) -> "Controller":
         """An evolved network (``hidden`` and ``connections`` in node ids) wired for
         ``robot``'s joints by ``layout`` (its inputs too): its tick, bias values, symmetry
         block, joint ranges and hold pose are the robot's and the conventions' own."""
@@ -194,7 +199,7 @@ class Controller:
                             MappingProxyType({j.name: float(hold[i]) for i, j in enumerate(robot.joints)
                                               if j.name not in layout.driven}), OUTPUT_RULE),
             task=_frozen(dict(task)), provenance=_frozen(dict(provenance)),
-            input_channels=_frozen(dict(layout.inputs)),
+            input_channels=_frozen(dict(layout.inputs)), reach_arm=None if reach_arm is None else _frozen(dict(reach_arm)),
         )
 
     # -- the input channels' settings, by name ---------------------------------------------------

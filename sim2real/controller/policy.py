@@ -17,9 +17,11 @@ from typing import Callable, Iterable
 import numpy as np
 
 from sim2real.controller.activation import ControllerNetworks
-from sim2real.controller.channels import InputWiring, Readings
+from sim2real.controller.channels import InputWiring, Reach, Readings
 from sim2real.controller.file import Controller
+from sim2real.controller.kinematics import ArmChain
 from sim2real.controller.mapping import hold_pose, max_steps, output_to_angle, rate_limit
+from sim2real.controller.reach import ReachControl
 from sim2real.controller.symmetry import joint_outputs
 from sim2real.robot import RobotSpec
 
@@ -43,6 +45,15 @@ class Policy:
         self._first, self._second = self._output_gather()
         d = self.driven
         self._d_low, self._d_high, self._d_step = self.low[d], self.high[d], self.max_step[d]
+        # a reaching controller runs seed 002's state machine on the angles it reads
+        self.reach: ReachControl | None = None
+        self._reach_tick: int | None = None  # the tick of its last step
+        if self.layout.reach:
+            settings = self.layout.inputs["reach"]
+            self._reach_args = (ArmChain.from_dict(controller.reach_arm, robot.joint_names),
+                                np.array([j.home_rad for j in robot.joints]), 1, Reach.target(settings),
+                                settings["reach_phase_s"], settings["reach_tolerance"])
+            self.reach = ReachControl(*self._reach_args)
 
     @property
     def sensors(self) -> tuple[str, ...]:
@@ -66,6 +77,11 @@ class Policy:
         self.networks.reset()
         self.ticks = 0
         self.start_heading = None
+        if self.reach is not None:  # from reaching again, toward the same target
+            target = self.reach.target
+            self.reach = ReachControl(*self._reach_args)
+            self.reach.set_target(target)
+            self._reach_tick = None
         return self.hold.copy()
 
     def step(self, angles: np.ndarray, feet_touching: np.ndarray, up: np.ndarray,
@@ -90,10 +106,18 @@ class Policy:
             if self.start_heading is None:
                 self.start_heading = float(heading)
             start = np.array([self.start_heading + self.heading_command(tick * self.tick_s)])
+        reach_state = reach_target = None
+        if self.reach is not None:
+            one = np.zeros(1, dtype=np.intp)
+            since = 0.0 if self._reach_tick is None else (tick - self._reach_tick) * self.tick_s
+            self._reach_tick = tick
+            self.reach.step(one, angles[None], since)
+            reach_state, reach_target = self.reach.inputs(one)
         readings = Readings(angles=angles[None], feet=np.asarray(feet_touching)[None], up=np.asarray(up)[None],
                             time_s=tick * self.tick_s, previous_goal=previous_goal[None],
                             heading=None if heading is None else np.array([float(heading)]), target_heading=start,
-                            gyro=None if gyro is None else np.asarray(gyro, dtype=float)[None])
+                            gyro=None if gyro is None else np.asarray(gyro, dtype=float)[None],
+                            reach_state=reach_state, reach_target=reach_target)
         out = self.networks.activate(self.wiring.inputs(readings)).reshape(-1)
         wanted = output_to_angle(0.5 * (out[self._first] + out[self._second]), self._d_low, self._d_high)
         goal = previous_goal.copy()

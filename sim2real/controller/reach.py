@@ -8,11 +8,15 @@ network reads the state through :class:`sim2real.controller.channels.Reach`.
 
     cycle = ReachCycle(n, phase_s=1.0, tolerance=0.15)
     reached = cycle.update(ids, error, dt)   # error: each hand's distance to its goal [arm lengths]
+
+:class:`ReachControl` runs it on the hand's position from joint angles (the arm's chain).
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from sim2real.controller.kinematics import ArmChain
 
 REACHING, RETURNING = 1.0, 0.0
 
@@ -39,3 +43,47 @@ class ReachCycle:
         self.since[hit] = 0.0
         self.reached[hit] += 1
         return done
+
+
+class ReachControl:
+    """The state machine on what a robot knows, its joint angles, for ``n`` robots: the hand
+    and shoulder from the arm's chain, the goals fixed in the root's frame - the rest where
+    the hand is at the home pose, the target ``offset`` arm lengths from the shoulder there
+    (``arm_length``: shoulder to hand at home [m]).  Evolution steps it on the encoder
+    readings its networks get, the runtime on the servos' own, so both decide alike."""
+
+    def __init__(self, chain: ArmChain, home_rad: np.ndarray, n: int, offset: np.ndarray, phase_s: float,
+                 tolerance: float):
+        self.chain = chain
+        hand, self.shoulder = chain.hand(home_rad)[0], chain.shoulder(home_rad)[0]
+        self.arm_length = float(np.linalg.norm(hand - self.shoulder))
+        if not self.arm_length > 0:
+            raise ValueError("the arm's chain puts the hand on the shoulder at home: no arm to reach with")
+        self.rest = hand
+        self.cycle = ReachCycle(n, phase_s, tolerance)
+        self.set_offset(offset)
+
+    def set_offset(self, offset: np.ndarray) -> None:
+        """Reach ``offset`` (3,) arm lengths from the shoulder (x forward, y left, z up)."""
+        self.offset = np.asarray(offset, dtype=float)
+        self.target = self.shoulder + self.arm_length * self.offset
+
+    def set_target(self, target_m: np.ndarray) -> None:
+        """Reach a point of the root's frame [m] (what a user gives on the command line)."""
+        self.set_offset((np.asarray(target_m, dtype=float) - self.shoulder) / self.arm_length)
+
+    def goals(self, ids: np.ndarray) -> np.ndarray:
+        """(len(ids), 3) each hand's goal now, root frame [m]."""
+        return np.where((self.cycle.state[ids] == REACHING)[:, None], self.target, self.rest)
+
+    def step(self, ids: np.ndarray, angles: np.ndarray, dt: float) -> np.ndarray:
+        """``dt`` [s] after the last step, the robots ``ids`` at joint angles (len(ids), joints)
+        [rad]: advance their state machines; returns each hand's distance to the goal it had
+        [arm lengths]."""
+        error = np.linalg.norm(self.chain.hand(angles) - self.goals(ids), axis=1) / self.arm_length
+        self.cycle.update(ids, error, dt)
+        return error
+
+    def inputs(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The reach state and target offset the networks of ``ids`` read (channels.Reach)."""
+        return self.cycle.state[ids], np.broadcast_to(self.offset, (len(ids), 3))

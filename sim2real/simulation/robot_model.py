@@ -112,6 +112,29 @@ class Arm:
                    _body_box(model, torso))
 
 
+def arm_chain(model: mujoco.MjModel, robot: RobotSpec, arm: Arm) -> dict:
+    """The bodies from the root to ``arm``'s hand as a controller file's ``reach_arm`` holds them
+    (:class:`sim2real.controller.kinematics.ArmChain` walks it): each body's offset [m] and
+    rotation (w, x, y, z) from its parent, its hinges (the robot's joint, anchor [m], axis in
+    the body's frame; backlash joints, at rest on a nominal robot, left out), the hand's
+    centre of mass in its body's frame [m], and which body is the shoulder's."""
+    root = model.body(robot.root_body).id
+    path, b = [], arm.hand
+    while b != root:
+        if b == 0:
+            raise ValueError(f"the hand body {model.body(arm.hand).name!r} is not below the root {robot.root_body!r}")
+        path.append(b)
+        b = int(model.body_parentid[b])
+    names = set(robot.joint_names)
+    links = []
+    for b in reversed(path):
+        hinges = [{"name": model.joint(j).name, "pos": model.jnt_pos[j].tolist(), "axis": model.jnt_axis[j].tolist()}
+                  for j in range(model.njnt) if model.jnt_bodyid[j] == b and model.joint(j).name in names]
+        links.append({"pos": model.body_pos[b].tolist(), "quat": model.body_quat[b].tolist(), "joints": hinges})
+    return {"links": links, "hand_com": model.body_ipos[arm.hand].tolist(),
+            "shoulder_link": list(reversed(path)).index(arm.shoulder)}
+
+
 def _body_box(model: mujoco.MjModel, body: int) -> np.ndarray:
     """(2, 3) the box around a body's collision geoms in its own frame [m] (MuJoCo's geom
     bounding boxes, turned into the body frame)."""
