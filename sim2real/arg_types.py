@@ -234,3 +234,19 @@ def heading_schedule(text: str):
         return schedule_command(parse_schedule(text))
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+REACH_HELP = ("where a reaching controller's right hand reaches: X,Y,Z in metres in the robot's root body's "
+              "frame (x forward, y left, z up; default: the target it was evolved for)")
+
+
+def reach_target(text: str) -> tuple[float, float, float]:
+    """``--reach-target``'s value: X,Y,Z [m], three finite numbers (argparse type)."""
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y,Z in metres") from None
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"{text!r}: three finite numbers X,Y,Z in metres")
+    return values  # type: ignore[return-value]

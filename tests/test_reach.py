@@ -200,3 +200,61 @@ def test_a_reaching_controller_runs_the_state_machine_in_the_runtime_as_in_evolu
         assert np.array_equal(goal[policy.driven], goals[k][policy.driven]), k
     arm = [OP3.joint_names.index("r_sho_pitch")]
     assert np.ptp(np.array(goals)[:, arm]) > 0.3  # the arm swung
+
+
+@pytest.fixture(scope="module")
+def reacher_file(tmp_path_factory) -> "Path":
+    """A reaching controller whose target is where its arm swings (found by one evaluation)."""
+    task = dataclasses.replace(CONFIG.task, episode_s=4.0)
+    genome, _ = _reacher(task)
+    probe = LocomotionEvaluator(OP3, task, 1, threads=1)
+    probe.evaluate([genome], 1.0, objective=CONFIG.stages[-1].make_objective)
+    control = probe.objective.control
+    offset = (probe.objective.hand(np.array([0]))[0] - control.shoulder) / control.arm_length
+    task = dataclasses.replace(task, reach_forward=offset[0], reach_left=offset[1], reach_up=offset[2])
+    path = tmp_path_factory.mktemp("reach") / "reacher.json"
+    _reacher(task)[1].save(path)
+    return path
+
+
+def test_biped_run_reaches_where_it_is_told_and_traces_the_state(reacher_file, tmp_path, capsys):
+    import json
+
+    from evolve.cli import main
+    from sim2real.hardware.trace import Trace
+
+    trace = tmp_path / "reach.csv"
+    assert main(["run", str(reacher_file), "--bus", "mock", "--duration", "0.5", "--reach-target", "0.05,-0.1,0.1",
+                 "--trace", str(trace), "--json", "--no-realtime"]) == 0
+    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert report["reach"]["target_m"] == [0.05, -0.1, 0.1] and not report["torque_off"]["unconfirmed"]
+    rows = Trace.read(trace)
+    assert "reach_state" in rows and "hand_error" in rows
+    assert np.all(rows["reach_state"] == 1.0)  # the mock robot never moves: still reaching
+
+
+def test_a_reach_target_out_of_reach_is_refused_before_anything_moves(reacher_file, capsys):
+    from evolve.cli import main
+
+    args = ["run", str(reacher_file), "--bus", "mock", "--duration", "0.2", "--no-realtime", "--reach-target"]
+    assert main(args + ["2,0,0"]) == 2
+    assert "arm lengths from the right shoulder" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        main(args + ["0,0"])
+    assert exit_.value.code == 2 and "three finite numbers" in capsys.readouterr().err
+
+
+def test_a_walker_takes_no_reach_target(capsys):
+    from evolve.cli import main
+
+    assert main(["run", "configs/controllers/xl430_biped.json", "--bus", "mock", "--duration", "0.2",
+                 "--reach-target", "0.1,0,0", "--no-realtime"]) == 2
+    assert "no reach input" in capsys.readouterr().err
+
+
+def test_a_dry_run_reaches_through_the_simulated_bus(reacher_file):
+    from sim2real.simulation.dry_run import dry_run
+
+    result = dry_run(reacher_file, duration_s=3.0, log=lambda s: None, ramp_s=0.3)
+    assert result["reach"]["reaches"] >= 1 and not result["fell"]
+    assert not result["torque_off"]["unconfirmed"]

@@ -24,7 +24,7 @@ from sim2real.cli.args import (
     run_failed,
     seed,
 )
-from sim2real.arg_types import HEADING_HELP, heading_schedule
+from sim2real.arg_types import HEADING_HELP, REACH_HELP, heading_schedule, reach_target
 from sim2real.errors import UsageError
 from sim2real.hardware.deploy import LOST_AFTER_S
 from sim2real.hardware.trace import MAX_TIME_S, sidecar_path
@@ -62,6 +62,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                      help="stop when no read has succeeded for this long (default %(default).0f ms; single "
                      "missed replies are retried and their ticks hold the last goals)")
     run.add_argument("--heading", type=heading_schedule, metavar="DEG|T:DEG,...", help=HEADING_HELP)
+    run.add_argument("--reach-target", type=reach_target, metavar="X,Y,Z", help=REACH_HELP)
     run.add_argument("--json", action="store_true", help="print the report as one JSON object")
     add_realtime_arguments(run)
     run.set_defaults(func=cmd_run, check=check_run)
@@ -86,6 +87,7 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
     dry.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                      help="switch a control module off (repeatable)")
     dry.add_argument("--heading", type=heading_schedule, metavar="DEG|T:DEG,...", help=HEADING_HELP)
+    dry.add_argument("--reach-target", type=reach_target, metavar="X,Y,Z", help=REACH_HELP)
     dry.add_argument("--json", action="store_true", help="print the report as one JSON object")
     add_realtime_arguments(dry)
     dry.set_defaults(func=cmd_dry_run, check=check_dry_run)
@@ -211,7 +213,7 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
     result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults, log=log,
                      reality=args.reality, seed=args.seed, disabled_modules=tuple(args.disable_module),
                      realtime=realtime_request(args),
-                     simbus_realtime=realtime_flags(args), heading=args.heading)
+                     simbus_realtime=realtime_flags(args), heading=args.heading, reach_target=args.reach_target)
     print_result(result, args.json)
     return run_exit_code(result, log)
 
@@ -233,7 +235,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             bus = MockBus(robot)
         report = drive(bus, robot, data, duration_s=args.duration, trace_path=args.trace,
                        disabled_modules=tuple(args.disable_module), log=log, lost_after_s=args.lost_after_ms / 1e3,
-                       realtime=realtime, heading=args.heading)
+                       realtime=realtime, heading=args.heading, reach_target=args.reach_target)
         result = report.summary()
     else:  # neither: the simulated bus, as in a dry run
         from sim2real.simulation.dry_run import dry_run
@@ -241,7 +243,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         log("no --port: running on the simulated bus (MuJoCo behind a pseudo-terminal)")
         result = dry_run(args.controller, robot.name if args.robot else None, args.duration or 10.0,
                          args.trace, log=log, disabled_modules=tuple(args.disable_module), realtime=realtime,
-                         simbus_realtime=realtime_flags(args), heading=args.heading)
+                         simbus_realtime=realtime_flags(args), heading=args.heading, reach_target=args.reach_target)
     print_result(result, args.json)
     return run_exit_code(result, log)
 

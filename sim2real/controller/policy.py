@@ -12,6 +12,7 @@ computed as in evolution, bit for bit.
 
 from __future__ import annotations
 
+import math
 from typing import Callable, Iterable
 
 import numpy as np
@@ -48,6 +49,7 @@ class Policy:
         # a reaching controller runs seed 002's state machine on the angles it reads
         self.reach: ReachControl | None = None
         self._reach_tick: int | None = None  # the tick of its last step
+        self._hand_error = math.nan  # [arm lengths] from the goal the hand had at the last step
         if self.layout.reach:
             settings = self.layout.inputs["reach"]
             self._reach_args = (ArmChain.from_dict(controller.reach_arm, robot.joint_names),
@@ -60,6 +62,18 @@ class Policy:
         """What this controller reads beyond joint angles, feet and up-vector (a
         :class:`~sim2real.controller.channels.Readings` field each: ``heading``, ``gyro``)."""
         return self.wiring.sensors
+
+    @property
+    def trace_channels(self) -> tuple[tuple[str, str], ...]:
+        """(name, unit) of what a trace records of this policy beyond the robot's readings:
+        a reaching controller's state and its hand's distance to the goal."""
+        return (("reach_state", "1 reaching"), ("hand_error", "arm lengths")) if self.reach is not None else ()
+
+    def trace_values(self) -> tuple[float, ...]:
+        """The :attr:`trace_channels`' values at the last step: the state the networks read."""
+        if self.reach is None:
+            return ()
+        return float(self.reach.cycle.state[0]), self._hand_error
 
     def _output_gather(self) -> tuple[np.ndarray, np.ndarray]:
         """Each driven joint's output as the mean of two entries of the networks' flat outputs
@@ -111,7 +125,7 @@ class Policy:
             one = np.zeros(1, dtype=np.intp)
             since = 0.0 if self._reach_tick is None else (tick - self._reach_tick) * self.tick_s
             self._reach_tick = tick
-            self.reach.step(one, angles[None], since)
+            self._hand_error = float(self.reach.step(one, angles[None], since)[0])
             reach_state, reach_target = self.reach.inputs(one)
         readings = Readings(angles=angles[None], feet=np.asarray(feet_touching)[None], up=np.asarray(up)[None],
                             time_s=tick * self.tick_s, previous_goal=previous_goal[None],

@@ -31,7 +31,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Protocol
+from typing import Any, Callable, Protocol, Sequence
 
 import numpy as np
 
@@ -65,6 +65,9 @@ TICK_ATTEMPTS = 4  # ... and at most this often each (a failing mock bus answers
 # moves meanwhile, and a host busy for a few tens of ms must not make a servo look silent
 # (or, at the end, make the tool tell the user to cut the power for nothing).
 PATIENT_ATTEMPTS = 3
+# a reach target farther from the shoulder than this many arm lengths (shoulder to hand at home,
+# where an elbow may be bent, so a stretched arm reaches a little farther) is refused
+MAX_REACH_ARM_LENGTHS = 1.5
 PATIENCE_S = 0.3
 
 
@@ -107,6 +110,7 @@ class RunReport:
     stop_notes: list[str] = field(default_factory=list)
     torque_off: TorqueOff | None = None
     realtime: dict[str, Any] | None = None
+    reach: dict[str, Any] | None = None  # a reaching controller's goals reached, its target and arm
     compute_s: list[float] = field(default_factory=list)
     jitter_s: list[float] = field(default_factory=list)
 
@@ -121,7 +125,8 @@ class RunReport:
                 "stop_reason": self.stop_reason, "stop_signal": self.stop_signal, "stop_notes": self.stop_notes,
                 "torque_off": torque,
                 "compute_us_p50": pct(self.compute_s, 50, 1e6), "compute_us_p99": pct(self.compute_s, 99, 1e6),
-                "jitter_ms_p99": pct(self.jitter_s, 99, 1e3), "realtime": self.realtime}
+                "jitter_ms_p99": pct(self.jitter_s, 99, 1e3), "realtime": self.realtime,
+                **({"reach": self.reach} if self.reach is not None else {})}
 
 
 class GoalSource(Protocol):
@@ -169,6 +174,11 @@ class RealTimeLoop:
         self.goal = policy.hold.copy()
         self.goal_ticks = mapping.ticks(self.goal)
 
+    def policy_values(self) -> tuple[float, ...]:
+        """What the policy adds to a trace row (a reaching controller's state and hand error)."""
+        values = getattr(self.policy, "trace_values", None)
+        return values() if values is not None else ()
+
     def run(self, duration_s: float | None, report: RunReport) -> None:
         start = deadline = self.clock()
         self.failing_since: float | None = None
@@ -204,7 +214,7 @@ class RealTimeLoop:
                 deadline = now  # re-sync: never try to catch up
             if self.trace is not None and readings is not None:
                 extra = (*(() if board.heading is None else (board.heading,)),
-                         *(() if board.gyro is None else board.gyro))
+                         *(() if board.gyro is None else board.gyro), *self.policy_values())
                 if self.motion is not None:  # traced only: a tick without them loses its row, not its goals
                     motion = self._attempt(lambda: self.motion.read(attempts=1), began + self.tick_s, report)
                     extra = None if motion is None else (*extra, *motion)
@@ -327,6 +337,28 @@ class StopSignals:
         self.received.append(signal.Signals(signum).name)
 
 
+def aim_reach(policy: Policy, target_m: Sequence[float], log: Callable[[str], None]) -> None:
+    """Point a reaching controller's hand at ``target_m`` (root frame [m]); refused, before any
+    servo moves, for a controller without the reach input or a target beyond the arm's reach."""
+    if policy.reach is None:
+        raise UsageError("--reach-target: the controller has no reach input (reach_input): it does not reach")
+    reach = policy.reach
+    evolved = reach.target.copy()
+    distance = float(np.linalg.norm(np.asarray(target_m, dtype=float) - reach.shoulder)) / reach.arm_length
+    if not np.all(np.isfinite(target_m)) or distance > MAX_REACH_ARM_LENGTHS:
+        raise UsageError(f"--reach-target {', '.join(f'{v:g}' for v in target_m)}: {distance:.2f} arm lengths from the "
+                         f"right shoulder at {_m(reach.shoulder)}; its arm ({reach.arm_length:.3f} m, shoulder to hand) "
+                         f"reaches at most {MAX_REACH_ARM_LENGTHS:g}")
+    reach.set_target(target_m)
+    if np.linalg.norm(reach.target - evolved) > 0.5 * reach.cycle.tolerance * reach.arm_length:
+        log(f"note: the controller was evolved to reach {_m(evolved)}; a network that learned one target may miss "
+            f"{_m(reach.target)}")
+
+
+def _m(point: np.ndarray) -> str:
+    return "(" + ", ".join(f"{v:.3f}" for v in point) + ") m"
+
+
 class _SafeLog:
     """The run's log, which never raises: after a SIGHUP the terminal is gone and writing to
     it fails (EIO), and no message may keep the stop from turning torque off."""
@@ -341,13 +373,19 @@ class _SafeLog:
             pass
 
 
+def policy_channels(policy: GoalSource) -> tuple[Channel, ...]:
+    """The trace columns a policy adds (:attr:`Policy.trace_channels`), in its order."""
+    return tuple(Channel(name, unit) for name, unit in getattr(policy, "trace_channels", ()))
+
+
 def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, duration_s: float | None = None,
           trace_path: Path | str | None = None, disabled_modules: tuple[str, ...] = (),
           log: Callable[[str], None] = print, clock: Callable[[], float] = time.monotonic,
           sleep: Callable[[float], None] = time.sleep, ramp_s: float = RAMP_S,
           lost_after_s: float = LOST_AFTER_S, realtime: RealtimeRequest | None = None,
           on_loop_end: Callable[[], None] | None = None,
-          heading: Callable[[float], float] | None = None) -> RunReport:
+          heading: Callable[[float], float] | None = None,
+          reach_target: tuple[float, float, float] | None = None) -> RunReport:
     """Start up, ramp, run the loop, and always end with torque off, read back; returns what
     happened (``report.torque_off`` lists servos confirmed off and those that are not).
     ``controller`` is a controller file's contents or any other :class:`GoalSource`.
@@ -355,7 +393,9 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
     ``on_loop_end`` is called once the loop has ended, however, before the stop (a dry run
     takes its ground truth then); nothing it raises delays the torque-off.  ``heading``: the
     heading to hold [rad, from the start's] at a time since the start [s], for a controller with
-    a heading input (:mod:`sim2real.controller.steering`; None: the start's)."""
+    a heading input (:mod:`sim2real.controller.steering`; None: the start's).  ``reach_target``:
+    where a reaching controller's right hand reaches, in its root body's frame [m] (None: the
+    target it was evolved for)."""
     if isinstance(controller, Controller):
         policy: GoalSource = Policy(controller, robot, disabled_modules)
         if heading is not None:
@@ -363,6 +403,8 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
                 raise UsageError("a heading to hold was given, but the controller has no heading input "
                                  "(heading_input): it cannot be steered")  # before any servo moves
             policy.heading_command = heading
+        if reach_target is not None:
+            aim_reach(policy, reach_target, log)  # before any servo moves
         metadata = {"controller_hash": controller.joint_map_hash,
                     "controller_provenance": controller.to_dict()["provenance"]}
     else:
@@ -400,7 +442,7 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
                 try:
                     trace = TraceWriter(trace_path, robot.joint_names, {
                         "robot": robot.name, **metadata, "tick_s": policy.tick_s, "software": "servo-biped-evolve"},
-                        extra=(*board_channels, *(motion.channels if motion else ())))
+                        extra=(*board_channels, *policy_channels(policy), *(motion.channels if motion else ())))
                 except OSError as exc:  # before torque goes on: nothing has moved
                     raise TraceWriteError(f"cannot start the trace: {exc}") from exc
             loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s,
@@ -444,6 +486,10 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
         report.stop_notes.append(f"signals received: {', '.join(signals.received)}")
     if signals.cut_short:
         report.stop_notes.append(f"ramp to rest cut short by {signals.received[-1]}")
+    reach = getattr(policy, "reach", None)
+    if reach is not None:
+        report.reach = {"reaches": int(reach.cycle.reached[0]), "target_m": [round(float(v), 4) for v in reach.target],
+                        "arm_length_m": round(reach.arm_length, 4)}
     if startup_error is not None:
         raise startup_error
     return report

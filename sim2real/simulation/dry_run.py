@@ -169,7 +169,8 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
             log: Callable[[str], None] = print, ramp_s: float = 2.0,
             disabled_modules: tuple[str, ...] = (), reality: str | None = None, seed: int = 0,
             realtime: RealtimeRequest | None = None, simbus_realtime: list[str] | None = None,
-            heading: Callable[[float], float] | None = None) -> dict[str, Any]:
+            heading: Callable[[float], float] | None = None,
+            reach_target: tuple[float, float, float] | None = None) -> dict[str, Any]:
     """Run a controller through the real runtime on the simulated bus, the robot behind it
     perturbed by the reality profile ``reality`` (None: nominal); see ``biped dry-run``.
 
@@ -177,7 +178,8 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     request (None: none; this process keeps its scheduling); ``simbus_realtime`` the simulated
     bus's as its command-line flags (None: its default, real-time scheduling - a simulated
     robot starved of CPU would fall, or go silent, for the wrong reason); ``heading`` the
-    heading to hold over time (:func:`sim2real.hardware.deploy.drive`).
+    heading to hold over time and ``reach_target`` where a reaching controller's hand reaches
+    (:func:`sim2real.hardware.deploy.drive`).
     """
     from sim2real.simulation.reality import (
         load_reality,  # MuJoCo: only a dry run needs it, not `biped run`
@@ -189,6 +191,8 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     if heading is not None and not data.heading_input:
         raise UsageError("a heading to hold was given, but the controller has no heading input (heading_input): "
                          "it cannot be steered")
+    if reach_target is not None and "reach" not in data.input_channels:
+        raise UsageError("--reach-target: the controller has no reach input (reach_input): it does not reach")
     check_fault_times(parse_faults(faults, robot), duration_s)
     args = ["--robot", robot_arg, "--seed", str(seed), "--fault-delay", str(ramp_s),
             *(["--reality", reality] if reality else []), *(["--faults", faults] if faults else []),
@@ -196,7 +200,8 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     with SimulatedBusProcess(args, log) as simbus:
         report = drive(DynamixelBus(simbus.port, robot.bus.baud, robot), robot, data, duration_s=duration_s,
                        trace_path=trace_path, log=log, ramp_s=ramp_s, disabled_modules=disabled_modules,
-                       realtime=realtime, on_loop_end=simbus.mark_end_of_run, heading=heading)
+                       realtime=realtime, on_loop_end=simbus.mark_end_of_run, heading=heading,
+                       reach_target=reach_target)
     truth = simbus.ground_truth
     if "distance_m" not in truth:
         raise BipedError("the simulated bus ended without its report (it crashed?)")
@@ -221,4 +226,5 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
             "simulated_s": truth["simulated_s"], "fell_after_stop": truth.get("fell_after_stop"),
             "simulated_s_after_stop": truth.get("simulated_s_after_stop"),
             **{k: v for k, v in summary.items() if k.startswith(("compute", "jitter"))},
-            "realtime": summary["realtime"], "simbus_realtime": truth.get("realtime"), "simbus_stalls": stalls}
+            "realtime": summary["realtime"], "simbus_realtime": truth.get("realtime"), "simbus_stalls": stalls,
+            **({"reach": summary["reach"]} if "reach" in summary else {})}
