@@ -1,6 +1,9 @@
 """Seed 002's reaching: the reach input, the state machine, the objective and its stages."""
 
+from __future__ import annotations
+
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +14,7 @@ from evolve.locomotion.objectives import REACH_BONUS, PoseWeights
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from sim2real.controller.channels import InputWiring, Readings
+from sim2real.controller.file import Controller
 from sim2real.controller.reach import REACHING, RETURNING, ReachCycle
 from sim2real.controller.symmetry import network_inputs, symmetric_layout
 from sim2real.errors import ConfigError
@@ -120,13 +124,11 @@ def test_reach_settings_are_checked(values, problem):
         TaskConfig.from_mapping(values, "reach.yaml")
 
 
-def _reacher(task: TaskConfig) -> tuple[Genome, "Controller"]:
+def _reacher(task: TaskConfig) -> tuple[Genome, Controller]:
     """Reach control -> own shoulder pitch and elbow: the right arm swings up while reaching."""
     from evolve.locomotion.evaluator import neat_layout
     from evolve.locomotion.export import controller_from_genome
     from evolve.neat.genome import ConnectionGene
-    from sim2real.controller.file import Controller
-
     layout = symmetric_layout(OP3, OP3.control_sets["reach"], task.inputs)
     genome = Genome(0, neat_layout(layout))
     out = layout.n_inputs + layout.n_bias
@@ -164,7 +166,6 @@ def test_the_arms_chain_finds_the_hand_where_the_simulation_has_it():
 
 
 def test_a_reaching_controller_runs_the_state_machine_in_the_runtime_as_in_evolution(tmp_path):
-    from sim2real.controller.file import Controller
     from sim2real.controller.policy import Policy
 
     task = dataclasses.replace(CONFIG.task, episode_s=4.0)
@@ -203,7 +204,7 @@ def test_a_reaching_controller_runs_the_state_machine_in_the_runtime_as_in_evolu
 
 
 @pytest.fixture(scope="module")
-def reacher_file(tmp_path_factory) -> "Path":
+def reacher_file(tmp_path_factory) -> Path:
     """A reaching controller whose target is where its arm swings (found by one evaluation)."""
     task = dataclasses.replace(CONFIG.task, episode_s=4.0)
     genome, _ = _reacher(task)
