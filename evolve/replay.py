@@ -14,6 +14,7 @@ import numpy as np
 
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import genome_from_controller
+from evolve.locomotion.objectives import OBJECTIVES
 from evolve.locomotion.task import TaskConfig
 from sim2real.controller import channels
 from sim2real.controller.activation import check_disabled_modules
@@ -99,10 +100,19 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
             raise UsageError(f"{path}: a heading to hold was given, but the controller has no heading input")
         told = np.array([heading(t * evaluator.tick_s) for t in range(evaluator.n_ticks)])
         turns = np.broadcast_to(told, (episodes, evaluator.n_ticks)).copy()
+    reaching = "reach" in data.input_channels  # scored as it was evolved: seed 002's reaching
+    kind = OBJECTIVES["reach"]
+    objective = (lambda ev, n: kind.make(ev, n, kind.weights, {})) if reaching else None  # noqa: E731
     result = evaluator.evaluate([genome] * episodes, data.sigmoid_steepness, harness=0.0,
                                 disabled_modules=disabled_modules, perturbation=perturbation, on_tick=turn,
-                                turns=turns)
+                                turns=turns, objective=objective)
     _refuse_unstable(result.unstable, reality)
+    reach = {}
+    if reaching:  # goals reached, the hand's mean distance to its goal while up [arm lengths]
+        ticks = np.maximum(np.round(result.upright_s / evaluator.tick_s), 1)
+        reach = {"reaches": float(np.mean(result.terms["reaches"])), "min_reaches": int(result.terms["reaches"].min()),
+                 "hand_error": float(np.mean(result.terms["reaching"] / ticks)),
+                 "reach_target_m": [round(float(v), 4) for v in evaluator.objective.control.target]}
     leg = spec.leg_length
     walked = result.walked(leg, evaluator.episode_s)
     return {
@@ -126,6 +136,7 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         "reality": reality.name,
         "disabled_modules": list(disabled_modules),
         "seconds": evaluator.episode_s,
+        **reach,
         **({"by_perturbation": walk_rate_by_draw(perturbation, walked)}
            if by_perturbation and perturbation is not None else {}),
     }

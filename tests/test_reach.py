@@ -259,3 +259,20 @@ def test_a_dry_run_reaches_through_the_simulated_bus(reacher_file):
     result = dry_run(reacher_file, duration_s=3.0, log=lambda s: None, ramp_s=0.3)
     assert result["reach"]["reaches"] >= 1 and not result["fell"]
     assert not result["torque_off"]["unconfirmed"]
+
+
+def test_biped_eval_reports_reaches_and_a_disabled_reach_module_gives_them_back(reacher_file, tmp_path):
+    """The reacher's one module is its base here; a hierarchy's reach module switched off
+    leaves the modules below it - which, in this hand-made one, is none: nothing reaches."""
+    from evolve.replay import evaluate_controller
+
+    reached = evaluate_controller(reacher_file, seconds=4.0)
+    assert reached["reaches"] >= 1 and 0 < reached["hand_error"] < 2 and not reached["fell"]
+    data = Controller.load(reacher_file).to_dict()
+    data["modules"] = [{"name": "stand", "enabled": True}, {"name": "reach", "enabled": True}]
+    data["connections"] = [[s, d, w, 1] for s, d, w, _ in data["connections"]]  # the reach genes in module 1
+    staged = tmp_path / "staged.json"
+    Controller.from_dict(data).save(staged)
+    assert evaluate_controller(staged, seconds=4.0)["reaches"] == reached["reaches"]
+    standing = evaluate_controller(staged, seconds=4.0, disabled_modules=("reach",))
+    assert standing["reaches"] == 0
