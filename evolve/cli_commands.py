@@ -184,10 +184,16 @@ def replay_gait(path: Path, **options):
     return gait(path, **options)
 
 
-# ``biped view``/``render`` of a controller file, ``render --strip`` and ``plot gait`` of a
-# controller: replays, which sim2real's commands call through these
+def replay_reach(path: Path, **options):
+    from evolve.replay import reach
+
+    return reach(path, **options)
+
+
+# ``biped view``/``render`` of a controller file, ``render --strip``, ``plot gait`` and ``plot
+# reach`` of a controller: replays, which sim2real's commands call through these
 REPLAY = {"view": cmd_view_controller, "render": cmd_render_controller, "strip": cmd_render_strip,
-          "gait": replay_gait}
+          "gait": replay_gait, "reach": replay_reach}
 
 
 def resolve_config(name: str) -> Path:

@@ -22,6 +22,7 @@ from sim2real.controller.channels import turn_rad
 from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError, UsageError
 from sim2real.figures.gait import Gait
+from sim2real.figures.reach import Reach as ReachPlot
 from sim2real.simulation.model_builder import SimulationUnstable
 from sim2real.simulation.reality import NOMINAL, Reality, load_reality
 
@@ -101,11 +102,9 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         told = np.array([heading(t * evaluator.tick_s) for t in range(evaluator.n_ticks)])
         turns = np.broadcast_to(told, (episodes, evaluator.n_ticks)).copy()
     reaching = "reach" in data.input_channels  # scored as it was evolved: seed 002's reaching
-    kind = OBJECTIVES["reach"]
-    objective = (lambda ev, n: kind.make(ev, n, kind.weights, {})) if reaching else None  # noqa: E731
     result = evaluator.evaluate([genome] * episodes, data.sigmoid_steepness, harness=0.0,
                                 disabled_modules=disabled_modules, perturbation=perturbation, on_tick=turn,
-                                turns=turns, objective=objective)
+                                turns=turns, objective=_objective(data))
     _refuse_unstable(result.unstable, reality)
     reach = {}
     if reaching:  # goals reached, the hand's mean distance to its goal while up [arm lengths]
@@ -228,6 +227,64 @@ def gait(path: Path | str, robot: str | None = None, seconds: float | None = Non
     return Gait(spec, np.array(times), spec.joint_names, np.array(angles), np.array(feet), fell, title)
 
 
+class ReachMarks:
+    """A reaching replay's marks for its frames: the target and the hand's path so far, in the
+    world (the state machine's target is in the root's frame, which moves with the robot)."""
+
+    PATH_TICKS = 90  # the path drawn: this many ticks back (3 s at OP3's tick)
+
+    def __init__(self) -> None:
+        self.path: list[np.ndarray] = []
+
+    def draw(self, ev: LocomotionEvaluator, d, scene) -> None:
+        from sim2real.simulation.rendering import draw_reach
+
+        control = ev.reach
+        if control is None:
+            return
+        rotation = d.xmat[ev.root].reshape(3, 3)
+        target = d.xpos[ev.root] + rotation @ control.goals(np.array([0]))[0]
+        self.path = (self.path + [d.xipos[ev.arm.hand].copy()])[-self.PATH_TICKS:]
+        draw_reach(scene, target, control.cycle.tolerance * control.arm_length, np.array(self.path))
+
+
+def _objective(data: Controller):
+    """The objective a controller is replayed with: seed 002's reaching for a reaching one
+    (its state machine runs), else the evaluator's default, walking."""
+    if "reach" not in data.input_channels:
+        return None
+    kind = OBJECTIVES["reach"]
+    return lambda ev, n: kind.make(ev, n, kind.weights, {})
+
+
+def reach(path: Path | str, seconds: float | None = None, disabled_modules: tuple[str, ...] = ()) -> ReachPlot:
+    """One episode of a reaching controller on the nominal robot, tick by tick: the hand's
+    distance to its goal (the simulated hand) and the state machine's state, until the end
+    or a fall."""
+    data, spec, evaluator, genome = controller_setup(path, None, seconds, disabled_modules=disabled_modules,
+                                                     stagnation_stop=False)
+    if "reach" not in data.input_channels:
+        raise UsageError(f"{path}: not a reaching controller (no reach_input)")
+    times, error, state = [], [], []
+
+    def record(ev: LocomotionEvaluator, alive: np.ndarray) -> None:
+        if not len(alive):
+            return
+        score = ev.objective
+        goal = ev.reach.goals(np.array([0]))[0]
+        times.append(len(times) * ev.tick_s)
+        error.append(float(np.linalg.norm(score.hand(np.array([0]))[0] - goal)) / ev.reach.arm_length)
+        state.append(float(ev.reach.cycle.state[0]))
+
+    result = evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=record,
+                                disabled_modules=disabled_modules, objective=_objective(data))
+    _refuse_unstable(result.unstable, NOMINAL)
+    fell = f", fell at {result.upright_s[0]:.1f} s" if result.fell[0] else ""
+    off = f" without {', '.join(disabled_modules)}" if disabled_modules else ""
+    return ReachPlot(np.array(times), np.array(error), np.array(state), data.input_channels["reach"]["reach_tolerance"],
+                     f"{Path(path).name} on {spec.name}{off}{fell}")
+
+
 def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | None = None,
            seconds: float | None = None, every: int = 1,
            disabled_modules: tuple[str, ...] = ()) -> tuple[list[np.ndarray], float]:
@@ -242,17 +299,19 @@ def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | N
     data, spec, evaluator, genome = controller_setup(path, robot, seconds, keep_going=True, disabled_modules=disabled_modules)
     images: list[np.ndarray] = []
     count = [0]
+    marks = ReachMarks()
     with open_renderer(evaluator.model, width, height) as renderer:
         def grab(ev: LocomotionEvaluator, alive: np.ndarray) -> None:
             if count[0] % every == 0:
                 d = ev.batch.get_data(0)
                 mujoco.mj_forward(ev.model, d)
                 renderer.update_scene(d, camera="track")
+                marks.draw(ev, d, renderer.scene)
                 images.append(renderer.render().copy())
             count[0] += 1
 
         evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=grab,
-                           disabled_modules=disabled_modules)
+                           disabled_modules=disabled_modules, objective=_objective(data))
     return images, evaluator.tick_s * every
 
 
@@ -278,17 +337,23 @@ def strip(paths: list[Path | str], columns: int = 6, seconds: float | None = Non
         camera.type = mujoco.mjtCamera.mjCAMERA_FREE
         camera.azimuth, camera.elevation, camera.distance = 90.0, -8.0, 2.2 * tallest
         images, count = [], [0]
+        marks = ReachMarks()
         with open_renderer(evaluator.model, width, height) as renderer:
             def grab(ev: LocomotionEvaluator, alive: np.ndarray) -> None:
+                d = ev.batch.get_data(0)
                 if count[0] in wanted:
-                    d = ev.batch.get_data(0)
                     mujoco.mj_forward(ev.model, d)
                     camera.lookat[:] = (d.subtree_com[ev.root][0], d.subtree_com[ev.root][1], 0.5 * tallest)
                     renderer.update_scene(d, camera=camera)
+                    marks.draw(ev, d, renderer.scene)
                     images.append(renderer.render().copy())
+                elif ev.reach is not None:  # the hand's path between the frames too
+                    mujoco.mj_kinematics(ev.model, d)
+                    marks.path = (marks.path + [d.xipos[ev.arm.hand].copy()])[-marks.PATH_TICKS:]
                 count[0] += 1
 
-            evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=grab)
+            evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=grab,
+                               objective=_objective(data))
         rows.append(images)
         preset = spec.anthropometry.get("preset") if spec.anthropometry else None
         labels.append(f"{Path(path).stem}\n{spec.name}" + (f":{preset}" if preset else "")

@@ -276,3 +276,29 @@ def test_biped_eval_reports_reaches_and_a_disabled_reach_module_gives_them_back(
     assert evaluate_controller(staged, seconds=4.0)["reaches"] == reached["reaches"]
     standing = evaluate_controller(staged, seconds=4.0, disabled_modules=("reach",))
     assert standing["reaches"] == 0
+
+
+def test_biped_plot_reach_draws_a_replay_and_a_trace(reacher_file, tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    from evolve.cli import main
+
+    assert main(["plot", "reach", str(reacher_file), "--seconds", "3", "-o", str(tmp_path / "replay.png")]) == 0
+    assert "1 goal reached" in capsys.readouterr().out and (tmp_path / "replay.png").stat().st_size > 10_000
+    trace = tmp_path / "run.csv"
+    assert main(["run", str(reacher_file), "--bus", "mock", "--duration", "0.3", "--trace", str(trace),
+                 "--no-realtime"]) == 0
+    assert main(["plot", "reach", "--trace", str(trace), "-o", str(tmp_path / "trace.png")]) == 0
+    assert (tmp_path / "trace.png").exists()
+    assert main(["plot", "reach", "configs/controllers/xl430_biped.json", "-o", str(tmp_path / "x.png")]) == 2
+    assert "not a reaching controller" in capsys.readouterr().err
+
+
+def test_the_strip_draws_the_target_and_the_hands_path(reacher_file):
+    pytest.importorskip("imageio")
+    from evolve.replay import strip
+
+    rows, times, _ = strip([reacher_file], columns=3, seconds=2.0, width=200, height=240)
+    red = [int(((f[..., 0] > 170) & (f[..., 1] < 90) & (f[..., 2] < 90)).sum()) for f in rows[0]]
+    blue = [int(((f[..., 2] > 170) & (f[..., 0] < 110) & (f[..., 1] < 170)).sum()) for f in rows[0]]
+    assert all(r > 20 for r in red), red  # the goal, every frame
+    assert blue[0] < blue[-1] and blue[-1] > 20, blue  # the hand's path grows from nothing

@@ -30,7 +30,7 @@ def add_commands(sub: argparse._SubParsersAction,
     plot = sub.add_parser("plot", help="pictures: a walk's joint angles and phase portraits, a network",
                           description="Draw seed 000's pictures: a walk's joint angles over time and its "
                           "hip-knee phase portraits (gait), or an evolved network (network).")
-    psub = plot.add_subparsers(dest="plot_command", required=True, metavar="{gait,network}")
+    psub = plot.add_subparsers(dest="plot_command", required=True, metavar="{gait,network,reach}")
 
     gait = psub.add_parser(
         "gait", help="joint angles over a walk and hip-knee phase portraits (seed 000, figures 2-3)",
@@ -64,6 +64,21 @@ def add_commands(sub: argparse._SubParsersAction,
     net.add_argument("-o", "--output", type=Path, default=Path("network.svg"),
                      help="picture (.svg, .png, .pdf; default network.svg)")
     net.set_defaults(func=cmd_plot_network, check=check_plot_network)
+
+    reach = psub.add_parser(
+        "reach", help="a reach over time: the hand's distance to its goal, reaching and returning (seed 002)",
+        description="The hand's distance to its goal over time with the reach state machine's phases shaded: "
+        "from a simulated episode of a reaching CONTROLLER or from a trace (--trace: a real robot's or a dry "
+        "run's, which records reach_state and hand_error).")
+    reach.add_argument("controller", nargs="?", type=Path, help="reaching controller .json to simulate")
+    reach.add_argument("--trace", type=Path, help="draw this trace CSV instead")
+    reach.add_argument("--seconds", type=positive_float_at_most(MAX_REPLAY_S),
+                       help=f"episode length, at most {MAX_REPLAY_S:g} s (default: the controller's task)")
+    reach.add_argument("--disable-module", action="append", default=[], metavar="NAME",
+                       help="simulate with this module switched off (repeatable)")
+    reach.add_argument("-o", "--output", type=Path, default=Path("reach.png"),
+                       help="picture (.png, .svg, .pdf; default reach.png)")
+    reach.set_defaults(func=cmd_plot_reach, check=check_plot_reach, replay=replay or {})
 
 
 # -- gait --------------------------------------------------------------------------------------
@@ -125,4 +140,44 @@ def cmd_plot_network(args: argparse.Namespace) -> int:
     controller = Controller.load(args.controller)
     plot_network(controller, args.output, tuple(args.disable_module), args.title)
     print(f"wrote {args.output} ({len(controller.hidden)} hidden nodes, {len(controller.connections)} links)")
+    return 0
+
+
+# -- reach -------------------------------------------------------------------------------------
+def check_plot_reach(args: argparse.Namespace) -> None:
+    from sim2real.controller.activation import check_disabled_modules
+    from sim2real.controller.file import Controller
+
+    check_output_file(args.output, "-o/--output", PICTURE_SUFFIXES)
+    require_module("matplotlib", "biped plot")
+    if (args.controller is None) == (args.trace is None):
+        raise UsageError("give a reaching controller .json to simulate or --trace FILE to draw, one of them")
+    if args.trace is not None:
+        for flag, given in (("--seconds", args.seconds), ("--disable-module", args.disable_module)):
+            if given:
+                raise UsageError(f"{flag} applies to a simulated episode, not to --trace")
+        return
+    if "reach" not in args.replay:
+        raise UsageError("simulating a controller needs the evolve package's replay (use `biped`)")
+    controller = Controller.load(args.controller)
+    if "reach" not in controller.input_channels:
+        raise UsageError(f"{args.controller}: not a reaching controller (no reach_input)")
+    check_disabled_modules(controller, args.disable_module)
+
+
+def cmd_plot_reach(args: argparse.Namespace) -> int:
+    from sim2real.figures.reach import Reach, plot_reach
+
+    if args.trace is not None:
+        from sim2real.hardware.trace import Trace
+
+        try:
+            reach = Reach.from_trace(Trace.read(args.trace), None, f"{args.trace.name} (trace)")
+        except ValueError as exc:
+            raise UsageError(f"--trace {args.trace}: {exc}") from None
+    else:
+        reach = args.replay["reach"](args.controller, seconds=args.seconds, disabled_modules=tuple(args.disable_module))
+    plot_reach(reach, args.output)
+    n = reach.reaches
+    print(f"wrote {args.output} ({reach.times_s[-1]:.1f} s, {n} goal{'' if n == 1 else 's'} reached)")
     return 0

@@ -45,6 +45,33 @@ def render_image(model: mujoco.MjModel, data: mujoco.MjData, width: int, height:
         return renderer.render().copy()
 
 
+TARGET_RGBA = np.array([0.9, 0.2, 0.2, 0.8], dtype=np.float32)
+PATH_RGBA = np.array([0.2, 0.5, 0.95, 0.9], dtype=np.float32)
+
+
+def draw_reach(scene: mujoco.MjvScene, target: np.ndarray, radius: float, path: np.ndarray) -> None:
+    """Add a reach's target (a sphere of ``radius`` [m] at ``target`` (3,), world) and the hand's
+    path so far (``path`` (k, 3), world, a line of segments) to a scene about to be rendered."""
+    def add() -> mujoco.MjvGeom | None:
+        if scene.ngeom >= scene.maxgeom:  # a full scene: the rest of the path is left out
+            return None
+        scene.ngeom += 1
+        return scene.geoms[scene.ngeom - 1]
+
+    geom = add()
+    if geom is not None:
+        mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_SPHERE, np.full(3, radius), np.asarray(target, float),
+                            np.eye(3).ravel(), TARGET_RGBA)
+    width = 0.15 * radius
+    for a, b in zip(path[:-1], path[1:]):
+        geom = add()
+        if geom is None:
+            return
+        mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_CAPSULE, np.zeros(3), np.zeros(3), np.eye(3).ravel(),
+                            PATH_RGBA)
+        mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_CAPSULE, width, np.asarray(a, float), np.asarray(b, float))
+
+
 def save_video(path: Path, frames: list[np.ndarray], frame_s: float) -> None:
     """An .mp4 (needs imageio-ffmpeg) or .gif from RGB frames ``frame_s`` apart [s]."""
     try:
