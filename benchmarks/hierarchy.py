@@ -23,15 +23,24 @@ from evolve.run import Run
 from sim2real.atomic_json import read_json
 
 
-def stand_run(config_name: str, seed: int, out: Path, threads: int | None, quiet: bool) -> dict:
+def staged_run(config_name: str, seed: int, out: Path, threads: int | None, quiet: bool) -> dict:
+    """One staged run to its end, in ``out``: continued from its checkpoint if one is there,
+    read back if it has ended (benchmarks of hours survive a stop)."""
     config = load_evolve_config(resolve_config(config_name)).replace(seed=seed)
     if threads is not None:
         config = config.replace(threads=threads)
+    log = lambda line: progress(line, quiet)  # noqa: E731
+    done = out / "stages.json"
     start = time.perf_counter()
-    run = Run.create(config, out, log=lambda line: progress(line, quiet))
-    run.evolve()
-    wall = time.perf_counter() - start
-    stages = read_json(out / "stages.json")  # every stage, as it ended
+    if done.exists() and len(read_json(done)) == len(config.stages):
+        wall = read_json(done)[-1]["wall_s"]
+    else:
+        run = Run.resume(out, threads=threads, log=log) if (out / "checkpoint.json.gz").exists() \
+            else Run.create(config, out, log=log)
+        before = run.wall_s
+        run.evolve()
+        wall = before + time.perf_counter() - start
+    stages = read_json(done)  # every stage, as it ended
     last = stages[-1]
     return {"seed": seed, "solved": last["solved"], "generations": last["generations"],
             "total_generations": sum(s["generations"] for s in stages), "stages": stages, "wall_s": wall,
@@ -61,7 +70,7 @@ def main(argv=None) -> None:
     results: dict[str, list] = {"hierarchy": [], "baseline": []}
     for seed in range(args.first_seed, args.first_seed + args.seeds):
         for kind, name in (("hierarchy", args.hierarchy), ("baseline", args.baseline)):
-            r = stand_run(name, seed, root / f"{kind}-seed{seed}", args.threads, args.json)
+            r = staged_run(name, seed, root / f"{kind}-seed{seed}", args.threads, args.json)
             progress(f"{kind} seed {seed}: solved={r['solved']} generations={r['generations']} "
                      f"(total {r['total_generations']}) in {r['wall_s']:.0f} s", args.json)
             results[kind].append(r)
