@@ -4,7 +4,9 @@ Joint angles are anatomical and mirrored between the sides, so that one angle me
 motion on either side (a symmetric controller relies on it): pitch is flexion (hip, shoulder
 and elbow forward, knee bending back, toes up), roll is abduction (the limb outward; the
 ankle the same sense), yaw is external rotation (toes outward); at the waist and the neck,
-pitch bends forward, roll leans right and yaw turns left.
+pitch bends forward, roll leans right and yaw turns left.  A toe joint (the ball of the foot)
+turns as the ankle does: pitch lifts the toes (the metatarsophalangeal joints' extension,
+which the ankle's dorsiflexion matches in sense).
 
 :data:`ANATOMICAL_AXES` gives each role's positive rotation axis in world coordinates at the
 zero pose (facing +x, left +y, z up) for the right side and the centre; the left side mirrors
@@ -22,6 +24,7 @@ ANATOMICAL_AXES: dict[tuple[str, str], tuple[int, int, int]] = {
     **{("hip", a): v for a, v in _HIP_LIKE.items()},
     ("knee", "pitch"): (0, 1, 0),
     **{("ankle", a): v for a, v in _HIP_LIKE.items()},
+    **{("toe", a): v for a, v in _HIP_LIKE.items()},
     **{("shoulder", a): v for a, v in _HIP_LIKE.items()},
     # the elbow flexes forward with the arm hanging; held out sideways (a T pose, as ROBOTIS's
     # OP3 at zero) it turns about the forward axis, as an elbow roll

@@ -4,6 +4,8 @@ must lie in the plausible ranges of :mod:`sim2real.robot.spec` (each box side, f
 and hip spacing 0.002-1.5 m, each segment 0.005-200 kg, joint angles within a turn either way,
 PD gains and torque caps, the control tick 1 ms-1 s); a human character's body scaled from its
 anthropometry is held to the same ranges.  At most 64 joints, names at most 64 characters.
+A PD robot's body is the box tree scaled from anthropometry or a model file (``model:``); a
+torque cap per kg multiplies the anthropometry's mass, or the model's once it is measured.
 
     robot = load_robot("xl430_biped")          # or a path, or "human:female_50"
 """
@@ -19,6 +21,7 @@ from sim2real.robot.paths import robots_dir
 from sim2real.robot.profiles import DeviceProfile, load_profile
 from sim2real.robot.spec import (
     AXES,
+    BOX_LOCATIONS,
     CENTER_LOCATIONS,
     CONTROL_TICK_S,
     DEFAULT_CONTACT_SHARE,
@@ -107,12 +110,14 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
 
     root = Node(doc, source).mapping(**_ROBOT_KEYS)
     actuation = root.get("actuation", "servo").string(("servo", "pd"))
-    if actuation == "pd":
+    if actuation == "pd" and root.has("model"):  # a PD character drawn in its own model file
+        _refuse_body_keys(root, preset)
+        body, measures = None, {}
+        pd = _read_pd(_pd_gains(root), None)  # a cap per kg waits for the model's measured mass
+    elif actuation == "pd":
         body, measures = anthropometry.human_body(root, preset)
         _check_derived_body(root, body, str(measures["preset"]))
-        if not root.has("pd_gains"):
-            raise root.error("missing required key 'pd_gains' for actuation: pd", key="pd_gains")
-        pd = _read_pd(root["pd_gains"], float(measures["mass_kg"]))
+        pd = _read_pd(_pd_gains(root), float(measures["mass_kg"]))
     else:
         if preset is not None:
             raise root.error(f"robot has no presets, got {show(preset)}", key="name")
@@ -124,8 +129,6 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
                              key="model" if root.has("model") else "body")
         body, measures, pd = (_read_body(root["body"]) if root.has("body") else None), {}, None
     model = _read_model(root["model"], Path(source)) if root.has("model") else None
-    if model is not None and actuation != "servo":
-        raise root.error("a robot from a model file is driven by servos (actuation: servo)", key="actuation")
 
     default_model = root["servo_model"].string() if root.has("servo_model") else None
     joints = tuple(
@@ -133,6 +136,8 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         for node in root["joints"].list(1, MAX_JOINTS)
     )
     _check_joints(root, joints)
+    if model is None:
+        _check_box_locations(root, joints)
     board = _read_sensor_board(root["sensor_board"]) if root.has("sensor_board") else None
     if actuation == "servo":
         for key in ("bus", "sensor_board"):
@@ -255,9 +260,25 @@ def _check_derived_body(root: Node, body: Body, preset: str) -> None:
                              "and shape", key="body")
 
 
-def _read_pd(node: Node, mass_kg: float) -> PDGains:
+def _pd_gains(root: Node) -> Node:
+    if not root.has("pd_gains"):
+        raise root.error("missing required key 'pd_gains' for actuation: pd", key="pd_gains")
+    return root["pd_gains"]
+
+
+def _refuse_body_keys(root: Node, preset: str | None) -> None:
+    """A PD robot from a model file has its body in the file: no box tree, no anthropometry."""
+    if preset is not None:
+        raise root.error(f"robot has no presets (its body is its model file), got {show(preset)}", key="name")
+    for key in ("body", "anthropometry", "proportions", "shape"):
+        if root.has(key):
+            raise root.error("not with a model: the model file is the body (or give body: and no model:)", key=key)
+
+
+def _read_pd(node: Node, mass_kg: float | None) -> PDGains:
     """Eq. 2's gains and the torque cap: ``max_torque_nm`` for every body, or
-    ``max_torque_nm_per_kg`` times the body's mass [kg] (strength in proportion to size)."""
+    ``max_torque_nm_per_kg`` times the body's mass [kg] (strength in proportion to size);
+    ``mass_kg`` None (a body measured on its model later) keeps the cap per kg."""
     node.mapping(required=("kp", "kd"), optional=("max_torque_nm", "max_torque_nm_per_kg"))
     caps = [key for key in ("max_torque_nm", "max_torque_nm_per_kg") if node.has(key)]
     if len(caps) != 1:
@@ -265,9 +286,15 @@ def _read_pd(node: Node, mass_kg: float) -> PDGains:
                          f"(in proportion to body mass), got {len(caps)}")
     bound = MAX_TORQUE_NM if caps[0] == "max_torque_nm" else MAX_TORQUE_NM_PER_KG
     cap = node[caps[0]].number(positive=True, hi=bound[1], unit="N m" if bound is MAX_TORQUE_NM else "N m/kg")
+    if caps[0] == "max_torque_nm":
+        fixed, per_kg = cap, None
+    elif mass_kg is None:
+        fixed, per_kg = None, cap
+    else:
+        fixed, per_kg = cap * mass_kg, None
     return PDGains(kp=node["kp"].number(positive=True, hi=PD_KP[1], unit="1/s^2"),
                    kd=node["kd"].number(positive=True, hi=PD_KD[1], unit="1/s"),
-                   max_torque_nm=cap * mass_kg if caps[0] == "max_torque_nm_per_kg" else cap)
+                   max_torque_nm=fixed, max_torque_nm_per_kg=per_kg)
 
 
 def _read_joint(node: Node, servo_robot: bool, default_model: str | None, model_robot: bool = False) -> Joint:
@@ -387,6 +414,14 @@ def _check_joints(root: Node, joints: tuple[Joint, ...]) -> None:
             other = "left" if joint.side == "right" else "right"
             if (other, joint.location, joint.axis) not in slots:
                 raise ConfigError(root.source, "joints", f"{show(joint.name)} has no {other} twin (bipeds are symmetric)")
+
+
+def _check_box_locations(root: Node, joints: tuple[Joint, ...]) -> None:
+    for i, joint in enumerate(joints):
+        if joint.location not in BOX_LOCATIONS:
+            raise ConfigError(root.source, f"joints[{i}].location", f"the box tree has joints at the "
+                              f"{', '.join(BOX_LOCATIONS)} only; {show(joint.name)} is a {joint.location} "
+                              "joint: a body with arms, a neck or toes comes as a model file (model:)")
 
 
 def _check_ids(root: Node, joints: tuple[Joint, ...], board: SensorBoard | None) -> None:

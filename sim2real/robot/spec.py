@@ -27,9 +27,10 @@ from pathlib import Path
 from sim2real.robot.profiles import DeviceProfile
 
 SIDES = ("left", "right", "center")
-LOCATIONS = ("waist", "hip", "knee", "ankle", "shoulder", "elbow", "wrist", "neck")
+LOCATIONS = ("waist", "hip", "knee", "ankle", "toe", "shoulder", "elbow", "wrist", "neck")
 CENTER_LOCATIONS = ("waist", "neck")  # on the body's midline: side center; every other location is sided
-LEG_LOCATIONS = ("hip", "knee", "ankle")  # what a stance leg is made of
+LEG_LOCATIONS = ("hip", "knee", "ankle", "toe")  # what a stance leg is made of
+BOX_LOCATIONS = ("waist", "hip", "knee", "ankle")  # where the box tree has joints (model files: any location)
 AXES = ("yaw", "roll", "pitch")
 DEFAULT_ROBOT = "xl430_biped"
 GRAVITY = 9.81  # [m/s^2], as in the MuJoCo model (its default)
@@ -142,7 +143,7 @@ class ServoMap:
 class Joint:
     name: str
     side: str  # left | right | center
-    location: str  # waist | hip | knee | ankle
+    location: str  # one of LOCATIONS
     axis: str  # yaw | roll | pitch
     range_rad: tuple[float, float]
     home_rad: float
@@ -160,7 +161,10 @@ class PDGains:
 
     kp: float  # [1/s^2]
     kd: float  # [1/s]
-    max_torque_nm: float  # [N m]
+    # [N m]; None for a robot from a model file capped in proportion to its mass, which is
+    # known only once the model is measured: then max_torque_nm_per_kg holds the cap
+    max_torque_nm: float | None
+    max_torque_nm_per_kg: float | None = None  # [N m/kg]
 
 
 @dataclass(frozen=True)
@@ -186,7 +190,7 @@ class RobotSpec:
     control_sets: dict[str, tuple[str, ...]]
     bus: BusSettings | None = None
     sensor_board: SensorBoard | None = None
-    pd: PDGains | None = None  # set for seed 000's PD-actuated character, None for servos
+    pd: PDGains | None = None  # set for a PD-actuated character (seed 000's, seed 002's), None for servos
     control_tick_s: float | None = None  # overrides the derived tick when set
     physics_dt_s: float | None = None  # MuJoCo's timestep [s]; None: timing.PHYSICS_DT_S
     anthropometry: dict[str, float] = field(default_factory=dict)
@@ -234,6 +238,16 @@ class RobotSpec:
     def height(self) -> float:
         """Sole to the top, standing straight [m]."""
         return self.physique.height
+
+    @property
+    def pd_torque_cap_nm(self) -> float:
+        """A PD robot's torque limit on every joint [N m]: the config's ``max_torque_nm``, or
+        its ``max_torque_nm_per_kg`` times the mass (a model robot's measured on its model)."""
+        if self.pd is None:
+            raise ValueError(f"robot {self.name} is driven by servos: its torque limits are their stall torques")
+        if self.pd.max_torque_nm is not None:
+            return self.pd.max_torque_nm
+        return self.pd.max_torque_nm_per_kg * self.mass
 
     @property
     def is_servo_robot(self) -> bool:

@@ -3,7 +3,8 @@
 A robot from a model file is built by :mod:`sim2real.simulation.model_robot`; both builders
 give their robots the same parts (:mod:`sim2real.simulation.model_parts`), named as
 :mod:`sim2real.simulation.robot_model` reads them.  Here: the box tree, the home keyframe,
-PD gains of the human character, and :func:`build_model` for every robot.
+PD gains of the human characters (box tree or model file), and :func:`build_model` for every
+robot.
 
 The box tree is the one of :mod:`sim2real.robot`: the pelvis is the floating root, the trunk
 sits on it through the waist joints, and each leg hangs from a hip joint at the pelvis'
@@ -241,8 +242,11 @@ def _scale_pd_gains(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel
     joint".  We take I as the inertia, at home, of what the joint moves when its foot is on
     the ground (the whole body above an ankle; the trunk for a waist joint), since a stance
     leg's joints carry the body; a joint scaled by its distal inertia alone could not stand.
+    Box tree and model file alike (:func:`~sim2real.simulation.joint_loads.carried_bodies`:
+    an arm's or a neck's joint moves what lies beyond it).
     """
     assert robot.pd is not None
+    cap = robot.pd_torque_cap_nm  # [N m]; a model robot's per-kg cap on its measured mass
     data = mujoco.MjData(model)
     JointAngles.of(model, robot.joint_names).place(data.qpos, np.array([j.home_rad for j in robot.joints]))
     mujoco.mj_kinematics(model, data)
@@ -251,4 +255,4 @@ def _scale_pd_gains(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel
         act = spec.actuator(joint.name)
         act.set_to_position(kp=inertia * robot.pd.kp, kv=inertia * robot.pd.kd)
         act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-        act.forcerange = [-robot.pd.max_torque_nm, robot.pd.max_torque_nm]
+        act.forcerange = [-cap, cap]

@@ -7,7 +7,9 @@ itself (the file's actuators, sensors, keyframes; its visual-only geoms unless a
 them), floats the root body, and then gives it exactly what a box robot has, with the same
 code (:mod:`sim2real.simulation.model_parts`): the scene, the servo physics on every mapped
 joint (``kp``, force range, damping, friction, armature; backlash joints when asked), a
-position actuator each, the IMU site and sensors, the sole sites and touch sensors.
+position actuator each, the IMU site and sensors, the sole sites and touch sensors.  A PD
+robot's joints keep the file's dynamics and get their gains as a box robot's PD character
+does (:func:`~sim2real.simulation.model_builder.finished_spec`).
 
 * A mapped joint whose ``sign`` is -1 has its axis turned over, so that the model's angle *is*
   the anatomical angle everything else reads; its range is the config's.
