@@ -303,3 +303,29 @@ def test_the_strip_draws_the_target_and_the_hands_path(reacher_file):
     blue = [int(((f[..., 2] > 170) & (f[..., 0] < 110) & (f[..., 1] < 170)).sum()) for f in rows[0]]
     assert all(r > 20 for r in red), red  # the goal, every frame
     assert blue[0] < blue[-1] and blue[-1] > 20, blue  # the hand's path grows from nothing
+
+
+@pytest.mark.parametrize("change, problem", [
+    (lambda d: d.pop("reach_arm"), "reach_arm: missing: a reach_input controller carries its arm's chain"),
+    (lambda d: d["reach_arm"]["links"][0].update(quat=[1.0, 0.5, 0.0, 0.0]), r"links\[0\]\.quat: must have length 1"),
+    (lambda d: d["reach_arm"]["links"][0]["joints"][0].update(name="tail"), "is not one of the controller's joints"),
+    (lambda d: d["reach_arm"]["links"][0].update(pos=[0.0, 1e3, 0.0]), r"links\[0\]\.pos\[1\]: must be within"),
+    (lambda d: d["reach_arm"].update(shoulder_link=7), "shoulder_link: must be a link's index"),
+    (lambda d: d["reach_arm"].update(links=[]), "reach_arm.links: must be a list of 1 to 32 bodies"),
+])
+def test_a_bad_arm_chain_is_refused_naming_the_field(reacher_file, change, problem):
+    import json
+
+    data = json.loads(reacher_file.read_text())
+    change(data)
+    with pytest.raises(ConfigError, match=problem):
+        Controller.from_dict(data, "reacher.json")
+
+
+def test_an_arm_chain_without_the_reach_input_is_refused(reacher_file):
+    import json
+
+    walker = json.loads(Path("configs/controllers/xl430_biped.json").read_text())
+    walker["reach_arm"] = json.loads(reacher_file.read_text())["reach_arm"]
+    with pytest.raises(ConfigError, match="reach_arm: only with reach_input: true"):
+        Controller.from_dict(walker, "walker.json")
