@@ -258,22 +258,18 @@ def _objective(data: Controller):
 
 
 def reach(path: Path | str, seconds: float | None = None, disabled_modules: tuple[str, ...] = ()) -> ReachPlot:
-    """One episode of a reaching controller on the nominal robot, tick by tick: the hand's
-    distance to its goal (the simulated hand) and the state machine's state, until the end
-    or a fall."""
+    """One episode of a reaching controller on the nominal robot, tick by tick, as a trace of a
+    run records it: the state machine's state the networks read and the hand's distance to
+    the goal it had (from the joint angles they read), until the end or a fall."""
     data, spec, evaluator, genome = controller_setup(path, None, seconds, disabled_modules=disabled_modules,
                                                      stagnation_stop=False)
     if "reach" not in data.input_channels:
         raise UsageError(f"{path}: not a reaching controller (no reach_input)")
     times, error, state = [], [], []
 
-    def record(ev: LocomotionEvaluator, alive: np.ndarray) -> None:
-        if not len(alive):
-            return
-        score = ev.objective
-        goal = ev.reach.goals(np.array([0]))[0]
+    def record(ev: LocomotionEvaluator, alive: np.ndarray) -> None:  # as a trace records them (Policy)
         times.append(len(times) * ev.tick_s)
-        error.append(float(np.linalg.norm(score.hand(np.array([0]))[0] - goal)) / ev.reach.arm_length)
+        error.append(float(ev.reach.error[0]))
         state.append(float(ev.reach.cycle.state[0]))
 
     result = evaluator.evaluate([genome], data.sigmoid_steepness, harness=0.0, on_tick=record,

@@ -58,6 +58,7 @@ from evolve.neat import Genome, Population
 from evolve.run_lock import RunLock
 from evolve.stages import Stage, check_stage_joints
 from sim2real.atomic_json import OutputError, copy_file_atomic, read_json, write_json_atomic, write_text_atomic
+from sim2real.controller.channels import REACH
 from sim2real.controller.file import Controller
 from sim2real.errors import BipedError, UsageError
 from sim2real.figures import pyplot, save_figure
@@ -140,11 +141,21 @@ class Run:
         self.finished: list[dict] = read_json(self.out / "stages.json") if (self.out / "stages.json").exists() else []
         first_module = (config.stages[0].name,) if config.stages else ("main",)
         self.population = population or Population(config.neat, self.evaluator.neat_layout, seed=config.seed,
-                                                   modules=first_module)
+                                                   modules=first_module, silent_inputs=self._silent_inputs(0))
         self.best: Best | None = None
         self.champion: Best | None = None
         self.wall_s = 0.0
         self.lock: RunLock | None = None  # the folder's, while this run works in it
+
+    def _silent_inputs(self, stage_index: int) -> frozenset[int]:
+        """The inputs stage ``stage_index``'s networks read as 0 - the reach inputs below a
+        reach stage - from which its module may not link: a weight that never mattered there
+        would, frozen, disturb it once a later stage makes those inputs speak."""
+        layout = self.evaluator.layout
+        stages = self.config.stages
+        if not layout.reach or (stages and stages[stage_index].objective == "reach") or not stages:
+            return frozenset()
+        return frozenset(layout.input_names.index(name) for name in REACH.names([]))
 
     @property
     def stage(self) -> Stage | None:
@@ -385,6 +396,7 @@ class Run:
         best, nxt = self.best, self.stage
         self.log(f"stage {nxt.name} ({nxt.objective}) starts on top of {', '.join(best.genome.modules)}")
         self.population = Population.on_top_of(self.config.neat, best.genome, nxt.name,
+                                               silent_inputs=self._silent_inputs(len(self.finished)),
                                                seed=self.config.seed + 1_000_003 * len(self.finished))
         self.best = None
         (self.out / "best.json").unlink()

@@ -24,7 +24,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from evolve.locomotion.objectives import OBJECTIVES, REACH_BONUS, Objective, ObjectiveType, PoseWeights
+from sim2real.controller.reach import ReachCycle
 from sim2real.errors import ConfigError
+from sim2real.robot.spec import ARM_LOCATIONS
+from sim2real.robot.timing import control_timing
 from sim2real.robot.validation import Node, dataclass_from_mapping, show, show_key
 
 
@@ -42,8 +45,8 @@ class Stage:
         out: dict[str, Any] = {"name": self.name, "objective": self.objective, "generations": self.generations}
         if self.threshold:
             out["threshold"] = self.threshold
-        if self.weights is not None:
-            out["weights"] = dataclasses.asdict(self.weights)
+        if self.weights is not None:  # the terms its objective scores
+            out["weights"] = {k: v for k, v in dataclasses.asdict(self.weights).items() if k in self.kind.terms}
         if self.target_pose_deg:
             out["target_pose_deg"] = dict(self.target_pose_deg)
         return out
@@ -83,12 +86,18 @@ def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
         threshold = item["threshold"].number(lo=0.0, hi=1.0) if item.has("threshold") else 0.0
         weights = OBJECTIVES[objective].weights
         if weights is not None:
-            if item.has("weights"):
-                weights = dataclass_from_mapping(PoseWeights, item["weights"].value, source,
-                                                 f"stages[{i}].weights.", "weight")
-                for key, value in dataclasses.asdict(weights).items():
-                    if value < 0:
-                        raise item["weights"].error(f"must not be negative, got {value}", key=key)
+            if item.has("weights"):  # over the objective's own defaults (table 4.1), its terms only
+                given = dataclass_from_mapping(PoseWeights, item["weights"].value, source,
+                                               f"stages[{i}].weights.", "weight")
+                scored = set(OBJECTIVES[objective].terms)
+                for key in item["weights"].value:
+                    if key not in scored and getattr(given, key) != 0:  # 0 leaves a term out
+                        raise item["weights"].error(f"a {objective} stage does not score {key} (its terms: "
+                                                    f"{', '.join(t for t in OBJECTIVES[objective].terms if hasattr(given, t))})",
+                                                    key=key)
+                    if getattr(given, key) < 0:
+                        raise item["weights"].error(f"must not be negative, got {getattr(given, key)}", key=key)
+                weights = dataclasses.replace(weights, **{k: getattr(given, k) for k in item["weights"].value})
         elif item.has("weights") or threshold:
             raise item.error(f"a {objective} stage has no weights or threshold (eq. 3 has no maximum; "
                              "its weights are the task's coefficients)")
@@ -103,7 +112,7 @@ def with_task(stages: tuple[Stage, ...], task, robot, source: str) -> tuple[Stag
     """The stages with what they take from the task and robot: a reach stage needs the reach
     input (the state machine's state reaches the networks through it) and a right hand, and
     its theoretical maximum adds seed 002's largest bonus, 100 T / i: a goal every
-    ``reach_phase_s`` of the episode."""
+    ``reach_phase_s`` of the episode, in whole control ticks."""
     out = []
     for i, stage in enumerate(stages):
         if stage.objective == "reach":
@@ -114,7 +123,13 @@ def with_task(stages: tuple[Stage, ...], task, robot, source: str) -> tuple[Stag
             if "right" not in hands:
                 raise ConfigError(source, f"stages[{i}].objective", f"robot {robot.name} has no right hand "
                                   "(model.hands.right in its config): nothing to reach with")
-            stage = dataclasses.replace(stage, bonus_max=REACH_BONUS * math.floor(task.episode_s / task.reach_phase_s))
+            arm = [j.name for j in robot.joints if j.side == "right" and j.location in ARM_LOCATIONS]
+            if not set(arm) & set(robot.control_sets[task.control_set]):
+                raise ConfigError(source, "task.control_set", f"{task.control_set!r} drives none of the right "
+                                  f"arm's joints ({', '.join(arm) or 'none'}): a reach stage cannot reach")
+            tick_s = control_timing(robot).tick_s
+            goals = ReachCycle.max_goals(int(round(task.episode_s / tick_s)), tick_s, task.reach_phase_s)
+            stage = dataclasses.replace(stage, bonus_max=REACH_BONUS * goals)
         out.append(stage)
     return tuple(out)
 

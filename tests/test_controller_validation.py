@@ -258,7 +258,7 @@ CASES = [  # (name, mutation, the message's start: "FIELD: problem")
     ("range a string", _set(["joints", "range_rad", "right_knee"], "0..2"), "joints.range_rad.right_knee: must be [low, high]"),
     ("hold a driven joint", _set(["joints", "hold_rad", "right_knee"], 0.0), "joints.hold_rad.right_knee: is a driven joint"),
     ("hold Infinity", _set(["joints", "hold_rad", "right_ankle_roll"], inf), "joints.hold_rad.right_ankle_roll: must be a finite"),
-    ("output rule a number", _set(["joints", "output_rule"], 0.8), "joints.output_rule: must be a non-empty string"),
+    ("output rule a number", _set(["joints", "output_rule"], 0.8), "joints.output_rule: must be one of"),
     ("joints extra key", _set(["joints", "gains"], {}), "joints.gains: unknown key"),
     ("task a string", _set(["task"], "walk"), "task: must be an object, got 'walk'"),
     ("task a list", _set(["task"], []), "task: must be an object, got []"),

@@ -7,6 +7,8 @@ import json
 from pathlib import Path
 
 import numpy as np
+
+from sim2real.controller.schema import FIELDS
 import pytest
 import yaml
 
@@ -116,7 +118,9 @@ def test_evolution_and_the_runtime_wire_and_map_with_the_same_functions(monkeypa
     before = goals()
     monkeypatch.setattr(mapping, "OUTPUT_MARGIN", 0.3)  # the output rule's one constant
     assert not np.array_equal(goals(), before)
-    assert controller_file.OUTPUT_RULE == mapping.OUTPUT_RULE == "central 0.8 of the range: 0.1 -> low, 0.9 -> high"
+    assert controller_file.OUTPUT_RULES is mapping.OUTPUT_RULES  # what a file states, from the one owner
+    assert mapping.OUTPUT_RULE == "central 0.8 of the range: 0.1 -> low, 0.9 -> high"
+    assert list(mapping.OUTPUT_RULES.values()) == FIELDS["joints"]["properties"]["output_rule"]["enum"]
 
 
 # -- the hold pose, the step per tick, the bias values ---------------------------------------------

@@ -70,3 +70,14 @@ def test_no_goal_ever_leaves_the_joint_or_servo_limits(values):
     assert np.all(ticks >= XL430.min_tick) and np.all(ticks <= XL430.max_tick)
     angles = XL430.angles(ticks)
     assert np.all(angles >= XL430.low - 1e-9) and np.all(angles <= XL430.high + 1e-9)
+
+
+def test_the_home_rule_puts_an_output_of_half_at_home_and_the_ends_where_they_were():
+    low, high, home = np.array([0.0, -1.0, -0.5]), np.array([2.0, 1.0, 0.5]), np.array([0.0, 0.5, -0.1])
+    outputs = np.array([0.1, 0.3, 0.5, 0.7, 0.9])[:, None]
+    angles = output_to_angle(outputs, low, high, home)
+    assert np.array_equal(angles[2], home) and np.allclose(angles[0], low) and np.allclose(angles[-1], high)
+    assert np.all(np.diff(angles, axis=0) >= 0)  # monotonic, flat below home where home is the low end
+    assert angles[1, 0] == 0.0 and angles[3, 0] == pytest.approx(1.0)
+    inside = np.array([[0.3, -0.2, 0.2], [1.5, 0.9, -0.4]])
+    assert output_to_angle(angle_to_output(inside, low, high, home), low, high, home) == pytest.approx(inside)

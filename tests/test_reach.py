@@ -64,8 +64,7 @@ def test_the_state_toggles_once_a_goal_is_reached_but_not_sooner_than_its_phase(
 def test_the_reach_objective_scores_table_41s_terms_and_the_bonus():
     reach = CONFIG.stages[-1]
     assert reach.weights == PoseWeights(1.0, 1.0, 1.0, 1.0, 2.0, 1.0)
-    goals = CONFIG.task.episode_s // CONFIG.task.reach_phase_s  # 100 T / i: a goal a second at most
-    assert reach.max_fitness == pytest.approx(100 * 2 ** 5 * 3 + REACH_BONUS * goals)
+    assert reach.max_fitness == pytest.approx(100 * 2 ** 5 * 3 + reach.bonus_max)
     ev = LocomotionEvaluator(OP3, dataclasses.replace(CONFIG.task, episode_s=2.0), 1, threads=1)
     genome = Genome(0, ev.neat_layout)
     e = ev.evaluate([genome], CONFIG.neat.sigmoid_steepness, objective=reach.make_objective)
@@ -329,3 +328,98 @@ def test_an_arm_chain_without_the_reach_input_is_refused(reacher_file):
     walker["reach_arm"] = json.loads(reacher_file.read_text())["reach_arm"]
     with pytest.raises(ConfigError, match="reach_arm: only with reach_input: true"):
         Controller.from_dict(walker, "walker.json")
+
+
+def test_under_the_home_rule_a_network_at_rest_holds_home():
+    """The human's anatomical ranges put home at an end (straight knees, arms at the sides): the
+    range rule sends a network without connections to the middles, the home rule keeps home."""
+    from sim2real.controller.policy import Policy
+
+    human = load_robot("human_arms")
+    config = load_evolve_config("configs/evolve/reach.yaml")
+    assert config.task.output_centre == "home"
+    pose = config.stages[0]
+    scores = {}
+    for rule in ("range", "home"):
+        task = dataclasses.replace(config.task, output_centre=rule)
+        ev = LocomotionEvaluator(human, task, 1, threads=1)
+        e = ev.evaluate([Genome(0, ev.neat_layout)], 1.0, objective=pose.make_objective)
+        scores[rule] = e.fitness[0] / pose.max_fitness
+    assert scores["home"] > 0.9 > 0.3 > scores["range"], scores
+    from evolve.locomotion.export import controller_from_genome
+
+    layout = symmetric_layout(human, human.control_sets["reach"], config.task.inputs)
+    controller = controller_from_genome(Genome(0, ev.neat_layout), human, layout, config.task, 1.0, {})
+    assert controller.joints.output_rule.startswith("central 0.8 about home")
+    policy = Policy(Controller.from_dict(controller.to_dict()), human)
+    home = np.array([j.home_rad for j in human.joints])
+    goal = policy.step(home, np.array([True, True]), np.array([0.0, 0.0, 1.0]), home)
+    assert np.allclose(goal, home)
+
+
+def test_modules_below_reaching_never_link_from_the_reach_inputs(tmp_path):
+    """The reach inputs read 0 below a reach stage: a weight from them would never matter there,
+    and frozen, it would disturb the module once reaching makes them speak."""
+    from evolve.run import Run
+
+    config = dataclasses.replace(CONFIG, neat=dataclasses.replace(CONFIG.neat, population_size=8, target_species=2,
+                                                                  add_link_prob=0.9),
+                                 stages=tuple(dataclasses.replace(s, generations=2, threshold=0.0)
+                                              for s in CONFIG.stages),
+                                 task=dataclasses.replace(CONFIG.task, episode_s=0.5))
+    run = Run.create(config, tmp_path / "run", log=lambda s: None)
+    layout = run.evaluator.layout
+    reach_ids = {layout.input_names.index(n) for n in ("reach_control", "target_forward", "target_left",
+                                                       "target_up")}
+    assert run.population.silent_inputs == reach_ids
+    run.evolve()
+    genome = Controller.load(tmp_path / "run" / "controller.json")
+    modules = genome.modules
+    by_module = {m: {c[0] for c in genome.connections if c[3] == modules.index(m)} for m in modules}
+    assert modules == ("pose", "stand", "reach")
+    assert not (by_module["pose"] | by_module["stand"]) & reach_ids
+
+
+@pytest.mark.parametrize("path", ["configs/evolve/reach.yaml", "configs/evolve/reach_op3.yaml"])
+def test_the_largest_bonus_is_what_a_hand_always_at_its_goal_earns(path):
+    from sim2real.robot.timing import control_timing
+
+    config = load_evolve_config(path)
+    task, stage = config.task, config.stages[-1]
+    tick_s = control_timing(load_robot(config.robot)).tick_s
+    cycle, ids = ReachCycle(1, task.reach_phase_s, task.reach_tolerance), np.zeros(1, dtype=np.intp)
+    for t in range(int(round(task.episode_s / tick_s))):  # as the evaluator's readings
+        cycle.update(ids, np.zeros(1), tick_s if t else 0.0)
+    assert cycle.reached[0] * REACH_BONUS == stage.bonus_max > 0
+
+
+def test_a_reset_policy_reads_the_target_offset_it_was_evolved_with():
+    from evolve.locomotion.evaluator import neat_layout
+    from evolve.locomotion.export import controller_from_genome
+    from sim2real.controller.channels import Reach
+    from sim2real.controller.policy import Policy
+
+    task = dataclasses.replace(CONFIG.task, reach_forward=0.3, reach_left=-0.45, reach_up=0.6)
+    layout = symmetric_layout(OP3, OP3.control_sets["reach"], task.inputs)
+    policy = Policy(controller_from_genome(Genome(0, neat_layout(layout)), OP3, layout, task, 1.0, {}), OP3)
+    evolved = Reach.target(layout.inputs["reach"])
+    assert np.array_equal(policy.reach.offset, evolved)
+    policy.reset()
+    assert np.array_equal(policy.reach.offset, evolved)
+
+
+def test_stage_weights_are_the_objectives_own_over_its_defaults():
+    from evolve.stages import parse_stages
+
+    with pytest.raises(ConfigError, match="a stand stage does not score reaching"):
+        parse_stages([{"name": "s", "objective": "stand", "generations": 5, "weights": {"reaching": 2.0}}], "x.yaml")
+    (stage,) = parse_stages([{"name": "r", "objective": "reach", "generations": 5, "weights": {"torque": 0.5}}],
+                            "x.yaml")
+    assert stage.weights == PoseWeights(1.0, 1.0, 1.0, 1.0, 2.0, 0.5)  # table 4.1's, torque changed
+
+
+def test_a_reach_stage_needs_a_control_set_with_the_right_arm():
+    doc = {"robot": "op3", "task": {"control_set": "legs", "reach_input": True},
+           "stages": [{"name": "reach", "objective": "reach", "generations": 5}]}
+    with pytest.raises(ConfigError, match="task.control_set: 'legs' drives none of the right arm's joints"):
+        parse_evolve_config(doc, "reach.yaml")

@@ -109,6 +109,14 @@ class LocomotionEvaluator:
         self._arm_chain: ArmChain | None = None
 
     @property
+    def output_centres(self) -> np.ndarray | None:
+        """The driven joints' angles for an output of 0.5 under the task's home rule (None:
+        the middles of their ranges)."""
+        if self.task.output_centre == "range":
+            return None
+        return np.array([self.robot.joints[i].home_rad for i in self.driven])
+
+    @property
     def arm(self) -> Arm:
         """The right arm's parts (reaching needs them; refused, naming the robot, without)."""
         if self._arm is None:
@@ -257,12 +265,13 @@ class LocomotionEvaluator:
         p = perturbation
 
         d_low, d_high, d_step = self.low[self.driven], self.high[self.driven], self.max_step[self.driven]
+        centre = self.output_centres
         start_heading = self.heading(ids, 0, p) if self.layout.heading else None
         for t in range(self.n_ticks):
             readings = self.readings(alive, t, p, goal, start_heading, turns)
             inputs = self.wiring.inputs(readings)
             outputs = joint_outputs(self.layout, net.activate(inputs), len(self.low))[:, self.driven]
-            goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high), goal[alive], d_step)
+            goal_alive = rate_limit(output_to_angle(outputs, d_low, d_high, centre), goal[alive], d_step)
             goal[alive] = goal_alive
             self.ctrl[alive[:, None], self.driven] = goal_alive
             if harness or pushes is not None:

@@ -30,6 +30,7 @@ from typing import Any, Mapping
 from evolve.limits import MAX_EPISODE_S
 from sim2real.controller import channels
 from sim2real.controller.channels import InputSettings
+from sim2real.controller.mapping import OUTPUT_RULES
 from sim2real.errors import ConfigError
 from sim2real.robot.spec import DEFAULT_CONTACT_SHARE
 from sim2real.robot.validation import dataclass_from_mapping, show
@@ -89,6 +90,9 @@ class TaskConfig:
     harness_sideways: float = 1.0  # its sideways spring-damper, times (0: it never holds the robot upright
     #                                sideways, so the lateral weight shift of stepping is learned with it on)
     quantize: bool = True  # joint angles at the servo's encoder resolution
+    # an output of 0.5 drives a joint to the middle of its range ("range", seed 000) or to its
+    # home angle ("home": linear on each side, for ranges whose home lies near an end)
+    output_centre: str = "range"
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any] | None, source: str = "<config>",
@@ -129,6 +133,9 @@ class TaskConfig:
         for key in ("selection_speed_leg_s", "selection_yaw_sigma_deg_s", "selection_heading_sigma_deg"):
             if not getattr(config, key) > 0:
                 raise ConfigError(source, prefix + key, f"must be > 0, got {getattr(config, key):g}")
+        if config.output_centre not in OUTPUT_RULES:
+            raise ConfigError(source, prefix + "output_centre", f"must be one of {', '.join(OUTPUT_RULES)}, got "
+                              f"{show(config.output_centre)}")
         if not 0 < config.fall_height < 1:
             raise ConfigError(source, prefix + "fall_height", "must be within (0, 1)")
         return config

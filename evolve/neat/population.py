@@ -56,13 +56,15 @@ class Population:
     a checkpoint.  Each lays down the whole state at once (:meth:`_set_state`).
     """
 
-    def __init__(self, config: NeatConfig, layout: Layout, seed: int, modules: tuple[str, ...] = ("main",)):
+    def __init__(self, config: NeatConfig, layout: Layout, seed: int, modules: tuple[str, ...] = ("main",),
+                 silent_inputs: frozenset[int] = frozenset()):
         if seed is None:
             raise ValueError("seed: a Population needs a seed (a run must be reproducible)")
         rng = np.random.default_rng(seed)
         tracker = InnovationTracker(next_innovation=0, next_node=layout.n_interface)
-        genomes = [initial_genome(k, layout, config, tracker, rng, modules) for k in range(config.population_size)]
-        self._set_state(config, layout, seed, rng, tracker, genomes)
+        genomes = [initial_genome(k, layout, config, tracker, rng, modules, silent_inputs)
+                   for k in range(config.population_size)]
+        self._set_state(config, layout, seed, rng, tracker, genomes, silent_inputs=silent_inputs)
 
     @classmethod
     def from_genome(cls, config: NeatConfig, layout: Layout, seed: int, genome: Genome) -> "Population":
@@ -84,10 +86,13 @@ class Population:
     def _set_state(self, config: NeatConfig, layout: Layout, seed: int, rng: np.random.Generator,
                    tracker: InnovationTracker, genomes: list[Genome], species: SpeciesSet | None = None,
                    generation: int = 0, next_key: int | None = None, evaluations: int = 0,
-                   best: Genome | None = None) -> None:
+                   best: Genome | None = None, silent_inputs: frozenset[int] = frozenset()) -> None:
         """Every attribute of a population; ``species`` None: the genomes speciated afresh,
-        ``next_key`` None: the key after the genomes' count."""
+        ``next_key`` None: the key after the genomes' count; ``silent_inputs``: input ids no
+        link may start from (inputs this stage's networks read as 0, so that a module evolved
+        without them is not disturbed once a later stage makes them speak)."""
         self.config, self.layout, self.seed, self.rng, self.tracker = config, layout, seed, rng, tracker
+        self.silent_inputs = frozenset(silent_inputs)
         self.genomes = genomes
         self.generation, self.evaluations, self.best = generation, evaluations, best
         self.next_key = len(genomes) if next_key is None else next_key
@@ -129,7 +134,7 @@ class Population:
         """Breed the next generation from the evaluated one and speciate it."""
         self.tracker.new_generation()
         self.genomes, self.next_key = reproduce(self.species, self.config, self.tracker, self.rng,
-                                                self.generation, self.next_key)
+                                                self.generation, self.next_key, self.silent_inputs)
         self.generation += 1
         self.species.speciate(self.genomes, self.generation)
 
@@ -149,7 +154,8 @@ class Population:
             s.representative.modules = s.representative.modules + (name,)
 
     @classmethod
-    def on_top_of(cls, config: NeatConfig, ancestor: Genome, module: str, seed: int) -> "Population":
+    def on_top_of(cls, config: NeatConfig, ancestor: Genome, module: str, seed: int,
+                  silent_inputs: frozenset[int] = frozenset()) -> "Population":
         """A population that evolves a new, empty ``module`` on top of a frozen ``ancestor``
         (seed 002: each stage of a hierarchy starts from the previous stage's champion)."""
         if module in ancestor.modules:
@@ -164,7 +170,8 @@ class Population:
             genome.modules = ancestor.modules + (module,)
             genomes.append(genome)
         pop = cls.__new__(cls)
-        pop._set_state(config, ancestor.layout, seed, np.random.default_rng(seed), tracker, genomes)
+        pop._set_state(config, ancestor.layout, seed, np.random.default_rng(seed), tracker, genomes,
+                       silent_inputs=silent_inputs)
         return pop
 
     # -- checkpoints ------------------------------------------------------------------------
@@ -183,6 +190,7 @@ class Population:
             "genomes": [g.to_dict() for g in self.genomes],
             "species": self.species.to_dict(),
             "best": None if self.best is None else self.best.to_dict(),
+            **({"silent_inputs": sorted(self.silent_inputs)} if self.silent_inputs else {}),
         }
 
     def save(self, path: Path | str) -> None:
@@ -205,7 +213,8 @@ class Population:
         best = None if data["best"] is None else Genome.from_dict(data["best"], layout)
         pop = cls.__new__(cls)
         pop._set_state(config, layout, data["seed"], rng, InnovationTracker.from_dict(data["tracker"]), genomes,
-                       species, int(data["generation"]), int(data["next_key"]), int(data["evaluations"]), best)
+                       species, int(data["generation"]), int(data["next_key"]), int(data["evaluations"]), best,
+                       frozenset(int(i) for i in data.get("silent_inputs", ())))
         return pop
 
     @classmethod

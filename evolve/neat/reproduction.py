@@ -47,8 +47,10 @@ def offspring_counts(species: list[Species], config: NeatConfig, generation: int
 
 
 def reproduce(species_set: SpeciesSet, config: NeatConfig, tracker: InnovationTracker,
-              rng: np.random.Generator, generation: int, next_key: int) -> tuple[list[Genome], int]:
-    """The next population (unevaluated) and the next free genome key."""
+              rng: np.random.Generator, generation: int, next_key: int,
+              silent: frozenset[int] = frozenset()) -> tuple[list[Genome], int]:
+    """The next population (unevaluated) and the next free genome key; no new link from the
+    ``silent`` inputs."""
     species = [species_set.species[k] for k in sorted(species_set.species)]
     counts = offspring_counts(species, config, generation)
     champions = [min(s.members, key=_rank) for s in species]
@@ -68,7 +70,7 @@ def reproduce(species_set: SpeciesSet, config: NeatConfig, tracker: InnovationTr
             if rng.random() < config.mutate_only_prob or len(parents) == 1:
                 parent = parents[int(rng.integers(len(parents)))]
                 child = parent.copy(next_key)
-                mutate(child, config, tracker, rng)
+                mutate(child, config, tracker, rng, silent)
             else:
                 mom = parents[int(rng.integers(len(parents)))]
                 if rng.random() < config.interspecies_mate_rate and len(champions) > 1:
@@ -78,7 +80,7 @@ def reproduce(species_set: SpeciesSet, config: NeatConfig, tracker: InnovationTr
                 fitter, other = (mom, dad) if _rank(mom) <= _rank(dad) else (dad, mom)
                 child = crossover(next_key, fitter, other, config, rng)
                 if rng.random() >= config.mate_only_prob or mom is dad:
-                    mutate(child, config, tracker, rng)
+                    mutate(child, config, tracker, rng, silent)
             children.append(child)
             next_key += 1
             made += 1

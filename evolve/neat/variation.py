@@ -22,24 +22,30 @@ from evolve.neat.genome import (
 
 
 def initial_genome(key: int, layout: Layout, config: NeatConfig, tracker: InnovationTracker,
-                   rng: np.random.Generator, modules: tuple[str, ...] = ("main",)) -> Genome:
-    """A minimal genome: inputs and biases to every output (or nothing), random weights."""
+                   rng: np.random.Generator, modules: tuple[str, ...] = ("main",),
+                   silent: frozenset[int] = frozenset()) -> Genome:
+    """A minimal genome: inputs and biases to every output (or nothing), random weights;
+    none from the ``silent`` inputs (those the stage's networks read as 0)."""
     genome = Genome(key, layout, modules)
     if config.initial_connection == "full":
         r = config.initial_weight_range
         for src in layout.source_ids:
+            if src in silent:
+                continue
             for dst in layout.output_ids:
                 genome.add_connection(ConnectionGene(tracker.link(src, dst), src, dst,
                                                      float(rng.uniform(-r, r)), True, genome.active_module))
     return genome
 
 
-def mutate(genome: Genome, config: NeatConfig, tracker: InnovationTracker, rng: np.random.Generator) -> None:
-    """One round of mutation: a structural change, or else weights and enable toggles."""
+def mutate(genome: Genome, config: NeatConfig, tracker: InnovationTracker, rng: np.random.Generator,
+           silent: frozenset[int] = frozenset()) -> None:
+    """One round of mutation: a structural change, or else weights and enable toggles; no new
+    link from the ``silent`` inputs."""
     if rng.random() < config.add_node_prob:
         mutate_add_node(genome, config, tracker, rng)
     elif rng.random() < config.add_link_prob:
-        mutate_add_link(genome, config, tracker, rng)
+        mutate_add_link(genome, config, tracker, rng, silent)
     else:
         if rng.random() < config.weight_mutate_prob:
             mutate_weights(genome, config, rng)
@@ -96,8 +102,9 @@ def mutate_add_node(genome: Genome, config: NeatConfig, tracker: InnovationTrack
 
 
 def mutate_add_link(genome: Genome, config: NeatConfig, tracker: InnovationTracker,
-                    rng: np.random.Generator) -> bool:
-    """Connect two unconnected nodes, or a node to itself, in the active module."""
+                    rng: np.random.Generator, silent: frozenset[int] = frozenset()) -> bool:
+    """Connect two unconnected nodes, or a node to itself, in the active module; never from a
+    ``silent`` input (a try that draws one fails, as a taken pair does)."""
     layout = genome.layout
     nodes = genome.node_ids()
     targets = [n for n in nodes if layout.kind(n) not in (INPUT, BIAS)]
@@ -107,7 +114,7 @@ def mutate_add_link(genome: Genome, config: NeatConfig, tracker: InnovationTrack
     for _ in range(config.new_link_tries):
         src = nodes[int(rng.integers(len(nodes)))]
         dst = targets[int(rng.integers(len(targets)))]
-        if (src, dst) in existing:
+        if (src, dst) in existing or src in silent:
             continue
         if forward is not None and (src == dst or forward.get(src, 0) >= forward.get(dst, 0)):
             continue

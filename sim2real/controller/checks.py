@@ -325,8 +325,21 @@ def _check_joints(c: _Checker, joints: Any) -> list[str]:
         c.number(value, _join("joints.hold_rad", name), -ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD)
         if name in driven:
             raise c.error(_join("joints.hold_rad", name), "is a driven joint: only joints not driven are held")
-    if "output_rule" in joints:
-        c.string(joints["output_rule"], "joints.output_rule")
+    rules = FIELDS["joints"]["properties"]["output_rule"]["enum"]
+    rule = joints.get("output_rule", rules[0])
+    if rule not in rules:
+        raise c.error("joints.output_rule", f"must be one of {show(rules)}, got {show(rule)}")
+    home_rule = rule == rules[1]
+    if home_rule != ("centre_rad" in joints):
+        raise c.error("joints.centre_rad", "missing: the home rule needs each driven joint's centre" if home_rule
+                      else "only with the home rule (output_rule " + show(rules[1]) + ")")
+    if home_rule:
+        centres = c.obj(joints["centre_rad"], "joints.centre_rad", free=True)
+        c.same_names("joints.centre_rad", sorted(centres), sorted(driven), "joints.driven")
+        for name in driven:
+            key = _join("joints.centre_rad", name)
+            low, high = joints["range_rad"][name]
+            c.number(centres[name], key, low, high)
     return driven
 
 

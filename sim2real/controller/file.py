@@ -28,11 +28,13 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, ClassVar, Mapping
 
+import numpy as np
+
 from sim2real.atomic_json import write_text_atomic
 from sim2real.controller.checks import check_controller, joint_map_hash
 from sim2real.controller.json_reader import decode, read_bounded
 from sim2real.controller import channels
-from sim2real.controller.mapping import OUTPUT_RULE, hold_pose
+from sim2real.controller.mapping import OUTPUT_RULES, hold_pose
 from sim2real.controller.schema import FIELDS, FORMAT, NETWORKS, VERSION
 from sim2real.controller.symmetry import BIAS, CENTER_OUTPUT, SymmetricLayout, symmetric_layout, wired_layout
 from sim2real.errors import ConfigError
@@ -98,6 +100,7 @@ class JointMap:
     range_rad: Mapping[str, tuple[float, float]]
     hold_rad: Mapping[str, float] | None = None
     output_rule: str | None = None
+    centre_rad: Mapping[str, float] | None = None  # the home rule's middles, driven joints [rad]
 
     def to_dict(self) -> dict[str, Any]:
         block: dict[str, Any] = {"driven": list(self.driven), "range_rad": _thawed(self.range_rad)}
@@ -105,7 +108,13 @@ class JointMap:
             block["hold_rad"] = dict(self.hold_rad)
         if self.output_rule is not None:
             block["output_rule"] = self.output_rule
+        if self.centre_rad is not None:
+            block["centre_rad"] = dict(self.centre_rad)
         return block
+
+    def centres(self) -> np.ndarray | None:
+        """The driven joints' output centres in ``driven`` order (None: the range rule)."""
+        return None if self.centre_rad is None else np.array([self.centre_rad[n] for n in self.driven])
 
 
 @dataclass(frozen=True)
@@ -158,7 +167,8 @@ class Controller:
             hidden=_frozen(data["hidden"]), connections=_frozen(data["connections"]),
             joints=JointMap(tuple(joints["driven"]), _frozen(joints["range_rad"]),
                             MappingProxyType(dict(joints["hold_rad"])) if "hold_rad" in joints else None,
-                            joints.get("output_rule")),
+                            joints.get("output_rule"),
+                            MappingProxyType(dict(joints["centre_rad"])) if "centre_rad" in joints else None),
             task=_frozen(data["task"]), provenance=_frozen(data["provenance"]),
             input_channels=_frozen(channels.selection(data)),
             reach_arm=_frozen(data["reach_arm"]) if "reach_arm" in data else None,
@@ -188,8 +198,10 @@ class Controller:
                   provenance: Mapping[str, Any], reach_arm: Mapping[str, Any] | None = None) -> "Controller":
         """An evolved network (``hidden`` and ``connections`` in node ids) wired for
         ``robot``'s joints by ``layout`` (its inputs too): its tick, bias values, symmetry
-        block, joint ranges and hold pose are the robot's and the conventions' own."""
+        block, joint ranges and hold pose are the robot's and the conventions' own; the output
+        rule is the task's ``output_centre`` (range, default, or home)."""
         hold = hold_pose(robot, layout.driven)
+        centre = task.get("output_centre", "range")
         return cls(
             robot_name=robot.name, joint_map_hash=joint_map_hash(robot), tick_s=control_timing(robot).tick_s,
             inputs=layout.input_names, outputs=layout.output_names, bias=BIAS, symmetry=Symmetry.of(robot, layout),
@@ -197,7 +209,9 @@ class Controller:
             connections=_frozen(connections),
             joints=JointMap(layout.driven, _frozen({j.name: j.range_rad for j in robot.joints}),
                             MappingProxyType({j.name: float(hold[i]) for i, j in enumerate(robot.joints)
-                                              if j.name not in layout.driven}), OUTPUT_RULE),
+                                              if j.name not in layout.driven}), OUTPUT_RULES[centre],
+                            None if centre == "range" else MappingProxyType(
+                                {j.name: float(j.home_rad) for j in robot.joints if j.name in layout.driven})),
             task=_frozen(dict(task)), provenance=_frozen(dict(provenance)),
             input_channels=_frozen(dict(layout.inputs)), reach_arm=None if reach_arm is None else _frozen(dict(reach_arm)),
         )

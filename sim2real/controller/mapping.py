@@ -20,17 +20,36 @@ from sim2real.robot.servo_model import max_step_per_tick
 OUTPUT_MARGIN = 0.1  # output range clamped at each end
 OUTPUT_RULE = (f"central {1.0 - 2.0 * OUTPUT_MARGIN:g} of the range: {OUTPUT_MARGIN:g} -> low, "
                f"{1.0 - OUTPUT_MARGIN:g} -> high")  # as a controller file states it
+# the same, its middle at each joint's home angle instead of its range's: a network at rest
+# (outputs 0.5) holds home even where home lies near an end of the range (a straight knee or
+# elbow, an arm at the side), as a human's anatomical ranges have it
+OUTPUT_RULE_HOME = (f"central {1.0 - 2.0 * OUTPUT_MARGIN:g} about home: {OUTPUT_MARGIN:g} -> low, 0.5 -> home, "
+                    f"{1.0 - OUTPUT_MARGIN:g} -> high")
+OUTPUT_RULES = {"range": OUTPUT_RULE, "home": OUTPUT_RULE_HOME}  # a task's output_centre -> the file's rule
 
 
-def output_to_angle(output: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-    """Central-0.8 rule: output 0.1 -> low, 0.9 -> high, clamped outside [rad]."""
+def output_to_angle(output: np.ndarray, low: np.ndarray, high: np.ndarray,
+                    centre: np.ndarray | None = None) -> np.ndarray:
+    """Central-0.8 rule: output 0.1 -> low, 0.9 -> high, clamped outside [rad]; with
+    ``centre`` (home angles inside the ranges) 0.5 -> centre, linear on each side of it."""
     fraction = np.clip((output - OUTPUT_MARGIN) / (1.0 - 2.0 * OUTPUT_MARGIN), 0.0, 1.0)
-    return low + fraction * (high - low)
+    if centre is None:
+        return low + fraction * (high - low)
+    side = 2.0 * fraction - 1.0
+    return centre + side * np.where(side >= 0.0, high - centre, centre - low)
 
 
-def angle_to_output(angle: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+def angle_to_output(angle: np.ndarray, low: np.ndarray, high: np.ndarray,
+                    centre: np.ndarray | None = None) -> np.ndarray:
     """Inverse of :func:`output_to_angle` inside the range."""
-    return OUTPUT_MARGIN + (1.0 - 2.0 * OUTPUT_MARGIN) * (angle - low) / (high - low)
+    if centre is None:
+        fraction = (angle - low) / (high - low)
+    else:
+        above = angle >= centre
+        span = np.where(above, high - centre, centre - low)
+        fraction = 0.5 + 0.5 * np.divide(angle - centre, span, out=np.zeros_like(np.asarray(angle, float)),
+                                         where=span > 0)
+    return OUTPUT_MARGIN + (1.0 - 2.0 * OUTPUT_MARGIN) * fraction
 
 
 def rate_limit(goal: np.ndarray, previous: np.ndarray, max_step: np.ndarray) -> np.ndarray:

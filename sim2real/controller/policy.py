@@ -12,7 +12,6 @@ computed as in evolution, bit for bit.
 
 from __future__ import annotations
 
-import math
 from typing import Callable, Iterable
 
 import numpy as np
@@ -46,16 +45,15 @@ class Policy:
         self._first, self._second = self._output_gather()
         d = self.driven
         self._d_low, self._d_high, self._d_step = self.low[d], self.high[d], self.max_step[d]
+        self._centre = controller.joints.centres()  # the home rule's middles (None: the range's)
         # a reaching controller runs seed 002's state machine on the angles it reads
         self.reach: ReachControl | None = None
         self._reach_tick: int | None = None  # the tick of its last step
-        self._hand_error = math.nan  # [arm lengths] from the goal the hand had at the last step
         if self.layout.reach:
             settings = self.layout.inputs["reach"]
-            self._reach_args = (ArmChain.from_dict(controller.reach_arm, robot.joint_names),
-                                np.array([j.home_rad for j in robot.joints]), 1, Reach.target(settings),
-                                settings["reach_phase_s"], settings["reach_tolerance"])
-            self.reach = ReachControl(*self._reach_args)
+            self.reach = ReachControl(ArmChain.from_dict(controller.reach_arm, robot.joint_names),
+                                      np.array([j.home_rad for j in robot.joints]), 1, Reach.target(settings),
+                                      settings["reach_phase_s"], settings["reach_tolerance"])
 
     @property
     def sensors(self) -> tuple[str, ...]:
@@ -73,7 +71,7 @@ class Policy:
         """The :attr:`trace_channels`' values at the last step: the state the networks read."""
         if self.reach is None:
             return ()
-        return float(self.reach.cycle.state[0]), self._hand_error
+        return float(self.reach.cycle.state[0]), float(self.reach.error[0])
 
     def _output_gather(self) -> tuple[np.ndarray, np.ndarray]:
         """Each driven joint's output as the mean of two entries of the networks' flat outputs
@@ -92,9 +90,7 @@ class Policy:
         self.ticks = 0
         self.start_heading = None
         if self.reach is not None:  # from reaching again, toward the same target
-            target = self.reach.target
-            self.reach = ReachControl(*self._reach_args)
-            self.reach.set_target(target)
+            self.reach.restart()
             self._reach_tick = None
         return self.hold.copy()
 
@@ -125,7 +121,7 @@ class Policy:
             one = np.zeros(1, dtype=np.intp)
             since = 0.0 if self._reach_tick is None else (tick - self._reach_tick) * self.tick_s
             self._reach_tick = tick
-            self._hand_error = float(self.reach.step(one, angles[None], since)[0])
+            self.reach.step(one, angles[None], since)
             reach_state, reach_target = self.reach.inputs(one)
         readings = Readings(angles=angles[None], feet=np.asarray(feet_touching)[None], up=np.asarray(up)[None],
                             time_s=tick * self.tick_s, previous_goal=previous_goal[None],
@@ -133,7 +129,8 @@ class Policy:
                             gyro=None if gyro is None else np.asarray(gyro, dtype=float)[None],
                             reach_state=reach_state, reach_target=reach_target)
         out = self.networks.activate(self.wiring.inputs(readings)).reshape(-1)
-        wanted = output_to_angle(0.5 * (out[self._first] + out[self._second]), self._d_low, self._d_high)
+        wanted = output_to_angle(0.5 * (out[self._first] + out[self._second]), self._d_low, self._d_high,
+                                 self._centre)
         goal = previous_goal.copy()
         goal[self.driven] = rate_limit(wanted, previous_goal[self.driven], self._d_step)
         return goal

@@ -14,6 +14,8 @@ network reads the state through :class:`sim2real.controller.channels.Reach`.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from sim2real.controller.kinematics import ArmChain
@@ -31,6 +33,13 @@ class ReachCycle:
         self.state = np.full(n, REACHING)
         self.since = np.zeros(n)  # [s] since the last toggle
         self.reached = np.zeros(n, dtype=np.int64)  # goals reached so far
+
+    @staticmethod
+    def max_goals(n_ticks: int, tick_s: float, phase_s: float) -> int:
+        """The most goals an episode of ``n_ticks`` readings ``tick_s`` apart can reach (the
+        first reading is at time 0; a phase takes whole ticks): seed 002's T / i, in ticks."""
+        per_goal = math.ceil(phase_s / tick_s - 1e-9)
+        return (n_ticks - 1) // per_goal
 
     def update(self, ids: np.ndarray, error: np.ndarray, dt: float) -> np.ndarray:
         """After ``dt`` [s] more, with the hands of robots ``ids`` at ``error`` (arm lengths)
@@ -61,7 +70,13 @@ class ReachControl:
             raise ValueError("the arm's chain puts the hand on the shoulder at home: no arm to reach with")
         self.rest = hand
         self.cycle = ReachCycle(n, phase_s, tolerance)
+        self.error = np.full(n, np.nan)  # [arm lengths] each hand's distance to its goal at its last step
         self.set_offset(offset)
+
+    def restart(self) -> None:
+        """From reaching again, every robot, toward the same target."""
+        self.cycle = ReachCycle(len(self.error), self.cycle.phase_s, self.cycle.tolerance)
+        self.error[:] = np.nan
 
     def set_offset(self, offset: np.ndarray) -> None:
         """Reach ``offset`` (3,) arm lengths from the shoulder (x forward, y left, z up)."""
@@ -81,6 +96,7 @@ class ReachControl:
         [rad]: advance their state machines; returns each hand's distance to the goal it had
         [arm lengths]."""
         error = np.linalg.norm(self.chain.hand(angles) - self.goals(ids), axis=1) / self.arm_length
+        self.error[ids] = error
         self.cycle.update(ids, error, dt)
         return error
 

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Iterable, Sequence
 
 from sim2real.robot.anatomy import ANATOMICAL_AXES, anatomical_axis
 from sim2real.robot.joint_names import axis_of, location_of, locations_in, words
-from sim2real.robot.spec import CENTER_LOCATIONS, LEG_LOCATIONS
+from sim2real.robot.spec import ARM_LOCATIONS, CENTER_LOCATIONS, LEG_LOCATIONS
 
 if TYPE_CHECKING:  # pragma: no cover
     from sim2real.simulation.model_inertias import InertiaProblem
@@ -47,7 +47,6 @@ DEFAULT_SENSOR_BOARD = ("BIPED-FOOT-BOARD", 200)
 MAX_AXIS_OFF_DEG = 30.0  # a hinge farther than this from every principal axis has no role
 UNLIMITED_RANGE_DEG = 90.0  # the range guessed for a joint the model leaves unlimited
 GUESSED = "guessed: check"
-ARM_LOCATIONS = ("shoulder", "elbow", "wrist")
 _PRINCIPAL = {"roll": (1.0, 0.0, 0.0), "pitch": (0.0, 1.0, 0.0), "yaw": (0.0, 0.0, 1.0)}
 
 

@@ -30,6 +30,7 @@ SIDES = ("left", "right", "center")
 LOCATIONS = ("waist", "hip", "knee", "ankle", "toe", "shoulder", "elbow", "wrist", "neck")
 CENTER_LOCATIONS = ("waist", "neck")  # on the body's midline: side center; every other location is sided
 LEG_LOCATIONS = ("hip", "knee", "ankle", "toe")  # what a stance leg is made of
+ARM_LOCATIONS = ("shoulder", "elbow", "wrist")  # what an arm is made of
 BOX_LOCATIONS = ("waist", "hip", "knee", "ankle")  # where the box tree has joints (model files: any location)
 AXES = ("yaw", "roll", "pitch")
 DEFAULT_ROBOT = "xl430_biped"

@@ -26,6 +26,7 @@ import numpy as np
 
 from sim2real.controller.channels import turn_rad
 from sim2real.robot import RobotSpec
+from sim2real.robot.spec import ARM_LOCATIONS
 
 FEET = ("left", "right")  # the order of every per-foot array
 IMU_SITE = "imu"
@@ -67,9 +68,6 @@ def heading_rad(forward: np.ndarray) -> np.ndarray:
     """The heading an IMU reports from the ``torso_forward`` sensor's values (..., 3): the
     yaw of the torso's forward axis about world up, counter-clockwise seen from above [rad]."""
     return np.arctan2(forward[..., 1], forward[..., 0])
-
-
-ARM_LOCATIONS = ("shoulder", "elbow", "wrist")
 
 
 @dataclass(frozen=True)
