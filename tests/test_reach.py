@@ -87,10 +87,11 @@ def test_the_reach_objective_scores_table_41s_terms_and_the_bonus():
 
 
 def test_a_hand_at_its_target_earns_the_bonus():
-    """The network without connections moves the arm to the middle of its ranges; a target
-    there is reached after the first phase (and the rest, where the hand is not, is not)."""
+    """Under the range rule a network without connections moves the arm to the middle of its
+    ranges; a target there is reached after the first phase (and the rest, where the hand is
+    not, is not)."""
     reach = CONFIG.stages[-1]
-    task = dataclasses.replace(CONFIG.task, episode_s=3.0)
+    task = dataclasses.replace(CONFIG.task, episode_s=3.0, output_centre="range")
     ev = LocomotionEvaluator(OP3, task, 1, threads=1)
     genome = Genome(0, ev.neat_layout)
     ev.evaluate([genome], CONFIG.neat.sigmoid_steepness, objective=reach.make_objective)
@@ -283,7 +284,8 @@ def test_biped_plot_reach_draws_a_replay_and_a_trace(reacher_file, tmp_path, cap
     from evolve.cli import main
 
     assert main(["plot", "reach", str(reacher_file), "--seconds", "3", "-o", str(tmp_path / "replay.png")]) == 0
-    assert "1 goal reached" in capsys.readouterr().out and (tmp_path / "replay.png").stat().st_size > 10_000
+    assert "2 goals reached" in capsys.readouterr().out  # there and back: the home rule rests the arm at home
+    assert (tmp_path / "replay.png").stat().st_size > 10_000
     trace = tmp_path / "run.csv"
     assert main(["run", str(reacher_file), "--bus", "mock", "--duration", "0.3", "--trace", str(trace),
                  "--no-realtime"]) == 0
@@ -300,7 +302,7 @@ def test_the_strip_draws_the_target_and_the_hands_path(reacher_file):
     rows, times, _ = strip([reacher_file], columns=3, seconds=2.0, width=200, height=240)
     red = [int(((f[..., 0] > 170) & (f[..., 1] < 90) & (f[..., 2] < 90)).sum()) for f in rows[0]]
     blue = [int(((f[..., 2] > 170) & (f[..., 0] < 110) & (f[..., 1] < 170)).sum()) for f in rows[0]]
-    assert all(r > 20 for r in red), red  # the goal, every frame
+    assert all(r > 5 for r in red), red  # the goal, every frame (the hand at it hides part of it)
     assert blue[0] < blue[-1] and blue[-1] > 20, blue  # the hand's path grows from nothing
 
 
