@@ -21,6 +21,7 @@ from evolve.cli_commands import resolve_config
 from evolve.config import load_evolve_config
 from evolve.run import Run
 from sim2real.atomic_json import read_json
+from sim2real.errors import UsageError
 
 
 def staged_run(config_name: str, seed: int, out: Path, threads: int | None, quiet: bool) -> dict:
@@ -35,8 +36,13 @@ def staged_run(config_name: str, seed: int, out: Path, threads: int | None, quie
     if done.exists() and len(read_json(done)) == len(config.stages):
         wall = read_json(done)[-1]["wall_s"]
     else:
-        run = Run.resume(out, threads=threads, log=log) if (out / "checkpoint.json.gz").exists() \
-            else Run.create(config, out, log=log)
+        if (out / "checkpoint.json.gz").exists():
+            saved = load_evolve_config(out / "config.yaml")
+            if saved.replace(threads=config.threads) != config:
+                raise UsageError(f"{out} holds another run than {config_name} seed {seed}: give another --out")
+            run = Run.resume(out, threads=threads, log=log)
+        else:
+            run = Run.create(config, out, log=log)
         before = run.wall_s
         run.evolve()
         wall = before + time.perf_counter() - start

@@ -58,9 +58,10 @@ def test_no_delay_reports_what_the_model_reads_now():
     assert np.array_equal(reading.gyro[0], evaluator.parts.gyro(evaluator.sensordata[0]))
 
 
-def test_the_simulated_bus_serves_the_imu_as_it_was_its_delay_ago():
+@pytest.mark.parametrize("delay_ms", [10.0, 11.0])  # whole physics steps of 2 ms, and between two
+def test_the_simulated_bus_serves_the_imu_as_it_was_its_delay_ago(delay_ms):
     now = [0.0]
-    sim = physics.PhysicsChain(ROBOT, clock=lambda: now[0], reality=load_reality({"imu_delay_ms": 10.0}))
+    sim = physics.PhysicsChain(ROBOT, clock=lambda: now[0], reality=load_reality({"imu_delay_ms": delay_ms}))
     sim.data.qvel[3:6] = [1.0, -0.5, 2.0]  # the robot set spinning and tipping
     physics.mujoco.mj_forward(sim.model, sim.data)
     step = sim.model.opt.timestep
@@ -70,6 +71,8 @@ def test_the_simulated_bus_serves_the_imu_as_it_was_its_delay_ago():
         sim.advance()
         history.append(sim.parts.imu(sim.data.sensordata).copy())
     served = sim._imu()
-    lag = int(round(0.010 / step))  # 10 ms: whole physics steps
-    assert served == pytest.approx(history[-1 - lag], abs=1e-12)
+    lag = delay_ms / 1e3 / step  # [physics steps]
+    whole = int(np.floor(lag + 1e-9))
+    expected = imu_between(history[-1 - whole], history[-2 - whole], lag - whole)
+    assert served == pytest.approx(expected, abs=1e-12)
     assert np.abs(served[3:6] - history[-1][3:6]).max() > 1e-3  # and not what it reads now

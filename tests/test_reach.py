@@ -141,21 +141,23 @@ def _reacher(task: TaskConfig) -> tuple[Genome, Controller]:
     return genome, Controller.from_dict(data)
 
 
-def test_the_arms_chain_finds_the_hand_where_the_simulation_has_it():
+@pytest.mark.parametrize("name", ["op3", "human_arms"])  # the human: three hinges in one body (shoulder, lumbar)
+def test_the_arms_chain_finds_the_hand_where_the_simulation_has_it(name):
     import mujoco
     from sim2real.controller.kinematics import ArmChain
     from sim2real.simulation.model_builder import build_model
     from sim2real.simulation.robot_model import Arm, arm_chain
 
-    model = build_model(OP3)
+    robot = load_robot(name)
+    model = build_model(robot)
     data = mujoco.MjData(model)
-    arm = Arm.of(model, OP3)
-    chain = ArmChain.from_dict(arm_chain(model, OP3, arm), OP3.joint_names)
+    arm = Arm.of(model, robot)
+    chain = ArmChain.from_dict(arm_chain(model, robot, arm), robot.joint_names)
     rng = np.random.default_rng(5)
-    root = model.body(OP3.root_body).id
+    root = model.body(robot.root_body).id
     for _ in range(5):
-        q = np.array([rng.uniform(*j.range_rad) for j in OP3.joints])
-        for name, angle in zip(OP3.joint_names, q):
+        q = np.array([rng.uniform(*j.range_rad) for j in robot.joints])
+        for name, angle in zip(robot.joint_names, q):
             data.qpos[model.jnt_qposadr[model.joint(name).id]] = angle
         data.qpos[3:7] = rng.normal(size=4) / np.linalg.norm(rng.normal(size=4))
         data.qpos[3:7] /= np.linalg.norm(data.qpos[3:7])

@@ -107,6 +107,7 @@ class LocomotionEvaluator:
         self.reach: ReachControl | None = None  # the episode's reach state machine, if its objective runs one
         self._arm: Arm | None = None
         self._arm_chain: ArmChain | None = None
+        self._imu_history: np.ndarray | None = None  # a delayed IMU's readings, (n, ticks + 1, 7), from tick 0
 
     @property
     def output_centres(self) -> np.ndarray | None:

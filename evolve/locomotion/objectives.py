@@ -91,7 +91,7 @@ class WalkObjective:
     ``exp(-(e / sigma_h)^2)`` of the heading error e (ToddlerBot's torso-orientation term against
     the commanded path's yaw), sigma_h ``selection_heading_sigma_deg``, weighted by
     ``selection_straight_coeff``: standing still earns the yaw-rate kernel in full and this
-    product nothing, and a walker that circles earns it only while it faces the heading.
+    product almost nothing (the velocity kernel at rest, e^-4), and a walker that circles earns it only while it faces the heading.
     The heading to hold is the start's, turned by the
     episode's command (``evaluator.turns``).  ``turn`` [deg], weighted by nothing, is the
     largest turn from the start's heading while upright (validation can refuse walks that turn).
@@ -320,7 +320,11 @@ class ReachObjective(PoseObjective):
         task, arm = ev.task, ev.arm
         self.arm = arm
         self.xpos, self.xmat, self.force = ev.xpos, ev.xmat, ev.actuator_force
-        self.force_limit = np.abs(ev.model.actuator_forcerange).max(axis=1)
+        self.force_limit = np.abs(ev.model.actuator_forcerange).max(axis=1)  # the nominal robot's
+        if not np.all(self.force_limit > 0):
+            unlimited = [ev.model.actuator(i).name for i in np.flatnonzero(~(self.force_limit > 0))]
+            raise ValueError(f"actuators {', '.join(unlimited)} have no force limit: eq. 4.7 weighs torques "
+                             "as shares of it")
         self.arm_joints = np.isin(np.array(ev.layout.driven), arm.joints)
         home = np.array([j.home_rad for j in ev.robot.joints])
         self.control = ev.reach = ReachControl(ev.arm_chain, home, n, Reach.target(task.to_dict()),

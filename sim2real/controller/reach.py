@@ -21,6 +21,15 @@ import numpy as np
 from sim2real.controller.kinematics import ArmChain
 
 REACHING, RETURNING = 1.0, 0.0
+# a target farther from the shoulder than this many arm lengths (shoulder to hand at home, where
+# an elbow may be bent, so that a stretched arm reaches a little farther) is refused
+MAX_REACH_ARM_LENGTHS = 1.5
+NO_REACH = "--reach-target: the controller has no reach input (reach_input): it does not reach"
+
+
+def metres(point: np.ndarray) -> str:
+    """A point for a message: ``(x, y, z) m``."""
+    return "(" + ", ".join(f"{v:.3f}" for v in point) + ") m"
 
 
 class ReachCycle:
@@ -86,6 +95,16 @@ class ReachControl:
     def set_target(self, target_m: np.ndarray) -> None:
         """Reach a point of the root's frame [m] (what a user gives on the command line)."""
         self.set_offset((np.asarray(target_m, dtype=float) - self.shoulder) / self.arm_length)
+
+    def aim(self, target_m: np.ndarray) -> None:
+        """:meth:`set_target`, refused (``ValueError``) for a point that is not finite or lies
+        beyond :data:`MAX_REACH_ARM_LENGTHS` of the shoulder."""
+        target = np.asarray(target_m, dtype=float)
+        distance = float(np.linalg.norm(target - self.shoulder)) / self.arm_length
+        if not np.all(np.isfinite(target)) or not distance <= MAX_REACH_ARM_LENGTHS:
+            raise ValueError(f"{distance:.2f} arm lengths from the right shoulder at {metres(self.shoulder)}; its arm "
+                             f"({self.arm_length:.3f} m, shoulder to hand) reaches at most {MAX_REACH_ARM_LENGTHS:g}")
+        self.set_target(target)
 
     def goals(self, ids: np.ndarray) -> np.ndarray:
         """(len(ids), 3) each hand's goal now, root frame [m]."""

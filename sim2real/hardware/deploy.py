@@ -39,6 +39,7 @@ from sim2real.controller.channels import CHANNELS
 from sim2real.controller.file import Controller
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
+from sim2real.controller.reach import NO_REACH, metres
 from sim2real.errors import BipedError, UsageError
 from sim2real.hardware.bus import Bus, CommunicationError, ServoError
 from sim2real.hardware.dynamixel.chain import BoardReading, ServoChain, board_reports
@@ -65,9 +66,6 @@ TICK_ATTEMPTS = 4  # ... and at most this often each (a failing mock bus answers
 # moves meanwhile, and a host busy for a few tens of ms must not make a servo look silent
 # (or, at the end, make the tool tell the user to cut the power for nothing).
 PATIENT_ATTEMPTS = 3
-# a reach target farther from the shoulder than this many arm lengths (shoulder to hand at home,
-# where an elbow may be bent, so a stretched arm reaches a little farther) is refused
-MAX_REACH_ARM_LENGTHS = 1.5
 PATIENCE_S = 0.3
 
 
@@ -337,26 +335,20 @@ class StopSignals:
         self.received.append(signal.Signals(signum).name)
 
 
-def aim_reach(policy: Policy, target_m: Sequence[float], log: Callable[[str], None]) -> None:
+def aim_reach(policy: GoalSource, target_m: Sequence[float], log: Callable[[str], None]) -> None:
     """Point a reaching controller's hand at ``target_m`` (root frame [m]); refused, before any
     servo moves, for a controller without the reach input or a target beyond the arm's reach."""
-    if policy.reach is None:
-        raise UsageError("--reach-target: the controller has no reach input (reach_input): it does not reach")
-    reach = policy.reach
+    reach = getattr(policy, "reach", None)
+    if reach is None:
+        raise UsageError(NO_REACH)
     evolved = reach.target.copy()
-    distance = float(np.linalg.norm(np.asarray(target_m, dtype=float) - reach.shoulder)) / reach.arm_length
-    if not np.all(np.isfinite(target_m)) or distance > MAX_REACH_ARM_LENGTHS:
-        raise UsageError(f"--reach-target {', '.join(f'{v:g}' for v in target_m)}: {distance:.2f} arm lengths from the "
-                         f"right shoulder at {_m(reach.shoulder)}; its arm ({reach.arm_length:.3f} m, shoulder to hand) "
-                         f"reaches at most {MAX_REACH_ARM_LENGTHS:g}")
-    reach.set_target(target_m)
+    try:
+        reach.aim(target_m)
+    except ValueError as exc:
+        raise UsageError(f"--reach-target {', '.join(f'{v:g}' for v in target_m)}: {exc}") from None
     if np.linalg.norm(reach.target - evolved) > 0.5 * reach.cycle.tolerance * reach.arm_length:
-        log(f"note: the controller was evolved to reach {_m(evolved)}; a network that learned one target may miss "
-            f"{_m(reach.target)}")
-
-
-def _m(point: np.ndarray) -> str:
-    return "(" + ", ".join(f"{v:.3f}" for v in point) + ") m"
+        log(f"note: the controller was evolved to reach {metres(evolved)}; a network that learned one target may "
+            f"miss {metres(reach.target)}")
 
 
 class _SafeLog:
@@ -403,12 +395,12 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
                 raise UsageError("a heading to hold was given, but the controller has no heading input "
                                  "(heading_input): it cannot be steered")  # before any servo moves
             policy.heading_command = heading
-        if reach_target is not None:
-            aim_reach(policy, reach_target, log)  # before any servo moves
         metadata = {"controller_hash": controller.joint_map_hash,
                     "controller_provenance": controller.to_dict()["provenance"]}
     else:
         policy, metadata = controller, controller.trace_metadata()
+    if reach_target is not None:
+        aim_reach(policy, reach_target, log)  # before any servo moves
     if duration_s is not None and not (math.isfinite(duration_s) and round(duration_s / policy.tick_s) >= 1):
         raise UsageError(f"duration {duration_s!r} s: not a finite time of at least one control tick "
                          f"({policy.tick_s} s)")  # before any servo moves

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from sim2real.controller.file import Controller
+from sim2real.controller.reach import NO_REACH
 from sim2real.errors import BipedError, ConfigError, UsageError
 from sim2real.hardware.deploy import drive
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
@@ -192,7 +193,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
         raise UsageError("a heading to hold was given, but the controller has no heading input (heading_input): "
                          "it cannot be steered")
     if reach_target is not None and "reach" not in data.input_channels:
-        raise UsageError("--reach-target: the controller has no reach input (reach_input): it does not reach")
+        raise UsageError(NO_REACH)
     check_fault_times(parse_faults(faults, robot), duration_s)
     args = ["--robot", robot_arg, "--seed", str(seed), "--fault-delay", str(ramp_s),
             *(["--reality", reality] if reality else []), *(["--faults", faults] if faults else []),

@@ -128,6 +128,10 @@ def arm_chain(model: mujoco.MjModel, robot: RobotSpec, arm: Arm) -> dict:
     for b in reversed(path):
         hinges = [{"name": model.joint(j).name, "pos": model.jnt_pos[j].tolist(), "axis": model.jnt_axis[j].tolist()}
                   for j in range(model.njnt) if model.jnt_bodyid[j] == b and model.joint(j).name in names]
+        for j in range(model.njnt):  # the chain turns each hinge by its angle from 0
+            if model.jnt_bodyid[j] == b and model.qpos0[model.jnt_qposadr[j]] != 0:
+                raise ValueError(f"joint {model.joint(j).name!r} has a reference angle (ref) of "
+                                 f"{model.qpos0[model.jnt_qposadr[j]]:g} rad: the arm's chain needs 0")
         links.append({"pos": model.body_pos[b].tolist(), "quat": model.body_quat[b].tolist(), "joints": hinges})
     return {"links": links, "hand_com": model.body_ipos[arm.hand].tolist(),
             "shoulder_link": list(reversed(path)).index(arm.shoulder)}
