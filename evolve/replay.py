@@ -111,6 +111,7 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         ticks = np.maximum(np.round(result.upright_s / evaluator.tick_s), 1)
         reach = {"reaches": float(np.mean(result.terms["reaches"])), "min_reaches": int(result.terms["reaches"].min()),
                  "hand_error": float(np.mean(result.terms["reaching"] / ticks)),
+                 "other_arm_deg": float(np.mean(result.terms["other_arm"])),
                  "reach_target_m": [round(float(v), 4) for v in evaluator.objective.control.target]}
     leg = spec.leg_length
     walked = result.walked(leg, evaluator.episode_s)

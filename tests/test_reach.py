@@ -69,7 +69,8 @@ def test_the_reach_objective_scores_table_41s_terms_and_the_bonus():
     genome = Genome(0, ev.neat_layout)
     e = ev.evaluate([genome], CONFIG.neat.sigmoid_steepness, objective=reach.make_objective)
     score = ev.objective
-    assert set(e.terms) == {"survival", "rest_pose", "rest_pose_end", "com", "feet", "reaching", "torque", "reaches"}
+    assert set(e.terms) == {"survival", "rest_pose", "rest_pose_end", "com", "feet", "reaching", "torque", "reaches",
+                            "other_arm"}
     assert score.thorax_rule[0]  # the elbow is outside the torso at home: the rule applies
     assert 0.1 < score.control.arm_length < 0.3  # OP3's shoulder to forearm [m]
     assert e.terms["reaches"][0] == 0 and e.terms["reaching"][0] > 0 and e.terms["torque"][0] > 0

@@ -22,6 +22,7 @@ import numpy as np
 
 from sim2real.controller.channels import Reach, turn_rad
 from sim2real.controller.reach import REACHING, ReachControl
+from sim2real.robot.spec import ARM_LOCATIONS
 
 
 # "walked": 2.2 leg lengths forward, upright to the end (seed 000's 2 m for a 0.9 m human leg)
@@ -302,7 +303,9 @@ class ReachObjective(PoseObjective):
     target while reaching, its rest while returning - summed over ticks [arm lengths]) and
     eq. 4.7 (``torque``: squared actuator forces as shares of their limits, summed over joints
     and ticks: one setting for every robot's torques), and :data:`REACH_BONUS` for each goal
-    reached (``reaches``).  An elbow inside the torso's box (the upper arm through the thorax)
+    reached (``reaches``).  ``other_arm`` [deg], weighted by nothing, is the left arm's mean
+    distance from its rest pose while the right hand reaches: what the one-handed task (the
+    reach input told to the right network only) costs the other arm.  An elbow inside the torso's box (the upper arm through the thorax)
     fails the trial, unless it is inside at the home pose already.
 
     It installs the episode's state machine (:class:`sim2real.controller.reach.ReachControl`,
@@ -313,7 +316,7 @@ class ReachObjective(PoseObjective):
     centre of mass itself.
     """
 
-    TERMS = PoseObjective.TERMS + ("reaching", "torque", "reaches")
+    TERMS = PoseObjective.TERMS + ("reaching", "torque", "reaches", "other_arm")
 
     def __init__(self, ev, n: int, weights: PoseWeights, limits: PoseLimits, target_rad: np.ndarray):
         super().__init__(ev, n, weights, limits, target_rad)
@@ -326,6 +329,10 @@ class ReachObjective(PoseObjective):
             raise ValueError(f"actuators {', '.join(unlimited)} have no force limit: eq. 4.7 weighs torques "
                              "as shares of it")
         self.arm_joints = np.isin(np.array(ev.layout.driven), arm.joints)
+        other = [j.name for j in ev.robot.joints if j.side == "left" and j.location in ARM_LOCATIONS]
+        self.other_arm = np.isin(np.array(ev.layout.driven), other)
+        self.other_sum = np.zeros(n)  # the left arm's mean |error| summed over the ticks spent reaching [rad]
+        self.reaching_ticks = np.zeros(n)
         home = np.array([j.home_rad for j in ev.robot.joints])
         self.control = ev.reach = ReachControl(ev.arm_chain, home, n, Reach.target(task.to_dict()),
                                                task.reach_phase_s, task.reach_tolerance)
@@ -359,11 +366,18 @@ class ReachObjective(PoseObjective):
         error = np.linalg.norm(self.hand(ok) - self.control.goals(ok), axis=1) / self.control.arm_length
         self.reaching[ok] += error
         self.torque[ok] += ((self.force[ok] / self.force_limit) ** 2).sum(axis=1)
+        if self.other_arm.any():  # the one-handed task's cost to the other arm, while the hand reaches
+            reaching = self.control.cycle.state[ok] == REACHING
+            q = self.ev.joint_angles(ok)[:, self.ev.driven]
+            off = np.abs(q - self.target)[:, self.other_arm].mean(axis=1)
+            self.other_sum[ok] += np.where(reaching, off, 0.0)
+            self.reaching_ticks[ok] += reaching
 
     def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes:
         e = super().result(upright, unstable, steps)
         terms = dict(e.terms, reaching=self.reaching, torque=self.torque,
-                     reaches=self.control.cycle.reached.astype(float))
+                     reaches=self.control.cycle.reached.astype(float),
+                     other_arm=np.degrees(self.other_sum / np.maximum(self.reaching_ticks, 1)))
         fitness = e.fitness * (1.0 + self.weights.reaching / (1.0 + self.reaching)) \
             * (1.0 + self.weights.torque / (1.0 + self.torque)) + REACH_BONUS * terms["reaches"]
         fitness = np.where(unstable, 0.0, fitness)
