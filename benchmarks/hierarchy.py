@@ -64,22 +64,35 @@ def summary(results: list[dict]) -> dict:
     }
 
 
-def main(argv=None) -> None:
-    p = parser(__doc__.splitlines()[0])
+def pair_parser(description: str, hierarchy: str, baseline: str):
+    """The command line of a hierarchy-against-baseline benchmark (this one, benchmarks.reach)."""
+    p = parser(description)
     p.add_argument("--seeds", type=int, default=5)
     p.add_argument("--first-seed", type=int, default=1)
     p.add_argument("--threads", type=int, help="simulation threads (default: the configs')")
-    p.add_argument("--hierarchy", default="stand", help="staged config (default: stand)")
-    p.add_argument("--baseline", default="stand_baseline", help="single-module config")
-    args = p.parse_args(argv)
-    root = Path(tempfile.mkdtemp(prefix="hierarchy-bench-"))
+    p.add_argument("--hierarchy", default=hierarchy, help=f"staged config (default: {hierarchy})")
+    p.add_argument("--baseline", default=baseline, help=f"single-module config (default: {baseline})")
+    p.add_argument("--out", type=Path, help="keep the runs here and continue them after a stop (default: a "
+                   "temporary folder)")
+    return p
+
+
+def run_pairs(args, prefix: str) -> tuple[Path, dict[str, list]]:
+    """Each seed's staged run and baseline run (in ``--out`` or a temporary folder)."""
+    root = args.out or Path(tempfile.mkdtemp(prefix=prefix))
     results: dict[str, list] = {"hierarchy": [], "baseline": []}
     for seed in range(args.first_seed, args.first_seed + args.seeds):
         for kind, name in (("hierarchy", args.hierarchy), ("baseline", args.baseline)):
             r = staged_run(name, seed, root / f"{kind}-seed{seed}", args.threads, args.json)
             progress(f"{kind} seed {seed}: solved={r['solved']} generations={r['generations']} "
-                     f"(total {r['total_generations']}) in {r['wall_s']:.0f} s", args.json)
+                     f"(total {r['total_generations']}) in {r['wall_s'] / 60:.1f} min", args.json)
             results[kind].append(r)
+    return root, results
+
+
+def main(argv=None) -> None:
+    args = pair_parser(__doc__.splitlines()[0], "stand", "stand_baseline").parse_args(argv)
+    root, results = run_pairs(args, "hierarchy-bench-")
     report({"seeds": args.seeds, "hierarchy": summary(results["hierarchy"]),
             "baseline": summary(results["baseline"]), "thesis": {"hierarchy_generations": 36, "baseline_generations": 803},
             "runs_dir": str(root)}, args.json)

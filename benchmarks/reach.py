@@ -16,11 +16,9 @@ reaching's: 122 against more than 1,600).
 from __future__ import annotations
 
 import statistics
-import tempfile
-from pathlib import Path
 
-from benchmarks.common import parser, progress, report
-from benchmarks.hierarchy import staged_run
+from benchmarks.common import report
+from benchmarks.hierarchy import pair_parser, run_pairs
 
 # seed 002 table 5.1 (joint torque-based controller): generations and minutes
 THESIS = {"pose": {"generations": 42, "minutes": 8.4}, "stand": {"generations": 36, "minutes": 11.9},
@@ -50,22 +48,8 @@ def summary(results: list[dict]) -> dict:
 
 
 def main(argv=None) -> None:
-    p = parser(__doc__.splitlines()[0])
-    p.add_argument("--seeds", type=int, default=5)
-    p.add_argument("--first-seed", type=int, default=1)
-    p.add_argument("--threads", type=int, help="simulation threads (default: the configs')")
-    p.add_argument("--hierarchy", default="reach", help="staged config (default: reach)")
-    p.add_argument("--baseline", default="reach_baseline", help="single-module config (default: reach_baseline)")
-    p.add_argument("--out", type=Path, help="keep the runs here (default: a temporary folder)")
-    args = p.parse_args(argv)
-    root = args.out or Path(tempfile.mkdtemp(prefix="reach-bench-"))
-    results: dict[str, list] = {"hierarchy": [], "baseline": []}
-    for seed in range(args.first_seed, args.first_seed + args.seeds):
-        for kind, name in (("hierarchy", args.hierarchy), ("baseline", args.baseline)):
-            r = staged_run(name, seed, root / f"{kind}-seed{seed}", args.threads, args.json)
-            progress(f"{kind} seed {seed}: solved={r['solved']} generations={r['total_generations']} "
-                     f"in {r['wall_s'] / 60:.1f} min", args.json)
-            results[kind].append(r)
+    args = pair_parser(__doc__.splitlines()[0], "reach", "reach_baseline").parse_args(argv)
+    root, results = run_pairs(args, "reach-bench-")
     hierarchy, baseline = summary(results["hierarchy"]), summary(results["baseline"])
     ratio = baseline["median_total_generations"] / hierarchy["median_total_generations"]
     report({"seeds": args.seeds, "hierarchy_config": args.hierarchy, "baseline_config": args.baseline,

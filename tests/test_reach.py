@@ -428,3 +428,33 @@ def test_a_reach_stage_needs_a_control_set_with_the_right_arm():
            "stages": [{"name": "reach", "objective": "reach", "generations": 5}]}
     with pytest.raises(ConfigError, match="task.control_set: 'legs' drives none of the right arm's joints"):
         parse_evolve_config(doc, "reach.yaml")
+
+
+def test_the_reach_benchmark_runs_pairs_and_continues_from_its_folder(tmp_path, capsys):
+    """Tiny budgets: one generation a stage; a second call reads the finished runs back."""
+    import json
+
+    import yaml
+
+    from benchmarks import reach as bench
+
+    doc = yaml.safe_load(Path("configs/evolve/reach_op3.yaml").read_text())
+    doc["task"]["episode_s"] = 1.0
+    doc["neat"] = {"population_size": 4, "target_species": 2}
+    doc["stages"] = [dict(s, generations=1) for s in doc["stages"]]
+    hierarchy = tmp_path / "h.yaml"
+    hierarchy.write_text(yaml.safe_dump(doc))
+    doc["stages"] = [{"name": "reach", "objective": "reach", "generations": 2, "threshold": 0.55}]
+    baseline = tmp_path / "b.yaml"
+    baseline.write_text(yaml.safe_dump(doc))
+    args = ["--hierarchy", str(hierarchy), "--baseline", str(baseline), "--seeds", "1", "--threads", "1",
+            "--out", str(tmp_path / "runs"), "--json"]
+    bench.main(args)
+    first = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    stages = first["hierarchy"]["per_seed"][0]["stages"]
+    assert [s["name"] for s in stages] == ["pose", "stand", "reach"]
+    assert first["hierarchy"]["per_seed"][0]["total_generations"] == sum(s["generations"] for s in stages)
+    assert first["baseline"]["per_seed"][0]["total_generations"] == 2
+    bench.main(args)  # read back, not run again
+    again = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert again["hierarchy"]["per_seed"][0]["total_generations"] == first["hierarchy"]["per_seed"][0]["total_generations"]
