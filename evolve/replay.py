@@ -108,9 +108,8 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
     _refuse_unstable(result.unstable, reality)
     reach = {}
     if reaching:  # goals reached, the hand's mean distance to its goal while up [arm lengths]
-        ticks = np.maximum(np.round(result.upright_s / evaluator.tick_s), 1)
         reach = {"reaches": float(np.mean(result.terms["reaches"])), "min_reaches": int(result.terms["reaches"].min()),
-                 "hand_error": float(np.mean(result.terms["reaching"] / ticks)),
+                 "hand_error": float(np.mean(result.terms["reaching"])),
                  "other_arm_deg": float(np.mean(result.terms["other_arm"])),
                  "reach_target_m": [round(float(v), 4) for v in evaluator.objective.control.target]}
     leg = spec.leg_length
