@@ -15,6 +15,7 @@ import numpy as np
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import genome_from_controller
 from evolve.locomotion.objectives import OBJECTIVES
+from evolve.stages import parse_stages
 from evolve.locomotion.task import TaskConfig
 from sim2real.controller import channels
 from sim2real.controller.activation import check_disabled_modules
@@ -250,11 +251,24 @@ class ReachMarks:
 
 def _objective(data: Controller):
     """The objective a controller is replayed with: seed 002's reaching for a reaching one
-    (its state machine runs), else the evaluator's default, walking."""
+    (its state machine runs; the weights of the reach stage it was evolved in, as its
+    provenance records the run's config, else table 4.1's), else the evaluator's default,
+    walking."""
     if "reach" not in data.input_channels:
         return None
     kind = OBJECTIVES["reach"]
-    return lambda ev, n: kind.make(ev, n, kind.weights, {})
+    weights = kind.weights
+    config = data.to_dict()["provenance"].get("config")
+    stages = config.get("stages") if isinstance(config, dict) else None
+    recorded = [s for s in stages if isinstance(s, dict) and s.get("objective") == "reach"] \
+        if isinstance(stages, list) else []
+    if recorded:
+        try:
+            (stage,) = parse_stages([recorded[-1]], "the controller's provenance")
+            weights = stage.weights
+        except ConfigError:  # a provenance is free-form: what it cannot say, table 4.1 does
+            pass
+    return lambda ev, n: kind.make(ev, n, weights, {})
 
 
 def reach(path: Path | str, seconds: float | None = None, disabled_modules: tuple[str, ...] = ()) -> ReachPlot:

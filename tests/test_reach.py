@@ -473,3 +473,20 @@ def test_reaching_every_goal_beats_standing_still_across_table_41s_threshold():
     share = e.fitness / stage.max_fitness
     assert e.terms["reaches"][0] == 4 and e.terms["reaches"][1] == 0
     assert share[0] > stage.threshold > share[1], share
+
+
+def test_eval_scores_with_the_weights_of_the_stage_a_controller_was_evolved_in(reacher_file, tmp_path):
+    from evolve.replay import _objective
+
+    data = Controller.load(reacher_file).to_dict()
+    baseline = [{"name": "reach", "objective": "reach", "generations": 5,
+                 "weights": {"rest_pose": 2.0, "rest_pose_end": 1.0, "com": 1.0, "feet": 1.0, "reaching": 2.0,
+                             "torque": 1.0}}]
+    data["provenance"] = {"config": {"stages": baseline}}
+    path = tmp_path / "baseline.json"
+    Controller.from_dict(data).save(path)
+    ev = LocomotionEvaluator(OP3, dataclasses.replace(CONFIG.task, episode_s=0.2), 1, threads=1)
+    ev.evaluate([Genome(0, ev.neat_layout)], 1.0, objective=_objective(Controller.load(path)))
+    assert ev.objective.weights.rest_pose == 2.0
+    ev.evaluate([Genome(0, ev.neat_layout)], 1.0, objective=_objective(Controller.load(reacher_file)))
+    assert ev.objective.weights.rest_pose == 1.0  # no stages recorded: table 4.1's
