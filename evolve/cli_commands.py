@@ -12,6 +12,7 @@ from pathlib import Path
 from evolve.limits import MAX_EPISODE_S, MAX_EVAL_EPISODES, MAX_GENERATIONS, MAX_POPULATION, MAX_THREADS
 from sim2real.cli.args import (
     int_within,
+    non_negative_finite_float,
     output_dir,
     output_file,
     positive_float_at_most,
@@ -102,6 +103,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     po.add_argument("--randomize", type=reality_name, default="randomize", metavar="RANGES",
                     help="ranges the robots are drawn from (default configs/reality/randomize.yaml)")
     po.add_argument("--seed", type=seed, default=0, help="seed of the search and every draw")
+    po.add_argument("--episode-s", type=positive_float_at_most(MAX_EPISODE_S), metavar="S",
+                    help="episodes of this length [s] (default: the controller's task's); longer ones show circling")
+    po.add_argument("--straight", type=non_negative_finite_float, metavar="C",
+                    help="weigh selection's straight term so (selection_straight_coeff; default: the task's)")
+    po.add_argument("--heading-deg", type=positive_float_at_most(180.0), metavar="DEG",
+                    help="count a walk only if the torso never turned further than this (default: any)")
     po.add_argument("--json", action="store_true", help="print the result as one JSON object")
     po.set_defaults(func=cmd_polish)
 
@@ -325,7 +332,8 @@ def cmd_polish(args: argparse.Namespace) -> int:
     log = (lambda line: None) if args.json else (lambda line: print(line, file=sys.stderr, flush=True))
     result = polish(args.controller, args.out, updates=args.updates, popsize=args.popsize, robots=args.robots,
                     sigma=args.sigma, every=args.every, validation=args.validation, test=args.test, seed=args.seed,
-                    reality=args.randomize, log=log)
+                    reality=args.randomize, episode_s=args.episode_s, straight=args.straight,
+                    heading_deg=args.heading_deg, log=log)
     if args.json:
         print(json.dumps(result))
     return 0

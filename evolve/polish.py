@@ -22,6 +22,7 @@ polish.  The evaluator is the evolution's (``mujoco.batch``), so the numbers are
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -53,11 +54,19 @@ def with_weights(genome: Genome, enabled: list[int], weights: np.ndarray, key: i
 
 
 class Judge:
-    """Runs weight vectors on drawn robots with the controller's evaluator."""
+    """Runs weight vectors on drawn robots with the controller's evaluator: episodes of
+    ``episode_s`` (None: the controller's task's), selection as the task's with ``selection``
+    (TaskConfig fields, e.g. ``selection_straight_coeff``) changed, and with ``heading_deg`` a
+    walk counts only if the torso never turned further than that from the start's heading."""
 
-    def __init__(self, path: Path, reality: str, capacity: int):
-        self.data, self.robot, self.evaluator, self.genome = controller_setup(path, None, None, episodes=capacity,
+    def __init__(self, path: Path, reality: str, capacity: int, episode_s: float | None = None,
+                 selection: dict[str, float] | None = None, heading_deg: float | None = None):
+        self.data, self.robot, self.evaluator, self.genome = controller_setup(path, None, episode_s,
+                                                                             episodes=capacity,
                                                                              reality=load_reality(reality))
+        if selection:
+            self.evaluator.task = dataclasses.replace(self.evaluator.task, **selection)
+        self.heading_deg = heading_deg
         self.enabled, self.start = weights_of(self.genome)
         self.steps = 0
 
@@ -74,6 +83,8 @@ class Judge:
             episodes = ev.evaluate(genomes[lo:hi], self.data.sigmoid_steepness, perturbation=ev.sample(all_keys[lo:hi]))
             score[lo:hi] = episodes.selection
             walked[lo:hi] = episodes.walked(ev.leg, ev.episode_s)
+            if self.heading_deg is not None:  # a walker that turns away is no walker
+                walked[lo:hi] &= episodes.terms["turn"] <= self.heading_deg
             self.steps += episodes.steps
         return score.reshape(len(candidates), r), walked.reshape(len(candidates), r)
 
@@ -84,15 +95,19 @@ def _keys(seed: int, stream: int, index: int, robots: int) -> np.ndarray:
 
 def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robots: int = 8, sigma: float = 0.1,
            every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str = "randomize",
+           episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,
            log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
     ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
-    step size [weight units] (NEAT perturbs a weight by about 0.5)."""
+    step size [weight units] (NEAT perturbs a weight by about 0.5).  For a straight walk:
+    ``episode_s`` longer episodes, ``straight`` selection's straight term weighted so
+    (``selection_straight_coeff``), ``heading_deg`` walks that turn further not counted."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
-    judge = Judge(path, reality, max(popsize * robots, validation, 1))
+    judge = Judge(path, reality, max(popsize * robots, validation, 1), episode_s,
+                  None if straight is None else {"selection_straight_coeff": straight}, heading_deg)
     x0 = judge.start
     optimizer = CMA(mean=x0.copy(), sigma=sigma, population_size=popsize, seed=seed,
                     bounds=np.tile([-WEIGHT_LIMIT, WEIGHT_LIMIT], (len(x0), 1)))
@@ -125,13 +140,15 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     task = judge.evaluator.task
     provenance = {**dict(judge.data.provenance), "polished_from": str(path), "polish": {
         "updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed, "reality": reality,
+        "episode_s": judge.evaluator.episode_s, "straight": straight, "heading_deg": heading_deg,
         "kept_update": best["update"], "validation_walk_rate": best["walk_rate"], "test_walk_rate": test_rates}}
     controller = controller_from_genome(polished, judge.robot, judge.evaluator.layout, task,
                                         judge.data.sigmoid_steepness, provenance)
     controller.save(out / "polished.json")
     result = {"controller": str(path), "polished": str(out / "polished.json"), "weights": len(x0),
               "updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed,
-              "reality": reality, "kept_update": best["update"], "history": history,
+              "reality": reality, "episode_s": judge.evaluator.episode_s, "straight": straight,
+              "heading_deg": heading_deg, "kept_update": best["update"], "history": history,
               "test": {"robots": test, "original": {"walk_rate": test_rates["original"]},
                        "polished": {"walk_rate": test_rates["polished"]}},
               "lifted": test_rates["polished"] > test_rates["original"],

@@ -4,6 +4,7 @@ candidate of an update on the same robots, a seed fixing the whole polish."""
 import json
 
 import numpy as np
+import pytest
 
 from evolve.cli import main
 from evolve.locomotion.export import genome_from_controller
@@ -40,3 +41,21 @@ def test_biped_polish_writes_a_loadable_walker_and_a_seed_fixes_it(tmp_path, cap
     assert polished.provenance["polish"]["updates"] == 2 and "test_walk_rate" in polished.provenance["polish"]
     if a["kept_update"]:
         assert not np.allclose([c[2] for c in polished.connections], [c[2] for c in original.connections])
+
+
+def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_counts_no_turned_walk(tmp_path):
+    from evolve.polish import Judge
+
+    plain = Judge(WALKER, "randomize", 2)
+    straight = Judge(WALKER, "randomize", 2, episode_s=4.0, selection={"selection_straight_coeff": 8.0},
+                     heading_deg=1e-6)
+    assert straight.evaluator.episode_s == pytest.approx(4.0, abs=0.05) and straight.evaluator.task.selection_straight_coeff == 8.0
+    keys = np.array([[1, 0, 0, 0]])
+    score, _ = plain.run([plain.start], keys)
+    s8, walked = straight.run([straight.start], keys)
+    assert not walked.any()  # every walk turns a little: none is within 1e-6 deg
+    assert s8[0, 0] != score[0, 0]
+    assert main(["polish", WALKER, "--out", str(tmp_path / "p"), "--updates", "1", "--popsize", "4", "--robots", "1",
+                 "--validation", "1", "--test", "1", "--episode-s", "2", "--straight", "8", "--heading-deg", "45",
+                 "--json"]) == 0
+    assert Controller.load(tmp_path / "p" / "polished.json").provenance["polish"]["straight"] == 8.0
