@@ -395,8 +395,9 @@ class Run:
         """Start the next stage on top of the champion of the one just filed."""
         best, nxt = self.best, self.stage
         self.log(f"stage {nxt.name} ({nxt.objective}) starts on top of {', '.join(best.genome.modules)}")
-        self.population = Population.on_top_of(self.config.neat, best.genome, nxt.name,
-                                               silent_inputs=self._silent_inputs(len(self.finished)),
+        below, silent = self._silent_inputs(len(self.finished) - 1), self._silent_inputs(len(self.finished))
+        self.population = Population.on_top_of(self.config.neat, best.genome, nxt.name, silent_inputs=silent,
+                                               connect=below - silent,  # inputs that speak from this stage on
                                                seed=self.config.seed + 1_000_003 * len(self.finished))
         self.best = None
         (self.out / "best.json").unlink()

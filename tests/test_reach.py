@@ -380,6 +380,9 @@ def test_modules_below_reaching_never_link_from_the_reach_inputs(tmp_path):
     by_module = {m: {c[0] for c in genome.connections if c[3] == modules.index(m)} for m in modules}
     assert modules == ("pose", "stand", "reach")
     assert not (by_module["pose"] | by_module["stand"]) & reach_ids
+    # the reach module starts as a reach module evolved alone starts: its inputs linked to every output
+    reach_links = [c for c in genome.connections if c[3] == 2 and c[0] in reach_ids]
+    assert len(reach_links) >= 0.9 * len(reach_ids) * len(layout.output_names)
 
 
 @pytest.mark.parametrize("path", ["configs/evolve/reach.yaml", "configs/evolve/reach_op3.yaml"])

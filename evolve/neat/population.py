@@ -19,7 +19,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from evolve.neat.config import NeatConfig
-from evolve.neat.genome import Genome, InnovationTracker, Layout
+from evolve.neat.genome import ConnectionGene, Genome, InnovationTracker, Layout
 from evolve.neat.reproduction import reproduce
 from evolve.neat.species import SpeciesSet
 from evolve.neat.variation import initial_genome, mutate_weights
@@ -155,23 +155,35 @@ class Population:
 
     @classmethod
     def on_top_of(cls, config: NeatConfig, ancestor: Genome, module: str, seed: int,
-                  silent_inputs: frozenset[int] = frozenset()) -> "Population":
-        """A population that evolves a new, empty ``module`` on top of a frozen ``ancestor``
-        (seed 002: each stage of a hierarchy starts from the previous stage's champion)."""
+                  silent_inputs: frozenset[int] = frozenset(), connect: frozenset[int] = frozenset()) -> "Population":
+        """A population that evolves a new ``module`` on top of a frozen ``ancestor`` (seed 002:
+        each stage of a hierarchy starts from the previous stage's champion).  The module starts
+        empty, or - with ``connect``, inputs this stage makes speak - with each of them linked
+        to every output, random weights as a first generation's: as a single module evolved
+        alone starts (seed 002: "the initial structures of the control modules are similar to
+        the initial baseline modules")."""
         if module in ancestor.modules:
             raise ValueError(f"module {module!r} already exists in {list(ancestor.modules)}")
         tracker = InnovationTracker(
             next_innovation=max(ancestor.conns, default=-1) + 1,
             next_node=max([ancestor.layout.n_interface - 1, *ancestor.hidden]) + 1,
         )
+        rng = np.random.default_rng(seed)
+        r = config.initial_weight_range
         genomes = []
         for key in range(config.population_size):
             genome = ancestor.copy(key)
             genome.modules = ancestor.modules + (module,)
+            linked = {(g.src, g.dst) for g in ancestor.conns.values()}
+            for src in sorted(connect):
+                for dst in ancestor.layout.output_ids:
+                    if (src, dst) in linked:
+                        continue
+                    genome.add_connection(ConnectionGene(tracker.link(src, dst), src, dst, float(rng.uniform(-r, r)),
+                                                         True, genome.active_module))
             genomes.append(genome)
         pop = cls.__new__(cls)
-        pop._set_state(config, ancestor.layout, seed, np.random.default_rng(seed), tracker, genomes,
-                       silent_inputs=silent_inputs)
+        pop._set_state(config, ancestor.layout, seed, rng, tracker, genomes, silent_inputs=silent_inputs)
         return pop
 
     # -- checkpoints ------------------------------------------------------------------------
