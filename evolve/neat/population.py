@@ -159,9 +159,10 @@ class Population:
         """A population that evolves a new ``module`` on top of a frozen ``ancestor`` (seed 002:
         each stage of a hierarchy starts from the previous stage's champion).  The module starts
         empty, or - with ``connect``, inputs this stage makes speak - with each of them linked
-        to every output, random weights as a first generation's: as a single module evolved
-        alone starts (seed 002: "the initial structures of the control modules are similar to
-        the initial baseline modules")."""
+        to every output at weight 0: the links a single module evolved alone starts with (seed
+        002: "the initial structures of the control modules are similar to the initial baseline
+        modules"), there for weight mutation to grow, while the stage starts from exactly the
+        behaviour below it (random weights on inputs that now read 1 would shake every joint)."""
         if module in ancestor.modules:
             raise ValueError(f"module {module!r} already exists in {list(ancestor.modules)}")
         tracker = InnovationTracker(
@@ -169,7 +170,6 @@ class Population:
             next_node=max([ancestor.layout.n_interface - 1, *ancestor.hidden]) + 1,
         )
         rng = np.random.default_rng(seed)
-        r = config.initial_weight_range
         genomes = []
         for key in range(config.population_size):
             genome = ancestor.copy(key)
@@ -179,8 +179,8 @@ class Population:
                 for dst in ancestor.layout.output_ids:
                     if (src, dst) in linked:
                         continue
-                    genome.add_connection(ConnectionGene(tracker.link(src, dst), src, dst, float(rng.uniform(-r, r)),
-                                                         True, genome.active_module))
+                    genome.add_connection(ConnectionGene(tracker.link(src, dst), src, dst, 0.0, True,
+                                                         genome.active_module))
             genomes.append(genome)
         pop = cls.__new__(cls)
         pop._set_state(config, ancestor.layout, seed, rng, tracker, genomes, silent_inputs=silent_inputs)
