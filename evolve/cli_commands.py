@@ -109,6 +109,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                     help="weigh selection's straight term so (selection_straight_coeff; default: the task's)")
     po.add_argument("--heading-deg", type=positive_float_at_most(180.0), metavar="DEG",
                     help="count a walk only if the torso never turned further than this (default: any)")
+    po.add_argument("--with-nominal", action="store_true",
+                    help="every candidate meets the nominal robot too in each update (randomized draws seldom "
+                    "resemble it)")
     po.add_argument("--json", action="store_true", help="print the result as one JSON object")
     po.set_defaults(func=cmd_polish)
 
@@ -333,7 +336,7 @@ def cmd_polish(args: argparse.Namespace) -> int:
     result = polish(args.controller, args.out, updates=args.updates, popsize=args.popsize, robots=args.robots,
                     sigma=args.sigma, every=args.every, validation=args.validation, test=args.test, seed=args.seed,
                     reality=args.randomize, episode_s=args.episode_s, straight=args.straight,
-                    heading_deg=args.heading_deg, log=log)
+                    heading_deg=args.heading_deg, nominal=args.with_nominal, log=log)
     if args.json:
         print(json.dumps(result))
     return 0

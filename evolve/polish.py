@@ -60,33 +60,46 @@ class Judge:
     walk counts only if the torso never turned further than that from the start's heading."""
 
     def __init__(self, path: Path, reality: str, capacity: int, episode_s: float | None = None,
-                 selection: dict[str, float] | None = None, heading_deg: float | None = None):
+                 selection: dict[str, float] | None = None, heading_deg: float | None = None,
+                 nominal: bool = False):
         self.data, self.robot, self.evaluator, self.genome = controller_setup(path, None, episode_s,
                                                                              episodes=capacity,
                                                                              reality=load_reality(reality))
         if selection:
             self.evaluator.task = dataclasses.replace(self.evaluator.task, **selection)
-        self.heading_deg = heading_deg
+        self.heading_deg, self.nominal = heading_deg, nominal
         self.enabled, self.start = weights_of(self.genome)
         self.steps = 0
 
     def run(self, candidates: list[np.ndarray], keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Each candidate on every robot of ``keys`` (r, k): (candidates, r) selection scores and
-        walked flags; simulations in batches of the evaluator's capacity."""
+        """Each candidate on every robot of ``keys`` (r, k), and on the nominal robot too with
+        ``nominal`` (its last column): (candidates, r [+ 1]) selection scores and walked flags;
+        simulations in batches of the evaluator's capacity."""
         r = len(keys)
         genomes = [with_weights(self.genome, self.enabled, x, i) for i, x in enumerate(candidates) for _ in range(r)]
-        all_keys = np.tile(keys, (len(candidates), 1))
+        score, walked = self._episodes(genomes, np.tile(keys, (len(candidates), 1)))
+        score, walked = score.reshape(len(candidates), r), walked.reshape(len(candidates), r)
+        if self.nominal:  # the model itself, which randomized draws seldom resemble
+            on_model = [with_weights(self.genome, self.enabled, x, i) for i, x in enumerate(candidates)]
+            s, w = self._episodes(on_model, None)
+            score, walked = np.hstack([score, s[:, None]]), np.hstack([walked, w[:, None]])
+        return score, walked
+
+    def _episodes(self, genomes: list[Genome], keys: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """Selection scores and walked flags of ``genomes``, each on its row of ``keys`` (None:
+        the nominal robot)."""
         ev = self.evaluator
         score, walked = np.empty(len(genomes)), np.empty(len(genomes), dtype=bool)
         for lo in range(0, len(genomes), ev.max_population):
             hi = min(lo + ev.max_population, len(genomes))
-            episodes = ev.evaluate(genomes[lo:hi], self.data.sigmoid_steepness, perturbation=ev.sample(all_keys[lo:hi]))
+            episodes = ev.evaluate(genomes[lo:hi], self.data.sigmoid_steepness,
+                                   perturbation=None if keys is None else ev.sample(keys[lo:hi]))
             score[lo:hi] = episodes.selection
             walked[lo:hi] = episodes.walked(ev.leg, ev.episode_s)
             if self.heading_deg is not None:  # a walker that turns away is no walker
                 walked[lo:hi] &= episodes.terms["turn"] <= self.heading_deg
             self.steps += episodes.steps
-        return score.reshape(len(candidates), r), walked.reshape(len(candidates), r)
+        return score, walked
 
 
 def _keys(seed: int, stream: int, index: int, robots: int) -> np.ndarray:
@@ -96,18 +109,20 @@ def _keys(seed: int, stream: int, index: int, robots: int) -> np.ndarray:
 def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robots: int = 8, sigma: float = 0.1,
            every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str = "randomize",
            episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,
-           log: Callable[[str], None] = print) -> dict[str, Any]:
+           nominal: bool = False, log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
     ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
     step size [weight units] (NEAT perturbs a weight by about 0.5).  For a straight walk:
     ``episode_s`` longer episodes, ``straight`` selection's straight term weighted so
-    (``selection_straight_coeff``), ``heading_deg`` walks that turn further not counted."""
+    (``selection_straight_coeff``), ``heading_deg`` walks that turn further not counted.
+    ``nominal``: every candidate meets the nominal robot too, in each update (not in the
+    validation and test, which judge drawn robots)."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
     judge = Judge(path, reality, max(popsize * robots, validation, 1), episode_s,
-                  None if straight is None else {"selection_straight_coeff": straight}, heading_deg)
+                  None if straight is None else {"selection_straight_coeff": straight}, heading_deg, nominal)
     x0 = judge.start
     optimizer = CMA(mean=x0.copy(), sigma=sigma, population_size=popsize, seed=seed,
                     bounds=np.tile([-WEIGHT_LIMIT, WEIGHT_LIMIT], (len(x0), 1)))
@@ -115,6 +130,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
 
     def validate(x: np.ndarray) -> dict[str, float]:
         score, walked = judge.run([x], checks)
+        if nominal:  # (judged on drawn robots only)
+            score, walked = score[:, :-1], walked[:, :-1]
         return {"walk_rate": float(walked.mean()), "score": float(score.mean())}
 
     best = {"update": 0, "weights": x0.copy(), **validate(x0)}
@@ -135,12 +152,13 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
                 f"{time.monotonic() - started:.0f} s")
     fresh = _keys(seed, TEST_STREAM, 0, test)
     _, walked = judge.run([x0, best["weights"]], fresh)
+    walked = walked[:, :test]  # drawn robots only
     test_rates = {"original": float(walked[0].mean()), "polished": float(walked[1].mean())}
     polished = with_weights(judge.genome, judge.enabled, best["weights"])
     task = judge.evaluator.task
     provenance = {**dict(judge.data.provenance), "polished_from": str(path), "polish": {
         "updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed, "reality": reality,
-        "episode_s": judge.evaluator.episode_s, "straight": straight, "heading_deg": heading_deg,
+        "episode_s": judge.evaluator.episode_s, "straight": straight, "heading_deg": heading_deg, "nominal": nominal,
         "kept_update": best["update"], "validation_walk_rate": best["walk_rate"], "test_walk_rate": test_rates}}
     controller = controller_from_genome(polished, judge.robot, judge.evaluator.layout, task,
                                         judge.data.sigmoid_steepness, provenance)

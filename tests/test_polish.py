@@ -55,7 +55,10 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
     s8, walked = straight.run([straight.start], keys)
     assert not walked.any()  # every walk turns a little: none is within 1e-6 deg
     assert s8[0, 0] != score[0, 0]
+    with_model = Judge(WALKER, "randomize", 2, nominal=True)
+    both, _ = with_model.run([with_model.start], keys)
+    assert both.shape == (1, 2) and both[0, 0] == score[0, 0]  # the drawn robot as before, then the model
     assert main(["polish", WALKER, "--out", str(tmp_path / "p"), "--updates", "1", "--popsize", "4", "--robots", "1",
                  "--validation", "1", "--test", "1", "--episode-s", "2", "--straight", "8", "--heading-deg", "45",
-                 "--json"]) == 0
+                 "--with-nominal", "--json"]) == 0
     assert Controller.load(tmp_path / "p" / "polished.json").provenance["polish"]["straight"] == 8.0
