@@ -165,17 +165,22 @@ def test_the_arms_chain_finds_the_hand_where_the_simulation_has_it(name):
         assert chain.shoulder(q)[0] == pytest.approx((data.xpos[arm.shoulder] - data.xpos[root]) @ rotation,
                                                      abs=1e-12)
 
+def _aimed(task: TaskConfig) -> tuple[Genome, TaskConfig]:
+    """The hand-made reacher, and ``task`` with its target where that reacher's swing takes the
+    hand (found by one evaluation)."""
+    genome, _ = _reacher(task)
+    probe = LocomotionEvaluator(OP3, task, 1, threads=1)
+    probe.evaluate([genome], 1.0, objective=CONFIG.stages[-1].make_objective)
+    control = probe.objective.control
+    offset = (probe.objective.hand(np.array([0]))[0] - control.shoulder) / control.arm_length
+    return genome, dataclasses.replace(task, reach_forward=offset[0], reach_left=offset[1], reach_up=offset[2])
+
+
 
 def test_a_reaching_controller_runs_the_state_machine_in_the_runtime_as_in_evolution(tmp_path):
     from sim2real.controller.policy import Policy
 
-    task = dataclasses.replace(CONFIG.task, episode_s=4.0)
-    genome, _ = _reacher(task)
-    probe = LocomotionEvaluator(OP3, task, 1, threads=1)
-    probe.evaluate([genome], 1.0, objective=CONFIG.stages[-1].make_objective)
-    control = probe.objective.control  # a target where the swing takes the hand
-    offset = (probe.objective.hand(np.array([0]))[0] - control.shoulder) / control.arm_length
-    task = dataclasses.replace(task, reach_forward=offset[0], reach_left=offset[1], reach_up=offset[2])
+    _, task = _aimed(dataclasses.replace(CONFIG.task, episode_s=4.0))
     genome, controller = _reacher(task)
     path = tmp_path / "reach.json"
     controller.save(path)
@@ -207,13 +212,7 @@ def test_a_reaching_controller_runs_the_state_machine_in_the_runtime_as_in_evolu
 @pytest.fixture(scope="module")
 def reacher_file(tmp_path_factory) -> Path:
     """A reaching controller whose target is where its arm swings (found by one evaluation)."""
-    task = dataclasses.replace(CONFIG.task, episode_s=4.0)
-    genome, _ = _reacher(task)
-    probe = LocomotionEvaluator(OP3, task, 1, threads=1)
-    probe.evaluate([genome], 1.0, objective=CONFIG.stages[-1].make_objective)
-    control = probe.objective.control
-    offset = (probe.objective.hand(np.array([0]))[0] - control.shoulder) / control.arm_length
-    task = dataclasses.replace(task, reach_forward=offset[0], reach_left=offset[1], reach_up=offset[2])
+    _, task = _aimed(dataclasses.replace(CONFIG.task, episode_s=4.0))
     path = tmp_path_factory.mktemp("reach") / "reacher.json"
     _reacher(task)[1].save(path)
     return path
@@ -463,13 +462,7 @@ def test_the_reach_benchmark_runs_pairs_and_continues_from_its_folder(tmp_path, 
 def test_reaching_every_goal_beats_standing_still_across_table_41s_threshold():
     """The measure behind the objective's means over ticks (see ReachObjective): a hand-made
     reacher whose target is where its arm swings, against a network that stands still."""
-    task = dataclasses.replace(CONFIG.task, episode_s=5.0)
-    genome, _ = _reacher(task)
-    probe = LocomotionEvaluator(OP3, task, 1, threads=1)
-    probe.evaluate([genome], 1.0, objective=CONFIG.stages[-1].make_objective)
-    control = probe.objective.control
-    offset = (probe.objective.hand(np.array([0]))[0] - control.shoulder) / control.arm_length
-    there = dataclasses.replace(task, reach_forward=offset[0], reach_left=offset[1], reach_up=offset[2])
+    genome, there = _aimed(dataclasses.replace(CONFIG.task, episode_s=5.0))
     stage = CONFIG.stages[-1]
     ev = LocomotionEvaluator(OP3, there, 2, threads=1)
     e = ev.evaluate([genome, Genome(1, ev.neat_layout)], 1.0, objective=stage.make_objective)
