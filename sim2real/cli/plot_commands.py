@@ -86,19 +86,28 @@ def check_plot_gait(args: argparse.Namespace) -> None:
     from sim2real.controller.activation import check_disabled_modules
     from sim2real.controller.file import Controller
 
+    if _check_replay_or_trace(args, "gait", "a controller", (("--seconds", args.seconds), ("--reality", args.reality),
+                                                               ("--disable-module", args.disable_module))):
+        check_disabled_modules(Controller.load(args.controller), args.disable_module)
+
+
+def _check_replay_or_trace(args: argparse.Namespace, replay: str, what: str,
+                           episode_flags: tuple[tuple[str, Any], ...]) -> bool:
+    """A picture drawn from a simulated episode of ``args.controller`` or from ``args.trace``,
+    one of them: the output file and matplotlib checked, flags of an episode refused with a
+    trace; True when a controller is to be simulated (by the evolve package's ``replay``)."""
     check_output_file(args.output, "-o/--output", PICTURE_SUFFIXES)
     require_module("matplotlib", "biped plot")
     if (args.controller is None) == (args.trace is None):
-        raise UsageError("give a controller .json to simulate or --trace FILE to draw, one of them")
+        raise UsageError(f"give {what} .json to simulate or --trace FILE to draw, one of them")
     if args.trace is not None:
-        for flag, given in (("--seconds", args.seconds), ("--reality", args.reality),
-                            ("--disable-module", args.disable_module)):
+        for flag, given in episode_flags:
             if given:
                 raise UsageError(f"{flag} applies to a simulated episode, not to --trace")
-    else:
-        if "gait" not in args.replay:
-            raise UsageError("simulating a controller needs the evolve package's replay (use `biped`)")
-        check_disabled_modules(Controller.load(args.controller), args.disable_module)
+        return False
+    if replay not in args.replay:
+        raise UsageError("simulating a controller needs the evolve package's replay (use `biped`)")
+    return True
 
 
 def cmd_plot_gait(args: argparse.Namespace) -> int:
@@ -148,17 +157,9 @@ def check_plot_reach(args: argparse.Namespace) -> None:
     from sim2real.controller.activation import check_disabled_modules
     from sim2real.controller.file import Controller
 
-    check_output_file(args.output, "-o/--output", PICTURE_SUFFIXES)
-    require_module("matplotlib", "biped plot")
-    if (args.controller is None) == (args.trace is None):
-        raise UsageError("give a reaching controller .json to simulate or --trace FILE to draw, one of them")
-    if args.trace is not None:
-        for flag, given in (("--seconds", args.seconds), ("--disable-module", args.disable_module)):
-            if given:
-                raise UsageError(f"{flag} applies to a simulated episode, not to --trace")
+    if not _check_replay_or_trace(args, "reach", "a reaching controller",
+                                  (("--seconds", args.seconds), ("--disable-module", args.disable_module))):
         return
-    if "reach" not in args.replay:
-        raise UsageError("simulating a controller needs the evolve package's replay (use `biped`)")
     controller = Controller.load(args.controller)
     if "reach" not in controller.input_channels:
         raise UsageError(f"{args.controller}: not a reaching controller (no reach_input)")
