@@ -133,10 +133,12 @@ class LocomotionEvaluator:
         return self._arm_chain
 
     def heading(self, ids: np.ndarray, tick: int, p: Perturbation | None,
-                sensors: np.ndarray | None = None) -> np.ndarray:
+                sensors: np.ndarray | None = None, yaw: np.ndarray | None = None) -> np.ndarray:
         """The heading the boards of simulations ``ids`` report at ``tick`` [rad]: the torso's
-        yaw, plus the gyro's drift since the start (``sensors``: their sensordata, if read already)."""
-        yaw = self.parts.heading(self.sensordata[ids] if sensors is None else sensors)
+        yaw (``yaw``, if a delayed IMU's; else from ``sensors``, their sensordata if read
+        already), plus the gyro's drift since the start."""
+        if yaw is None:
+            yaw = self.parts.heading(self.sensordata[ids] if sensors is None else sensors)
         return yaw if p is None else yaw + p.heading_drift_rad_s[ids] * (tick * self.tick_s)
 
     def readings(self, alive: np.ndarray, t: int, p: Perturbation | None, goal: np.ndarray,
@@ -165,9 +167,7 @@ class LocomotionEvaluator:
         if self.layout.efference:  # the goals of last tick, every joint (undriven ones hold)
             sent = np.broadcast_to(self.hold, (len(alive), len(self.hold))).copy()
             sent[:, self.driven] = goal[alive]
-        heading = None
-        if self.layout.heading:
-            heading = self.heading(alive, t, p, sensors) if yaw is None else yaw + p.heading_drift_rad_s[alive] * (t * self.tick_s)
+        heading = self.heading(alive, t, p, sensors, yaw) if self.layout.heading else None
         angles = quantize(q, self.resolution)
         reach_state = reach_target = None
         if self.layout.reach:  # the state machine, on the angles the networks read, tells them when to reach
