@@ -100,8 +100,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     po.add_argument("--every", type=int_within(1, 100_000), default=5, help="validate every this many updates")
     po.add_argument("--validation", type=int_within(1, 10_000), default=30, help="validation robots (default 30)")
     po.add_argument("--test", type=int_within(1, 10_000), default=100, help="fresh test robots (default 100)")
-    po.add_argument("--randomize", type=reality_name, default="randomize", metavar="RANGES",
-                    help="ranges the robots are drawn from (default configs/reality/randomize.yaml)")
+    po.add_argument("--randomize", type=reality_name, action="append", metavar="RANGES",
+                    help="ranges the robots are drawn from (default configs/reality/randomize.yaml); given "
+                    "more than once, the robots of every draw take turns at them (wide ranges for the walk "
+                    "rate, narrow ones for a walk near the model)")
     po.add_argument("--seed", type=seed, default=0, help="seed of the search and every draw")
     po.add_argument("--episode-s", type=positive_float_at_most(MAX_EPISODE_S), metavar="S",
                     help="episodes of this length [s] (default: the controller's task's); longer ones show circling")
@@ -335,7 +337,7 @@ def cmd_polish(args: argparse.Namespace) -> int:
     log = (lambda line: None) if args.json else (lambda line: print(line, file=sys.stderr, flush=True))
     result = polish(args.controller, args.out, updates=args.updates, popsize=args.popsize, robots=args.robots,
                     sigma=args.sigma, every=args.every, validation=args.validation, test=args.test, seed=args.seed,
-                    reality=args.randomize, episode_s=args.episode_s, straight=args.straight,
+                    reality=args.randomize or "randomize", episode_s=args.episode_s, straight=args.straight,
                     heading_deg=args.heading_deg, nominal=args.with_nominal, log=log)
     if args.json:
         print(json.dumps(result))

@@ -33,7 +33,7 @@ from evolve.locomotion.export import controller_from_genome
 from evolve.neat import Genome, NeatConfig
 from evolve.replay import controller_setup
 from sim2real.atomic_json import write_json_atomic
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.reality import Perturbation, Reality, latency_capacity_s, load_reality, sample
 
 WEIGHT_LIMIT = NeatConfig().weight_limit  # [the weights' unit] as evolution clips them
 UPDATE_STREAM, VALIDATION_STREAM, TEST_STREAM = 0x504F_4C31, 0x504F_4C32, 0x504F_4C33  # keys' second entry
@@ -57,14 +57,22 @@ class Judge:
     """Runs weight vectors on drawn robots with the controller's evaluator: episodes of
     ``episode_s`` (None: the controller's task's), selection as the task's with ``selection``
     (TaskConfig fields, e.g. ``selection_straight_coeff``) changed, and with ``heading_deg`` a
-    walk counts only if the torso never turned further than that from the start's heading."""
+    walk counts only if the torso never turned further than that from the start's heading.
+    With several ``realities`` robot k of a draw comes from ranges k mod their number: wide
+    ranges buy a walk rate, narrow ones a walk near the model, and one search may want both."""
 
-    def __init__(self, path: Path, reality: str, capacity: int, episode_s: float | None = None,
+    def __init__(self, path: Path, realities: list[str], capacity: int, episode_s: float | None = None,
                  selection: dict[str, float] | None = None, heading_deg: float | None = None,
                  nominal: bool = False):
-        self.data, self.robot, self.evaluator, self.genome = controller_setup(path, None, episode_s,
-                                                                             episodes=capacity,
-                                                                             reality=load_reality(reality))
+        self.realities = [load_reality(name) for name in realities]
+
+        def setup(reality: Reality):
+            return controller_setup(path, None, episode_s, episodes=capacity, reality=reality)
+        self.data, self.robot, self.evaluator, self.genome = setup(self.realities[0])
+        # the model keeps as much actuator history as the longest latency of any ranges needs
+        widest = max(self.realities, key=lambda r: latency_capacity_s(r, self.evaluator.tick_s))
+        if widest is not self.realities[0]:
+            self.data, self.robot, self.evaluator, self.genome = setup(widest)
         if selection:
             self.evaluator.task = dataclasses.replace(self.evaluator.task, **selection)
         self.heading_deg, self.nominal = heading_deg, nominal
@@ -85,6 +93,18 @@ class Judge:
             score, walked = np.hstack([score, s[:, None]]), np.hstack([walked, w[:, None]])
         return score, walked
 
+    def draw(self, keys: np.ndarray) -> Perturbation:
+        """One robot per row of ``keys``, from the ranges its robot index (last entry) picks."""
+        ev = self.evaluator
+        which = keys[:, -1] % len(self.realities)
+        parts, rows = [], []
+        for i, reality in enumerate(self.realities):
+            mine = np.flatnonzero(which == i)
+            if len(mine):
+                parts.append(sample(reality, keys[mine], ev.model, ev.n_ticks, ev.tick_s))
+                rows.append(mine)
+        return Perturbation.stack(parts).rows(np.argsort(np.concatenate(rows)))
+
     def _episodes(self, genomes: list[Genome], keys: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """Selection scores and walked flags of ``genomes``, each on its row of ``keys`` (None:
         the nominal robot)."""
@@ -93,7 +113,7 @@ class Judge:
         for lo in range(0, len(genomes), ev.max_population):
             hi = min(lo + ev.max_population, len(genomes))
             episodes = ev.evaluate(genomes[lo:hi], self.data.sigmoid_steepness,
-                                   perturbation=None if keys is None else ev.sample(keys[lo:hi]))
+                                   perturbation=None if keys is None else self.draw(keys[lo:hi]))
             score[lo:hi] = episodes.selection
             walked[lo:hi] = episodes.walked(ev.leg, ev.episode_s)
             if self.heading_deg is not None:  # a walker that turns away is no walker
@@ -107,7 +127,7 @@ def _keys(seed: int, stream: int, index: int, robots: int) -> np.ndarray:
 
 
 def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robots: int = 8, sigma: float = 0.1,
-           every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str = "randomize",
+           every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str | list[str] = "randomize",
            episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,
            nominal: bool = False, log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
@@ -116,12 +136,14 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     ``episode_s`` longer episodes, ``straight`` selection's straight term weighted so
     (``selection_straight_coeff``), ``heading_deg`` walks that turn further not counted.
     ``nominal``: every candidate meets the nominal robot too, in each update (not in the
-    validation and test, which judge drawn robots)."""
+    validation and test, which judge drawn robots).  ``reality``: the ranges robots are drawn
+    from, or a list of them that robots take turns at (validation and test draw the same way)."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
-    judge = Judge(path, reality, max(popsize * robots, validation, 1), episode_s,
+    realities = [reality] if isinstance(reality, str) else list(reality)
+    judge = Judge(path, realities, max(popsize * robots, validation, 1), episode_s,
                   None if straight is None else {"selection_straight_coeff": straight}, heading_deg, nominal)
     x0 = judge.start
     optimizer = CMA(mean=x0.copy(), sigma=sigma, population_size=popsize, seed=seed,

@@ -46,8 +46,8 @@ def test_biped_polish_writes_a_loadable_walker_and_a_seed_fixes_it(tmp_path, cap
 def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_counts_no_turned_walk(tmp_path):
     from evolve.polish import Judge
 
-    plain = Judge(WALKER, "randomize", 2)
-    straight = Judge(WALKER, "randomize", 2, episode_s=4.0, selection={"selection_straight_coeff": 8.0},
+    plain = Judge(WALKER, ["randomize"], 2)
+    straight = Judge(WALKER, ["randomize"], 2, episode_s=4.0, selection={"selection_straight_coeff": 8.0},
                      heading_deg=1e-6)
     assert straight.evaluator.episode_s == pytest.approx(4.0, abs=0.05) and straight.evaluator.task.selection_straight_coeff == 8.0
     keys = np.array([[1, 0, 0, 0]])
@@ -55,10 +55,22 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
     s8, walked = straight.run([straight.start], keys)
     assert not walked.any()  # every walk turns a little: none is within 1e-6 deg
     assert s8[0, 0] != score[0, 0]
-    with_model = Judge(WALKER, "randomize", 2, nominal=True)
+    with_model = Judge(WALKER, ["randomize"], 2, nominal=True)
     both, _ = with_model.run([with_model.start], keys)
     assert both.shape == (1, 2) and both[0, 0] == score[0, 0]  # the drawn robot as before, then the model
     assert main(["polish", WALKER, "--out", str(tmp_path / "p"), "--updates", "1", "--popsize", "4", "--robots", "1",
                  "--validation", "1", "--test", "1", "--episode-s", "2", "--straight", "8", "--heading-deg", "45",
                  "--with-nominal", "--json"]) == 0
     assert Controller.load(tmp_path / "p" / "polished.json").provenance["polish"]["straight"] == 8.0
+
+
+def test_robots_take_turns_at_several_ranges_each_drawn_as_its_ranges_alone_would():
+    from evolve.polish import Judge
+
+    keys = np.array([[3, 0, 0, 0], [3, 0, 0, 1], [3, 0, 0, 2]])
+    mixed, wide, narrow = (Judge(WALKER, names, 3) for names in
+                           (["randomize", "narrow"], ["randomize"], ["narrow"]))
+    score, _ = mixed.run([mixed.start], keys)
+    alone = {name: judge.run([judge.start], keys)[0][0] for name, judge in (("wide", wide), ("narrow", narrow))}
+    assert score[0].tolist() == [alone["wide"][0], alone["narrow"][1], alone["wide"][2]]
+    assert alone["wide"][1] != alone["narrow"][1]

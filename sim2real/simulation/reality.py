@@ -370,6 +370,12 @@ class Perturbation:
     def rows(self, index: np.ndarray | slice) -> "Perturbation":
         return Perturbation(*(getattr(self, f.name)[index] for f in dataclasses.fields(self)))
 
+    @staticmethod
+    def stack(parts: "list[Perturbation]") -> "Perturbation":
+        """The simulations of ``parts`` one after another."""
+        return Perturbation(*(np.concatenate([getattr(p, f.name) for p in parts])
+                              for f in dataclasses.fields(Perturbation)))
+
 
 def sample(reality: Reality, keys: np.ndarray, model: mujoco.MjModel, n_ticks: int,
            tick_s: float) -> Perturbation:
