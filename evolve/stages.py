@@ -23,7 +23,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
-from evolve.locomotion.objectives import OBJECTIVES, REACH_BONUS, Objective, ObjectiveType, PoseWeights
+from evolve.locomotion.objectives import OBJECTIVES, Objective, ObjectiveType, PoseWeights, reach_bonus
 from sim2real.controller.reach import ReachCycle
 from sim2real.errors import ConfigError
 from sim2real.robot.spec import ARM_LOCATIONS
@@ -39,7 +39,7 @@ class Stage:
     threshold: float = 0.0  # share of the theoretical maximum that ends the stage (0: run the budget)
     weights: PoseWeights | None = None  # eq. 4.1 error weights (pose and stand)
     target_pose_deg: dict[str, float] = field(default_factory=dict)  # joint -> target; others: home
-    bonus_max: float = 0.0  # the objective's largest bonus (reaching's 100 T / i), from the task
+    bonus_max: float = 0.0  # the objective's largest bonus (reaching's: a bonus for every goal), from the task
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"name": self.name, "objective": self.objective, "generations": self.generations}
@@ -111,8 +111,8 @@ def parse_stages(doc: Any, source: str) -> tuple[Stage, ...]:
 def with_task(stages: tuple[Stage, ...], task, robot, source: str) -> tuple[Stage, ...]:
     """The stages with what they take from the task and robot: a reach stage needs the reach
     input (the state machine's state reaches the networks through it) and a right hand, and
-    its theoretical maximum adds seed 002's largest bonus, 100 T / i: a goal every
-    ``reach_phase_s`` of the episode, in whole control ticks."""
+    its theoretical maximum adds the largest bonus (:func:`reach_bonus`; seed 002's 100 T / i):
+    a goal every ``reach_phase_s`` of the episode, in whole control ticks."""
     out = []
     for i, stage in enumerate(stages):
         if stage.objective == "reach":
@@ -129,7 +129,7 @@ def with_task(stages: tuple[Stage, ...], task, robot, source: str) -> tuple[Stag
                                   f"arm's joints ({', '.join(arm) or 'none'}): a reach stage cannot reach")
             tick_s = control_timing(robot).tick_s
             goals = ReachCycle.max_goals(int(round(task.episode_s / tick_s)), tick_s, task.reach_phase_s)
-            stage = dataclasses.replace(stage, bonus_max=REACH_BONUS * goals)
+            stage = dataclasses.replace(stage, bonus_max=reach_bonus(stage.weights, goals) * goals)
         out.append(stage)
     return tuple(out)
 

@@ -10,7 +10,7 @@ import pytest
 
 from evolve.config import load_evolve_config, parse_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
-from evolve.locomotion.objectives import REACH_BONUS, PoseWeights
+from evolve.locomotion.objectives import PoseWeights
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from sim2real.controller.channels import InputWiring, Readings
@@ -61,6 +61,20 @@ def test_the_state_toggles_once_a_goal_is_reached_but_not_sooner_than_its_phase(
         ReachCycle(1, phase_s=0.0, tolerance=0.1)
 
 
+def test_a_goal_touched_early_counts_when_its_phase_is_over():
+    """Seed 002 toggles once the phase is over "on the condition that the character has
+    actually reached its target by then": a hand that passed the goal and drifted off still
+    toggles, one that never came near does not, and a touch counts for its own phase only."""
+    cycle = ReachCycle(2, phase_s=1.0, tolerance=0.1)
+    ids = np.arange(2)
+    assert not cycle.update(ids, np.array([0.05, 0.5]), 0.5).any()  # at the goal at 0.5 s: too soon
+    assert list(cycle.update(ids, np.array([0.3, 0.5]), 0.5)) == [True, False]  # off it at 1 s: reached
+    assert list(cycle.state) == [RETURNING, REACHING] and not cycle.touched[0]
+    for _ in range(3):  # the new goal never touched: no toggle however long
+        assert not cycle.update(ids, np.array([0.3, 0.5]), 1.0).any()
+    assert list(cycle.reached) == [1, 0]
+
+
 def test_the_reach_objective_scores_table_41s_terms_and_the_bonus():
     reach = CONFIG.stages[-1]
     assert reach.weights == PoseWeights(1.0, 1.0, 1.0, 1.0, 2.0, 1.0)
@@ -99,7 +113,7 @@ def test_a_hand_at_its_target_earns_the_bonus():
     ev = LocomotionEvaluator(OP3, there, 1, threads=1)
     e = ev.evaluate([genome], CONFIG.neat.sigmoid_steepness, objective=reach.make_objective)
     assert e.terms["reaches"][0] == 1
-    assert e.fitness[0] > REACH_BONUS
+    assert e.fitness[0] > ev.objective.bonus > 0
 
 
 def test_a_reach_stage_needs_the_reach_input_and_a_right_hand():
@@ -394,7 +408,9 @@ def test_the_largest_bonus_is_what_a_hand_always_at_its_goal_earns(path):
     cycle, ids = ReachCycle(1, task.reach_phase_s, task.reach_tolerance), np.zeros(1, dtype=np.intp)
     for t in range(int(round(task.episode_s / tick_s))):  # as the evaluator's readings
         cycle.update(ids, np.zeros(1), tick_s if t else 0.0)
-    assert cycle.reached[0] * REACH_BONUS == stage.bonus_max > 0
+    n_ticks = int(round(task.episode_s / tick_s))
+    assert cycle.reached[0] == ReachCycle.max_goals(n_ticks, tick_s, task.reach_phase_s) > 0
+    assert stage.bonus_max == pytest.approx(stage.weights.max_fitness())  # every goal doubles the maximum
 
 
 def test_a_reset_policy_reads_the_target_offset_it_was_evolved_with():

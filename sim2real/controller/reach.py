@@ -1,9 +1,11 @@
 """Seed 002's reach state machine (section 4.1.1), the one evolution and the runtime run.
 
 The right hand reaches for the target (state 1), then returns to its rest (state 0), and so
-on.  A goal counts as reached when the hand is within ``tolerance`` of it (arm lengths) once
-at least ``phase_s`` have passed since the last toggle - the thesis's "i frames", and its
-pause at the target: a hand that arrives early waits there; then the state toggles.  The
+on.  A goal counts as reached once the hand has come within ``tolerance`` of it (arm lengths)
+since the last toggle, and the state toggles once ``phase_s`` have passed since that toggle
+(the thesis's "i frames"): seed 002 toggles "once every one or two seconds ... on the
+condition that the character has actually reached its target by then".  Its pause at the
+target is eq. 4.6's to pay, which counts every tick the hand spends away from its goal.  The
 network reads the state through :class:`sim2real.controller.channels.Reach`.
 
     cycle = ReachCycle(n, phase_s=1.0, tolerance=0.15)
@@ -42,6 +44,7 @@ class ReachCycle:
         self.state = np.full(n, REACHING)
         self.since = np.zeros(n)  # [s] since the last toggle
         self.reached = np.zeros(n, dtype=np.int64)  # goals reached so far
+        self.touched = np.zeros(n, dtype=bool)  # the hand has been at its goal since the last toggle
 
     @staticmethod
     def max_goals(n_ticks: int, tick_s: float, phase_s: float) -> int:
@@ -52,13 +55,16 @@ class ReachCycle:
 
     def update(self, ids: np.ndarray, error: np.ndarray, dt: float) -> np.ndarray:
         """After ``dt`` [s] more, with the hands of robots ``ids`` at ``error`` (arm lengths)
-        from their goals: toggle the state of those that reached it; return which did (bool)."""
+        from their goals: toggle the state of those that have reached it and whose phase is
+        over; return which did (bool)."""
         self.since[ids] += dt
+        self.touched[ids] |= np.asarray(error) <= self.tolerance
         # 1e-9: a sum of ticks lands a hair short of phase_s
-        done = (np.asarray(error) <= self.tolerance) & (self.since[ids] >= self.phase_s - 1e-9)
+        done = self.touched[ids] & (self.since[ids] >= self.phase_s - 1e-9)
         hit = ids[done]
         self.state[hit] = REACHING + RETURNING - self.state[hit]
         self.since[hit] = 0.0
+        self.touched[hit] = False
         self.reached[hit] += 1
         return done
 
