@@ -78,11 +78,12 @@ def pair_parser(description: str, hierarchy: str, baseline: str):
 
 
 def run_pairs(args, prefix: str) -> tuple[Path, dict[str, list]]:
-    """Each seed's staged run and baseline run (in ``--out`` or a temporary folder)."""
+    """Each seed's staged run, then each seed's baseline run (in ``--out`` or a temporary
+    folder): the hierarchy's, which take minutes, before the baselines', which take hours."""
     root = args.out or Path(tempfile.mkdtemp(prefix=prefix))
     results: dict[str, list] = {"hierarchy": [], "baseline": []}
-    for seed in range(args.first_seed, args.first_seed + args.seeds):
-        for kind, name in (("hierarchy", args.hierarchy), ("baseline", args.baseline)):
+    for kind, name in (("hierarchy", args.hierarchy), ("baseline", args.baseline)):
+        for seed in range(args.first_seed, args.first_seed + args.seeds):
             r = staged_run(name, seed, root / f"{kind}-seed{seed}", args.threads, args.json)
             progress(f"{kind} seed {seed}: solved={r['solved']} generations={r['generations']} "
                      f"(total {r['total_generations']}) in {r['wall_s'] / 60:.1f} min", args.json)
