@@ -147,7 +147,8 @@ class LocomotionEvaluator:
         encoders quantized, every reading with this simulation's noise, what the layout's
         inputs need (``goal``: every simulation's last driven goals; ``start_heading``: each
         board's heading at the first tick, which ``turns`` (n, ticks) [rad] turn the heading to
-        hold by)."""
+        hold by).  Called once a tick: a reaching objective's state machine steps here, on the
+        angles just read, as the runtime's steps on each tick's readings."""
         sensors = self.sensordata[alive]
         q = self.joint_angles(alive)
         touch = self.parts.feet_touching(sensors)
