@@ -13,7 +13,7 @@ from evolve.neat.genome import Layout
 from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError
 
-WALKER = "configs/controllers/xl430_biped.json"
+WALKER = "configs/controllers/xl430_biped_no_gyro.json"
 
 
 def test_a_population_grows_from_a_walker_its_copies_mutated_only_in_their_weights():

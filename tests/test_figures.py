@@ -12,7 +12,7 @@ from sim2real.robot import load_robot
 from sim2real.robot.paths import data_root
 
 pytest.importorskip("matplotlib")
-WALKER = data_root() / "configs" / "controllers" / "xl430_biped.json"
+WALKER = data_root() / "configs" / "controllers" / "xl430_biped_no_gyro.json"
 
 
 def two_module_controller(tmp_path):

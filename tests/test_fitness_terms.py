@@ -107,7 +107,7 @@ def test_a_walk_bonus_counts_in_selection_for_the_episodes_that_walked():
     from sim2real.controller.file import Controller
     from sim2real.robot.paths import data_root
 
-    walker = Controller.load(data_root() / "configs" / "controllers" / "xl430_biped.json")
+    walker = Controller.load(data_root() / "configs" / "controllers" / "xl430_biped_no_gyro.json")
     task = TaskConfig(episode_s=10.0, harness_generations=0, phase_period_s=walker.phase_period_s,
                       selection_walk_bonus=5.0)
     evaluator = LocomotionEvaluator(ROBOT, task, 2, threads=1)
@@ -125,7 +125,7 @@ def test_with_a_heading_limit_only_walks_that_kept_their_heading_earn_the_bonus(
     from sim2real.robot.paths import data_root
 
     assert heading_rad(np.array([[1.0, 1.0, 0.3], [1.0, 0.0, 0.0]])) == pytest.approx([np.pi / 4, 0.0])
-    walker = Controller.load(data_root() / "configs" / "controllers" / "xl430_biped.json")
+    walker = Controller.load(data_root() / "configs" / "controllers" / "xl430_biped_no_gyro.json")
     bonus, headings = {}, []
     for limit in (150.0, 30.0):  # on the nominal robot it walks to the left, turning ~90 deg in 10 s
         task = TaskConfig(episode_s=10.0, harness_generations=0, phase_period_s=walker.phase_period_s,

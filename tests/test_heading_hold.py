@@ -88,7 +88,7 @@ def test_biped_run_takes_a_heading_for_a_heading_controller_only(tmp_path, capsy
                  "--no-realtime"]) == 0
     assert not json.loads(capsys.readouterr().out.strip().splitlines()[-1])["torque_off"]["unconfirmed"]
     plain = tmp_path / "plain.json"
-    Controller.load("configs/controllers/xl430_biped.json").save(plain)
+    Controller.load("configs/controllers/xl430_biped_no_gyro.json").save(plain)
     assert main(["run", str(plain), "--bus", "mock", "--duration", "0.3", "--heading", "30", "--no-realtime"]) == 2
     assert "no heading input" in capsys.readouterr().err
 
@@ -113,8 +113,8 @@ def test_the_shipped_walker_is_paid_for_its_speed_and_less_for_its_turning():
     from evolve.locomotion.export import genome_from_controller
     from evolve.replay import controller_task
 
-    controller = Controller.load("configs/controllers/xl430_biped.json")
-    task = controller_task(controller, "xl430_biped.json")
+    controller = Controller.load("configs/controllers/xl430_biped_no_gyro.json")
+    task = controller_task(controller, "xl430_biped_no_gyro.json")
     ev = LocomotionEvaluator(ROBOT, task, 1, threads=1)
     walk = ev.evaluate([genome_from_controller(controller)], controller.sigmoid_steepness)
     assert walk.terms["velocity"][0] > 0.05 and walk.terms["yaw_rate"][0] < 0.95
@@ -145,4 +145,17 @@ def test_biped_eval_steers_and_reports_how_far_from_the_heading_it_ends(tmp_path
     # still standing where it started, it is 40 deg off the heading it was told to hold
     assert abs(abs(episode["heading_error_deg"]) - 40.0) < 5.0
     with pytest.raises(Exception, match="no heading input"):
-        evaluate_controller("configs/controllers/xl430_biped.json", seconds=1.0, heading=told)
+        evaluate_controller("configs/controllers/xl430_biped_no_gyro.json", seconds=1.0, heading=told)
+
+
+def test_the_shipped_walker_walks_straight_on_the_model_and_turns_when_told():
+    """``configs/controllers/xl430_biped.json`` (issue 33's straight polish; its provenance has
+    the measures): on the nominal robot 20 s straight ahead, and a 90 deg turn told at 2 s."""
+    from evolve.replay import evaluate_controller
+
+    shipped = "configs/controllers/xl430_biped.json"
+    assert {"heading", "gyro"} <= set(Controller.load(shipped).input_channels)
+    straight = evaluate_controller(shipped, seconds=20.0)["per_episode"][0]
+    assert not straight["fell"] and straight["distance_m"] > 3.0 and abs(straight["turn_deg"]) < 10.0
+    turned = evaluate_controller(shipped, seconds=10.0, heading=schedule_command([(0.0, 0.0), (2.0, 90.0)]))
+    assert not turned["per_episode"][0]["fell"] and abs(turned["per_episode"][0]["heading_error_deg"]) < 15.0

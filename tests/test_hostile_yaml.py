@@ -35,7 +35,7 @@ from sim2real.simulation.dry_run import parse_faults
 from sim2real.simulation.reality import PLAUSIBLE, Reality, load_reality
 
 ROOT = data_root()
-CONTROLLER = ROOT / "configs" / "controllers" / "xl430_biped.json"
+CONTROLLER = ROOT / "configs" / "controllers" / "xl430_biped_no_gyro.json"
 MAX_MESSAGE = 400  # characters: a message names file, key and problem, and echoes a few dozen of the value
 
 

@@ -39,13 +39,13 @@ def test_ship_writes_each_presets_farthest_walker_that_walks_here(tmp_path, monk
     for name in ("human_stepping_male_50-seed1", "human_stepping_male_50-seed2", "human_stepping_male_50-seed3",
                  "human_stepping_female_5-seed1"):
         (out / name).mkdir(parents=True)
-        shutil.copy(CONTROLLERS / "xl430_biped.json", out / name / "walker.json")
+        shutil.copy(CONTROLLERS / "xl430_biped_no_gyro.json", out / name / "walker.json")
     # seed 3 walked farthest where it was evolved but falls here; female_5's only walker too
     monkeypatch.setattr(human_walk, "walks_here", lambda walker: walker.parent.name.endswith(("seed1", "seed2"))
                         and "female" not in walker.parent.name)
     # seed 2's copy differs by one weight: here it walks farther (8.6 m against 0.6 m in 60 s),
     # though the runs' records say otherwise - the walk measured here decides
-    second = Controller.load(CONTROLLERS / "xl430_biped.json").to_dict()
+    second = Controller.load(CONTROLLERS / "xl430_biped_no_gyro.json").to_dict()
     second["connections"][0][2] -= 0.5
     Controller.from_dict(second, "seed2").save(out / "human_stepping_male_50-seed2" / "walker.json")
     far = {seed: human_walk.sustained_walk(out / f"human_stepping_male_50-seed{seed}" / "walker.json")["sustained_m"]
@@ -68,7 +68,7 @@ def test_ship_writes_each_presets_farthest_walker_that_walks_here(tmp_path, monk
 
 
 def test_walks_here_replays_a_walker_by_seed_000s_test(monkeypatch):
-    assert not human_walk.walks_here(CONTROLLERS / "xl430_biped.json")  # upright 10 s, but 1.2 m: too short
+    assert not human_walk.walks_here(CONTROLLERS / "xl430_biped_no_gyro.json")  # upright 10 s, but 1.2 m: too short
     # and the judgement on the replay's numbers, both ways (a walks_here that said no to
     # everything passed the line above alone)
     replays = []

@@ -11,7 +11,7 @@ from evolve.locomotion.export import genome_from_controller
 from evolve.polish import weights_of, with_weights
 from sim2real.controller.file import Controller
 
-WALKER = "configs/controllers/xl430_biped.json"
+WALKER = "configs/controllers/xl430_biped_no_gyro.json"
 
 
 def test_weights_round_trip_through_a_genome_and_stay_within_the_format():

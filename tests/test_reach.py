@@ -262,7 +262,7 @@ def test_a_reach_target_out_of_reach_is_refused_before_anything_moves(reacher_fi
 def test_a_walker_takes_no_reach_target(capsys):
     from evolve.cli import main
 
-    assert main(["run", "configs/controllers/xl430_biped.json", "--bus", "mock", "--duration", "0.2",
+    assert main(["run", "configs/controllers/xl430_biped_no_gyro.json", "--bus", "mock", "--duration", "0.2",
                  "--reach-target", "0.1,0,0", "--no-realtime"]) == 2
     assert "no reach input" in capsys.readouterr().err
 
@@ -304,7 +304,7 @@ def test_biped_plot_reach_draws_a_replay_and_a_trace(reacher_file, tmp_path, cap
                  "--no-realtime"]) == 0
     assert main(["plot", "reach", "--trace", str(trace), "-o", str(tmp_path / "trace.png")]) == 0
     assert (tmp_path / "trace.png").exists()
-    assert main(["plot", "reach", "configs/controllers/xl430_biped.json", "-o", str(tmp_path / "x.png")]) == 2
+    assert main(["plot", "reach", "configs/controllers/xl430_biped_no_gyro.json", "-o", str(tmp_path / "x.png")]) == 2
     assert "not a reaching controller" in capsys.readouterr().err
 
 
@@ -339,7 +339,7 @@ def test_a_bad_arm_chain_is_refused_naming_the_field(reacher_file, change, probl
 def test_an_arm_chain_without_the_reach_input_is_refused(reacher_file):
     import json
 
-    walker = json.loads(Path("configs/controllers/xl430_biped.json").read_text())
+    walker = json.loads(Path("configs/controllers/xl430_biped_no_gyro.json").read_text())
     walker["reach_arm"] = json.loads(reacher_file.read_text())["reach_arm"]
     with pytest.raises(ConfigError, match="reach_arm: only with reach_input: true"):
         Controller.from_dict(walker, "walker.json")

@@ -8,7 +8,7 @@ from conftest import ROOT
 from benchmarks import tolerance
 from sim2real.simulation.reality import load_reality
 
-WALKER = ROOT / "configs" / "controllers" / "xl430_biped.json"
+WALKER = ROOT / "configs" / "controllers" / "xl430_biped_no_gyro.json"
 
 
 @pytest.mark.parametrize("kind", tolerance.KINDS)

@@ -40,7 +40,7 @@ SERVOS = [j.servo.id for j in ROBOT.joints]
 PROFILE = ROBOT.joints[0].servo.profile  # XL430-W250-T: every servo of the default robot
 WATCHDOG = WATCHDOG_MS // WATCHDOG_UNIT_MS  # what start-up writes: 5 (x 20 ms)
 EXPIRED_RAW = 0xFF  # -1 in the one-byte, signed entry
-WALKER = data_root() / "configs" / "controllers" / "xl430_biped.json"
+WALKER = data_root() / "configs" / "controllers" / "xl430_biped_no_gyro.json"
 
 
 def address(name: str) -> int:

@@ -282,9 +282,9 @@ class Reach(Channel):
     key = "reach"
     width = 5  # the state, the target (x, y, z), and the left network's zero
     switch = "reach_input"
-    settings = (Setting.of_schema("reach_forward", 0.9, "arm lengths"),
+    settings = (Setting.of_schema("reach_forward", 0.7, "arm lengths"),
                 Setting.of_schema("reach_left", 0.0, "arm lengths"),
-                Setting.of_schema("reach_up", 0.3, "arm lengths"),
+                Setting.of_schema("reach_up", 0.2, "arm lengths"),
                 Setting.of_schema("reach_tolerance", 0.15, "arm lengths"),
                 Setting.of_schema("reach_phase_s", 1.0, "s"))
 
