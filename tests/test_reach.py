@@ -502,3 +502,18 @@ def test_eval_scores_with_the_weights_of_the_stage_a_controller_was_evolved_in(r
     assert ev.objective.weights.rest_pose == 2.0
     ev.evaluate([Genome(0, ev.neat_layout)], 1.0, objective=_objective(Controller.load(reacher_file)))
     assert ev.objective.weights.rest_pose == 1.0  # no stages recorded: table 4.1's
+
+
+SHIPPED_REACHERS = ["configs/controllers/human_arms_reach.json"]
+
+
+@pytest.mark.parametrize("path", SHIPPED_REACHERS)
+def test_a_shipped_reacher_reaches_three_times_in_10_s_and_stands_without_its_reach_module(path):
+    """Issue 34's bar for the shipped reachers (`biped eval` reports the same numbers)."""
+    from evolve.replay import evaluate_controller
+
+    reached = evaluate_controller(path, seconds=10.0)
+    assert reached["reaches"] >= 3 and not reached["fell"], reached
+    assert reached["other_arm_deg"] < 5.0  # one-handed: the left arm keeps its rest
+    standing = evaluate_controller(path, seconds=10.0, disabled_modules=("reach",))
+    assert standing["reaches"] == 0 and not standing["fell"]
