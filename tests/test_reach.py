@@ -267,11 +267,12 @@ def test_a_walker_takes_no_reach_target(capsys):
     assert "no reach input" in capsys.readouterr().err
 
 
-def test_a_dry_run_reaches_through_the_simulated_bus(reacher_file):
+@pytest.mark.parametrize("path, reaches", [("hand-made", 1), ("configs/controllers/op3_reach.json", 2)])
+def test_a_dry_run_reaches_through_the_simulated_bus(path, reaches, reacher_file):
     from sim2real.simulation.dry_run import dry_run
 
-    result = dry_run(reacher_file, duration_s=3.0, log=lambda s: None, ramp_s=0.3)
-    assert result["reach"]["reaches"] >= 1 and not result["fell"]
+    result = dry_run(reacher_file if path == "hand-made" else path, duration_s=4.0, log=lambda s: None, ramp_s=0.3)
+    assert result["reach"]["reaches"] >= reaches and not result["fell"]
     assert not result["torque_off"]["unconfirmed"]
 
 
@@ -504,7 +505,7 @@ def test_eval_scores_with_the_weights_of_the_stage_a_controller_was_evolved_in(r
     assert ev.objective.weights.rest_pose == 1.0  # no stages recorded: table 4.1's
 
 
-SHIPPED_REACHERS = ["configs/controllers/human_arms_reach.json"]
+SHIPPED_REACHERS = ["configs/controllers/human_arms_reach.json", "configs/controllers/op3_reach.json"]
 
 
 @pytest.mark.parametrize("path", SHIPPED_REACHERS)
