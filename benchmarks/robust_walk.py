@@ -114,14 +114,17 @@ def after_test(walker: Path, log: Callable[[str], None]) -> dict[str, Any]:
 
 
 def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws: int, need: int,
-                quiet: bool = False) -> dict[str, Any]:
-    """One seed: evolve until a robust walker (or the budget), then measure it."""
+                quiet: bool = False, threads: int | None = None) -> dict[str, Any]:
+    """One seed: evolve until a robust walker (or the budget), then measure it.  ``threads``:
+    simulation threads (None: the config's)."""
     log = lambda line: progress(line, quiet)  # noqa: E731
     if (folder / "checkpoint.json.gz").exists():
-        run = Run.resume(folder, log=log)
+        run = Run.resume(folder, threads=threads, log=log)
         log(f"seed {seed}: resuming {folder} at generation {run.population.generation}")
     else:
         config = load_evolve_config(resolve_config(config_name)).replace(seed=seed)
+        if threads is not None:
+            config = config.replace(threads=threads)
         run = Run.create(config, folder, log=log)
     state: dict[str, Any] = {"robust": False, "tests": [], "test_s": 0.0}
     tested: set[tuple[int, int]] = set()
@@ -198,6 +201,7 @@ def main(argv=None) -> None:
     p.add_argument("--first-seed", type=int, default=1)
     p.add_argument("--minutes", type=float, default=60.0, help="evolution wall-time budget per seed (default 60)")
     p.add_argument("--config", default="walk_robust", help="evolution config (default: the robust-walk recipe)")
+    p.add_argument("--threads", type=int, help="simulation threads (default: the config's)")
     p.add_argument("--draws", type=int, default=10, help="unseen randomized robots a champion is tested on")
     p.add_argument("--need", type=int, default=8, help="of them it must walk on")
     p.add_argument("--out", type=Path, help="keep every run here; finished seeds are reused, cut ones resumed")
@@ -225,7 +229,8 @@ def main(argv=None) -> None:
             runs.append(read_json(folder / "result.json"))
             progress(f"seed {seed}: done before ({folder / 'result.json'})", args.json)
             continue
-        runs.append(robust_once(args.config, seed, folder, args.minutes, args.draws, args.need, args.json))
+        runs.append(robust_once(args.config, seed, folder, args.minutes, args.draws, args.need, args.json,
+                                 args.threads))
         r = runs[-1]
         progress(f"seed {seed}: robust={r['robust']} minutes={r['minutes']}", args.json)
     result = summary(runs)
