@@ -123,3 +123,12 @@ def test_yaml_is_loaded_safely(tmp_path):
     path.write_text("name: !!python/object/apply:os.system ['true']\n")
     with pytest.raises(ConfigError, match="invalid YAML"):
         load_robot(path)
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "configs" / "evolve").glob("*.yaml")), ids=lambda p: p.stem)
+def test_every_shipped_evolution_config_loads(path):
+    """Each config names a robot and a control set it has, with keys and values in range."""
+    from evolve.config import load_evolve_config
+
+    config = load_evolve_config(path)
+    assert config.task.control_set in load_robot(config.robot).control_sets
