@@ -142,8 +142,12 @@ class GoalSource(Protocol):
 
     def trace_metadata(self) -> dict[str, Any]: ...
 
-    # optional: ``trace_motion = True`` asks the loop to trace each servo's velocity and load
-    # or current too (:mod:`sim2real.hardware.readings`), at the cost of bus time every tick
+    # Optional, read with getattr because an excitation program has none of them (a Policy has
+    # each): ``trace_motion = True`` asks the loop to trace each servo's velocity and load or
+    # current too (:mod:`sim2real.hardware.readings`), at the cost of bus time every tick;
+    # ``sensors`` (the board's sensors it reads, checked before any servo moves);
+    # ``trace_channels`` and ``trace_values()`` (columns it adds to a trace, and their values);
+    # ``reach`` (a reaching controller's state machine, aimed by ``--reach-target``).
 
 
 def ramp(chain: ServoChain, mapping: ServoMapping, start: np.ndarray, target: np.ndarray,
