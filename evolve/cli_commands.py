@@ -275,7 +275,7 @@ def cmd_evolve(args: argparse.Namespace) -> int:
     try:
         best = run.evolve()
     except KeyboardInterrupt:
-        print(f"\ninterrupted: checkpoint of generation {run.population.generation} is in {run.out}; "
+        print(f"\ninterrupted: checkpoint of generation {run.checkpoint_generation} is in {run.out}; "
               f"continue with: biped evolve --resume --out {run.out}", file=sys.stderr)
         return 130
     if best is not None:

@@ -69,6 +69,32 @@ def test_resumed_run_continues_exactly_as_an_uninterrupted_one(config_file, tmp_
     assert a["connections"] == b["connections"] and a["hidden"] == b["hidden"]
 
 
+def test_a_kill_between_checkpoints_resumes_from_the_older_one_exactly(config_file, tmp_path, monkeypatch):
+    """The latest checkpoint is written at most every CHECKPOINT_INTERVAL_S (writing one every
+    generation cost 13 % of a generation): a run stopped hard between two loses the
+    generations since the last, and its resume reruns them to the same result."""
+    import evolve.run as run_module
+    from evolve.run import Run
+    from evolve.config import load_evolve_config
+
+    monkeypatch.setattr(run_module, "CHECKPOINT_INTERVAL_S", 1e9)  # only stage starts and snapshots
+    straight, killed = tmp_path / "straight", tmp_path / "killed"
+    assert main(["evolve", str(config_file), "--out", str(straight), "--generations", "5", "--quiet"]) == 0
+    config = load_evolve_config(config_file).replace(checkpoint_every=0)
+    run = Run.create(config, killed, log=lambda line: None)
+
+    def kill(run, row):
+        if row["generation"] == 2:
+            raise KeyboardInterrupt  # as a signal between generations would, before any save
+        return False
+
+    with pytest.raises(KeyboardInterrupt):
+        run.evolve(stop=kill)
+    assert run.checkpoint_generation == 0 and len(_stats(killed)) == 3
+    assert main(["evolve", "--resume", "--out", str(killed), "--generations", "5", "--quiet"]) == 0
+    assert _stats(killed) == _stats(straight)
+
+
 def test_stats_log_the_champions_fitness_terms_by_name(config_file, tmp_path):
     out = tmp_path / "run"
     assert main(["evolve", str(config_file), "--out", str(out), "--quiet"]) == 0
