@@ -518,3 +518,19 @@ def test_a_shipped_reacher_reaches_three_times_in_10_s_and_stands_without_its_re
     assert reached["other_arm_deg"] < 5.0  # one-handed: the left arm keeps its rest
     standing = evaluate_controller(path, seconds=10.0, disabled_modules=("reach",))
     assert standing["reaches"] == 0 and not standing["fell"]
+
+
+def test_the_reach_benchmark_draws_each_runs_curve_from_where_its_reaching_began(tmp_path):
+    from benchmarks.reach import plot, reach_curve
+    from sim2real.atomic_json import read_json
+
+    runs = Path(__file__).resolve().parents[1] / "benchmarks" / "records" / "runs" / "reach-bench2"
+    hierarchy = {"seed": 1, "solved": True, "stages": read_json(runs / "hierarchy-seed1" / "stages.json")}
+    x, y = reach_curve(hierarchy, runs / "hierarchy-seed1")
+    below = sum(s["generations"] for s in hierarchy["stages"][:-1])  # posing's and standing's
+    assert x == list(range(below + 1, below + hierarchy["stages"][-1]["generations"] + 1))
+    assert y == sorted(y) and y[-1] == pytest.approx(hierarchy["stages"][-1]["best_fitness"] / 19200.0, rel=1e-5)
+    baseline = {"seed": 1, "solved": False, "stages": read_json(runs / "baseline-seed1" / "stages.json")}
+    assert reach_curve(baseline, runs / "baseline-seed1")[0][0] == 1
+    plot(runs, {"hierarchy": [hierarchy], "baseline": [baseline]}, 0.55, tmp_path / "reach.png")
+    assert (tmp_path / "reach.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
