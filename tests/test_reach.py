@@ -528,8 +528,9 @@ def test_the_reach_benchmark_draws_each_runs_curve_from_where_its_reaching_began
     hierarchy = {"seed": 1, "solved": True, "stages": read_json(runs / "hierarchy-seed1" / "stages.json")}
     x, y = reach_curve(hierarchy, runs / "hierarchy-seed1")
     below = sum(s["generations"] for s in hierarchy["stages"][:-1])  # posing's and standing's
-    assert x == list(range(below + 1, below + hierarchy["stages"][-1]["generations"] + 1))
-    assert y == sorted(y) and y[-1] == pytest.approx(hierarchy["stages"][-1]["best_fitness"] / 19200.0, rel=1e-5)
+    reach = hierarchy["stages"][-1]
+    assert x == list(range(below + 1, below + reach["generations"] + 1))
+    assert y == sorted(y) and y[-1] == pytest.approx(reach["best_fitness"] / reach["max_fitness"], rel=1e-5)
     baseline = {"seed": 1, "solved": False, "stages": read_json(runs / "baseline-seed1" / "stages.json")}
     assert reach_curve(baseline, runs / "baseline-seed1")[0][0] == 1
     plot(runs, {"hierarchy": [hierarchy], "baseline": [baseline]}, 0.55, tmp_path / "reach.png")
