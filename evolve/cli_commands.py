@@ -111,6 +111,11 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                     help="weigh selection's straight term so (selection_straight_coeff; default: the task's)")
     po.add_argument("--heading-deg", type=positive_float_at_most(180.0), metavar="DEG",
                     help="count a walk only if the torso never turned further than this (default: any)")
+    po.add_argument("--speed-leg-s", type=positive_float_at_most(5.0, "leg lengths a second"), metavar="V",
+                    help="the velocity kernel's target speed [leg lengths/s] (selection_speed_leg_s; default: "
+                    "the task's); above the goal's speed so that selection pays for reaching it")
+    po.add_argument("--min-speed", type=positive_float_at_most(5.0, "m/s"), metavar="M_S",
+                    help="count a walk only if it averaged at least this speed [m/s] over its episode (default: any)")
     po.add_argument("--with-nominal", action="store_true",
                     help="every candidate meets the nominal robot too in each update (randomized draws seldom "
                     "resemble it)")
@@ -338,7 +343,8 @@ def cmd_polish(args: argparse.Namespace) -> int:
     result = polish(args.controller, args.out, updates=args.updates, popsize=args.popsize, robots=args.robots,
                     sigma=args.sigma, every=args.every, validation=args.validation, test=args.test, seed=args.seed,
                     reality=args.randomize or "randomize", episode_s=args.episode_s, straight=args.straight,
-                    heading_deg=args.heading_deg, nominal=args.with_nominal, log=log)
+                    heading_deg=args.heading_deg, speed_leg_s=args.speed_leg_s, min_speed_m_s=args.min_speed,
+                    nominal=args.with_nominal, log=log)
     if args.json:
         print(json.dumps(result))
     return 0

@@ -57,13 +57,15 @@ class Judge:
     """Runs weight vectors on drawn robots with the controller's evaluator: episodes of
     ``episode_s`` (None: the controller's task's), selection as the task's with ``selection``
     (TaskConfig fields, e.g. ``selection_straight_coeff``) changed, and with ``heading_deg`` a
-    walk counts only if the torso never turned further than that from the start's heading.
+    walk counts only if the torso never turned further than that from the start's heading,
+    with ``min_speed_m_s`` only if it went at least that fast on average [m/s] (distance over
+    the whole episode, its start-up included).
     With several ``realities`` robot k of a draw comes from ranges k mod their number: wide
     ranges buy a walk rate, narrow ones a walk near the model, and one search may want both."""
 
     def __init__(self, path: Path, realities: list[str], capacity: int, episode_s: float | None = None,
                  selection: dict[str, float] | None = None, heading_deg: float | None = None,
-                 nominal: bool = False):
+                 nominal: bool = False, min_speed_m_s: float | None = None):
         self.realities = [load_reality(name) for name in realities]
 
         def setup(reality: Reality):
@@ -75,7 +77,7 @@ class Judge:
             self.data, self.robot, self.evaluator, self.genome = setup(widest)
         if selection:
             self.evaluator.task = dataclasses.replace(self.evaluator.task, **selection)
-        self.heading_deg, self.nominal = heading_deg, nominal
+        self.heading_deg, self.nominal, self.min_speed_m_s = heading_deg, nominal, min_speed_m_s
         self.enabled, self.start = weights_of(self.genome)
         self.steps = 0
 
@@ -118,6 +120,8 @@ class Judge:
             walked[lo:hi] = episodes.walked(ev.leg, ev.episode_s)
             if self.heading_deg is not None:  # a walker that turns away is no walker
                 walked[lo:hi] &= episodes.terms["turn"] <= self.heading_deg
+            if self.min_speed_m_s is not None:  # the goal's speed: a slow walk is no walk either
+                walked[lo:hi] &= episodes.distance_m >= self.min_speed_m_s * ev.episode_s
             self.steps += episodes.steps
         return score, walked
 
@@ -129,12 +133,15 @@ def _keys(seed: int, stream: int, index: int, robots: int) -> np.ndarray:
 def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robots: int = 8, sigma: float = 0.1,
            every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str | list[str] = "randomize",
            episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,
+           speed_leg_s: float | None = None, min_speed_m_s: float | None = None,
            nominal: bool = False, log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
     ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
     step size [weight units] (NEAT perturbs a weight by about 0.5).  For a straight walk:
     ``episode_s`` longer episodes, ``straight`` selection's straight term weighted so
     (``selection_straight_coeff``), ``heading_deg`` walks that turn further not counted.
+    For a faster walk: ``speed_leg_s`` the velocity kernel's target [leg lengths/s]
+    (``selection_speed_leg_s``), ``min_speed_m_s`` slower walks not counted.
     ``nominal``: every candidate meets the nominal robot too, in each update (not in the
     validation and test, which judge drawn robots).  ``reality``: the ranges robots are drawn
     from, or a list of them that robots take turns at (validation and test draw the same way)."""
@@ -143,8 +150,10 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
     realities = [reality] if isinstance(reality, str) else list(reality)
-    judge = Judge(path, realities, max(popsize * robots, validation, 1), episode_s,
-                  None if straight is None else {"selection_straight_coeff": straight}, heading_deg, nominal)
+    selection = {key: value for key, value in (("selection_straight_coeff", straight),
+                                               ("selection_speed_leg_s", speed_leg_s)) if value is not None}
+    judge = Judge(path, realities, max(popsize * robots, validation, 1), episode_s, selection, heading_deg,
+                  nominal, min_speed_m_s)
     x0 = judge.start
     optimizer = CMA(mean=x0.copy(), sigma=sigma, population_size=popsize, seed=seed,
                     bounds=np.tile([-WEIGHT_LIMIT, WEIGHT_LIMIT], (len(x0), 1)))
@@ -181,14 +190,15 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     provenance = {**dict(judge.data.provenance), "polished_from": str(path), "polish": {
         "updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed, "reality": reality,
         "episode_s": judge.evaluator.episode_s, "straight": straight, "heading_deg": heading_deg, "nominal": nominal,
-        "kept_update": best["update"], "validation_walk_rate": best["walk_rate"], "test_walk_rate": test_rates}}
+        "speed_leg_s": speed_leg_s, "min_speed_m_s": min_speed_m_s, "kept_update": best["update"], "validation_walk_rate": best["walk_rate"], "test_walk_rate": test_rates}}
     controller = controller_from_genome(polished, judge.robot, judge.evaluator.layout, task,
                                         judge.data.sigmoid_steepness, provenance)
     controller.save(out / "polished.json")
     result = {"controller": str(path), "polished": str(out / "polished.json"), "weights": len(x0),
               "updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed,
               "reality": reality, "episode_s": judge.evaluator.episode_s, "straight": straight,
-              "heading_deg": heading_deg, "kept_update": best["update"], "history": history,
+              "heading_deg": heading_deg, "speed_leg_s": speed_leg_s, "min_speed_m_s": min_speed_m_s,
+              "kept_update": best["update"], "history": history,
               "test": {"robots": test, "original": {"walk_rate": test_rates["original"]},
                        "polished": {"walk_rate": test_rates["polished"]}},
               "lifted": test_rates["polished"] > test_rates["original"],

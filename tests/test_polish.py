@@ -55,13 +55,21 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
     s8, walked = straight.run([straight.start], keys)
     assert not walked.any()  # every walk turns a little: none is within 1e-6 deg
     assert s8[0, 0] != score[0, 0]
+    on_model = Judge(WALKER, ["randomize"], 1, nominal=True)
+    too_fast = Judge(WALKER, ["randomize"], 1, min_speed_m_s=5.0, nominal=True)  # no small robot walks at 5 m/s
+    none = np.empty((0, 4), dtype=np.int64)  # the nominal robot alone
+    assert on_model.run([on_model.start], none)[1].all() and not too_fast.run([too_fast.start], none)[1].any()
+    faster = Judge(WALKER, ["randomize"], 2, episode_s=4.0,
+                   selection={"selection_straight_coeff": 8.0, "selection_speed_leg_s": 1.2})
+    assert faster.run([faster.start], keys)[0][0, 0] != s8[0, 0]  # the straight term's kernel moved
     with_model = Judge(WALKER, ["randomize"], 2, nominal=True)
     both, _ = with_model.run([with_model.start], keys)
     assert both.shape == (1, 2) and both[0, 0] == score[0, 0]  # the drawn robot as before, then the model
     assert main(["polish", WALKER, "--out", str(tmp_path / "p"), "--updates", "1", "--popsize", "4", "--robots", "1",
                  "--validation", "1", "--test", "1", "--episode-s", "2", "--straight", "8", "--heading-deg", "45",
-                 "--with-nominal", "--json"]) == 0
-    assert Controller.load(tmp_path / "p" / "polished.json").provenance["polish"]["straight"] == 8.0
+                 "--with-nominal", "--speed-leg-s", "0.8", "--min-speed", "0.15", "--json"]) == 0
+    provenance = Controller.load(tmp_path / "p" / "polished.json").provenance["polish"]
+    assert (provenance["straight"], provenance["speed_leg_s"], provenance["min_speed_m_s"]) == (8.0, 0.8, 0.15)
 
 
 def test_robots_take_turns_at_several_ranges_each_drawn_as_its_ranges_alone_would():
