@@ -2,6 +2,7 @@
 
     python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --json
     python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --minutes 60 --config walk_robust
+    python -m benchmarks.robust_walk --seeds 5 --config walk_straight3_p512 --minutes 45 --polish 20 --out runs/rwp --json
     python -m benchmarks.robust_walk --measure CONTROLLER [--ship configs/controllers/xl430_biped.json] --json
 
 Per seed, one evolution of ``--config`` (the robust-walk recipe by default) until its first
@@ -23,7 +24,14 @@ Wall minutes are the evolution's own (``stats.csv``'s ``wall_s``: every generati
 validation), measured with nothing else running; the tests of champions come on top and are
 reported apart (``test_s``).  With ``--out`` each seed keeps its folder and ``result.json``:
 a finished seed is not run again, an interrupted one resumes from its checkpoint (a seed
-fixes the run, so the resumed run is the one that was cut).  The summary's
+fixes the run, so the resumed run is the one that was cut).
+
+With ``--polish UPDATES`` each seed goes on, whatever NEAT found, to a weight polish of its
+walker (``biped polish``'s CMA-ES, :func:`polish_once`): every walker the polish keeps is
+tested the same way, and the seed's final walker is the last robust one.  A seed robust only
+after the polish counts NEAT's minutes plus the polish's up to its first robust walker.
+NEAT's result waits in ``result.json`` until the polish's replaces it (a cut polish starts
+over).  The summary's
 ``transfer_ratio_median`` counts a walker that falls on the nominal model as keeping 0 (there
 is no walk to keep), and ``transfer_passed`` counts the checks passed.  ``--measure CONTROLLER`` measures
 one controller the same way, without evolving; ``--ship FILE`` writes the walker with the
@@ -32,6 +40,7 @@ command and its measures in its provenance (``robust`` says whether it met the b
 
 from __future__ import annotations
 
+import shutil
 import statistics
 import tempfile
 import time
@@ -163,6 +172,66 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
     return result
 
 
+POLISH_POPSIZE, POLISH_ROBOTS = 16, 16  # the settings of the polish that made the 98 % walker
+
+
+def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, need: int, quiet: bool = False,
+                speed_leg_s: float | None = None, min_speed_m_s: float | None = None) -> dict[str, Any]:
+    """The recipe's second phase: the seed's NEAT walker (its robust walker, or else its last
+    champion) with its weights polished for up to ``updates`` CMA-ES updates
+    (:func:`evolve.polish.polish`, seeded by the seed).  Every walker the polish's validation
+    keeps meets the robustness test; the seed's minutes to a robust walker are NEAT's, or NEAT's
+    budget plus the polish's search up to its first robust walker (the tests aside).  The final
+    walker is the last robust one kept, measured as :func:`robust_once`'s; the NEAT phase's
+    result rides along as ``neat``."""
+    from evolve.polish import polish
+
+    log = lambda line: progress(line, quiet)  # noqa: E731
+    seed = neat["seed"]
+    source = folder / ("robust_walker.json" if neat["robust"] else "champion.json")
+    result: dict[str, Any] = {**{k: neat[k] for k in ("seed", "robust", "minutes", "generations", "champion_generation",
+                                                     "evolution_minutes", "generations_run", "run_dir")},
+                              "neat": neat, "polish": None}
+    if not source.exists():  # no champion off the harness: nothing to polish
+        log(f"seed {seed}: no champion to polish")
+        return result
+    out = folder / "polish"
+    out.mkdir(exist_ok=True)
+    walker = out / "robust_walker.json"
+    walker.unlink(missing_ok=True)  # a cut polish starts over (its seed fixes it)
+    state: dict[str, Any] = {"tests": [], "test_s": 0.0, "minutes": None}
+
+    def on_best(kept: Path, entry: dict[str, Any]) -> bool:
+        t0 = time.perf_counter()
+        test = robustness(kept, draws)
+        robust = is_robust(test, need)
+        state["tests"].append({"update": entry["update"], **test, "robust": robust})
+        log(f"seed {seed}: polished walker of update {entry['update']}: walked on {test['randomized']['walked']}"
+            f"/{draws} unseen robots, {test['default']['walked']}/{test['default_episodes']} default"
+            f"{' - robust' if robust else ''}")
+        if robust:
+            shutil.copyfile(kept, walker)
+            if state["minutes"] is None:
+                state["minutes"] = neat["evolution_minutes"] + (entry["elapsed_s"] - state["test_s"]) / 60.0
+        state["test_s"] += time.perf_counter() - t0
+        return False
+
+    polished = polish(source, out, updates=updates, popsize=POLISH_POPSIZE, robots=POLISH_ROBOTS, seed=seed,
+                      speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s, on_best=on_best, log=log)
+    result["polish"] = {**{k: v for k, v in polished.items() if k != "history"}, "history": polished["history"],
+                        "tests": state["tests"], "test_s": state["test_s"],
+                        "first_robust_minutes": state["minutes"]}
+    if walker.exists():
+        if not neat["robust"]:
+            result.update(robust=True, minutes=state["minutes"])
+        last_robust = [t for t in state["tests"] if t["robust"]][-1]
+        result.update(walker=str(walker), walker_test=last_robust, **after_test(walker, log))
+    elif neat["robust"]:  # the polish kept no robust walker: NEAT's stays the seed's
+        result.update(walker=str(folder / "robust_walker.json"), walker_test=neat["tests"][-1],
+                      **{k: neat[k] for k in ("rate", "transfer", "sustained", "steering")})
+    return result
+
+
 def kept(transfer: dict[str, Any]) -> float:
     """The transfer check's ratio, or 0 when the nominal simulation did not walk: a share kept
     of a walk that never was (a fall on the model) is no transfer."""
@@ -210,6 +279,13 @@ def main(argv=None) -> None:
     p.add_argument("--ship", type=Path, metavar="FILE", help="write the best robust walker (highest transfer "
                    "ratio, then seconds upright in the 60 s walks) - or the --measure'd controller - here, with "
                    "this command and its measures in its provenance")
+    p.add_argument("--polish", type=int, default=0, metavar="UPDATES", help="then polish each seed's walker (its "
+                   "robust walker, or else its last champion) for up to UPDATES CMA-ES updates, testing every "
+                   "walker the polish keeps (default 0: no polish)")
+    p.add_argument("--polish-speed-leg-s", type=float, metavar="V", help="the polish's velocity kernel target "
+                   "[leg lengths/s] (default: the task's)")
+    p.add_argument("--polish-min-speed", type=float, metavar="M_S", help="the polish counts no walk slower "
+                   "than this [m/s] (default: any)")
     args = p.parse_args(argv)
     if args.measure:
         test = robustness(args.measure, args.draws)
@@ -222,23 +298,32 @@ def main(argv=None) -> None:
     if not 0 < args.need <= args.draws:
         p.error(f"--need {args.need}: must be within 1..--draws ({args.draws})")
     out = args.out or Path(tempfile.mkdtemp(prefix="robust-walk-"))
+    if args.polish < 0:
+        p.error(f"--polish {args.polish}: must be 0 (no polish) or a number of updates")
     runs = []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
         folder = out / f"seed{seed}"
-        if (folder / "result.json").exists():
-            runs.append(read_json(folder / "result.json"))
-            progress(f"seed {seed}: done before ({folder / 'result.json'})", args.json)
+        done = folder / "result.json"
+        r = read_json(done) if done.exists() else None
+        if r is not None and (not args.polish or "polish" in r):
+            runs.append(r)
+            progress(f"seed {seed}: done before ({done})", args.json)
             continue
-        runs.append(robust_once(args.config, seed, folder, args.minutes, args.draws, args.need, args.json,
-                                 args.threads))
-        r = runs[-1]
+        if r is None:
+            r = robust_once(args.config, seed, folder, args.minutes, args.draws, args.need, args.json, args.threads)
+        if args.polish:  # NEAT's result stays in result.json until the polish's replaces it
+            r = polish_once(r, folder, args.polish, args.draws, args.need, args.json, args.polish_speed_leg_s,
+                            args.polish_min_speed)
+            write_json_atomic(done, r)
+        runs.append(r)
         progress(f"seed {seed}: robust={r['robust']} minutes={r['minutes']}", args.json)
     result = summary(runs)
     robust = [r for r in runs if r["robust"]]
     if args.ship and robust:
         best = max(robust, key=lambda r: (r["transfer"]["ratio"], r["sustained"]["default"]["upright_s"]))
-        result["shipped"] = ship(Path(best["run_dir"]) / "robust_walker.json", {"robust": True, "test": best["tests"][-1],
-                                 **best}, args.ship, argv)
+        walker = Path(best.get("walker") or Path(best["run_dir"]) / "robust_walker.json")
+        result["shipped"] = ship(walker, {"robust": True, "test": best.get("walker_test") or best["tests"][-1],
+                                          **best}, args.ship, argv)
     elif args.ship:
         progress("--ship: no robust walker to ship", args.json)
     report(result, args.json)

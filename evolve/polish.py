@@ -134,7 +134,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
            every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str | list[str] = "randomize",
            episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,
            speed_leg_s: float | None = None, min_speed_m_s: float | None = None,
-           nominal: bool = False, log: Callable[[str], None] = print) -> dict[str, Any]:
+           nominal: bool = False, on_best: Callable[[Path, dict[str, Any]], bool] | None = None,
+           log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
     ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
     step size [weight units] (NEAT perturbs a weight by about 0.5).  For a straight walk:
@@ -144,7 +145,10 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     (``selection_speed_leg_s``), ``min_speed_m_s`` slower walks not counted.
     ``nominal``: every candidate meets the nominal robot too, in each update (not in the
     validation and test, which judge drawn robots).  ``reality``: the ranges robots are drawn
-    from, or a list of them that robots take turns at (validation and test draw the same way)."""
+    from, or a list of them that robots take turns at (validation and test draw the same way).
+    ``on_best(path, entry)``: called whenever validation keeps new weights, with them written
+    to ``path`` (``out/kept.json``) and the history ``entry`` (its ``elapsed_s``: the
+    polish's seconds so far); True stops the search there (the test still follows)."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
     out.mkdir(parents=True, exist_ok=True)
@@ -158,6 +162,17 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     optimizer = CMA(mean=x0.copy(), sigma=sigma, population_size=popsize, seed=seed,
                     bounds=np.tile([-WEIGHT_LIMIT, WEIGHT_LIMIT], (len(x0), 1)))
     checks = _keys(seed, VALIDATION_STREAM, 0, validation)
+    settings = {"updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed,
+                "reality": reality, "episode_s": judge.evaluator.episode_s, "straight": straight,
+                "heading_deg": heading_deg, "nominal": nominal, "speed_leg_s": speed_leg_s,
+                "min_speed_m_s": min_speed_m_s}
+
+    def save(weights: np.ndarray, to: Path, outcome: dict[str, Any]) -> None:
+        """The walker with ``weights``, the polish's settings and ``outcome`` in its provenance."""
+        provenance = {**dict(judge.data.provenance), "polished_from": str(path), "polish": {**settings, **outcome}}
+        controller_from_genome(with_weights(judge.genome, judge.enabled, weights), judge.robot,
+                               judge.evaluator.layout, judge.evaluator.task, judge.data.sigmoid_steepness,
+                               provenance).save(to)
 
     def validate(x: np.ndarray) -> dict[str, float]:
         score, walked = judge.run([x], checks)
@@ -175,34 +190,35 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
         optimizer.tell([(x, -float(s)) for x, s in zip(candidates, score.mean(axis=1))])  # CMA minimizes
         if update % every == 0 or update == updates:
             checked = validate(optimizer.mean)
-            history.append({"update": update, "candidates_walked": float(walked.mean()), **checked})
-            if (checked["walk_rate"], checked["score"]) > (best["walk_rate"], best["score"]):
+            entry = {"update": update, "candidates_walked": float(walked.mean()), **checked,
+                     "elapsed_s": time.monotonic() - started}
+            history.append(entry)
+            improved = (checked["walk_rate"], checked["score"]) > (best["walk_rate"], best["score"])
+            if improved:
                 best = {"update": update, "weights": optimizer.mean.copy(), **checked}
             log(f"update {update}/{updates}: candidates walked {walked.mean():.2f}, validation walk rate "
                 f"{checked['walk_rate']:.2f} (best {best['walk_rate']:.2f} at update {best['update']}), "
-                f"{time.monotonic() - started:.0f} s")
+                f"{entry['elapsed_s']:.0f} s")
+            if improved and on_best is not None:
+                save(best["weights"], out / "kept.json", {"kept_update": update, "validation_walk_rate": best["walk_rate"]})
+                if on_best(out / "kept.json", entry):
+                    log(f"stopped at update {update}")
+                    break
+    search_s = time.monotonic() - started
     fresh = _keys(seed, TEST_STREAM, 0, test)
     _, walked = judge.run([x0, best["weights"]], fresh)
     walked = walked[:, :test]  # drawn robots only
     test_rates = {"original": float(walked[0].mean()), "polished": float(walked[1].mean())}
-    polished = with_weights(judge.genome, judge.enabled, best["weights"])
-    task = judge.evaluator.task
-    provenance = {**dict(judge.data.provenance), "polished_from": str(path), "polish": {
-        "updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed, "reality": reality,
-        "episode_s": judge.evaluator.episode_s, "straight": straight, "heading_deg": heading_deg, "nominal": nominal,
-        "speed_leg_s": speed_leg_s, "min_speed_m_s": min_speed_m_s, "kept_update": best["update"], "validation_walk_rate": best["walk_rate"], "test_walk_rate": test_rates}}
-    controller = controller_from_genome(polished, judge.robot, judge.evaluator.layout, task,
-                                        judge.data.sigmoid_steepness, provenance)
-    controller.save(out / "polished.json")
-    result = {"controller": str(path), "polished": str(out / "polished.json"), "weights": len(x0),
-              "updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed,
-              "reality": reality, "episode_s": judge.evaluator.episode_s, "straight": straight,
-              "heading_deg": heading_deg, "speed_leg_s": speed_leg_s, "min_speed_m_s": min_speed_m_s,
+    save(best["weights"], out / "polished.json", {"kept_update": best["update"],
+                                                  "validation_walk_rate": best["walk_rate"],
+                                                  "test_walk_rate": test_rates})
+    result = {"controller": str(path), "polished": str(out / "polished.json"), "weights": len(x0), **settings,
               "kept_update": best["update"], "history": history,
               "test": {"robots": test, "original": {"walk_rate": test_rates["original"]},
                        "polished": {"walk_rate": test_rates["polished"]}},
               "lifted": test_rates["polished"] > test_rates["original"],
-              "physics_steps": judge.steps, "minutes": (time.monotonic() - started) / 60}
+              "physics_steps": judge.steps, "search_minutes": search_s / 60,
+              "minutes": (time.monotonic() - started) / 60}
     write_json_atomic(out / "result.json", result)
     log(f"test on {test} fresh robots: walk rate {test_rates['original']:.2f} -> {test_rates['polished']:.2f}"
         f" ({'lifted' if result['lifted'] else 'not lifted: keep the original'}); wrote {out / 'polished.json'}")

@@ -2,6 +2,7 @@
 candidate of an update on the same robots, a seed fixing the whole polish."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,7 +34,9 @@ def test_biped_polish_writes_a_loadable_walker_and_a_seed_fixes_it(tmp_path, cap
         assert main([*args, "--out", str(tmp_path / name)]) == 0
         results.append(json.loads(capsys.readouterr().out.strip().splitlines()[-1]))
     a, b = results
-    assert a["history"] == b["history"] and a["test"] == b["test"]  # the seed fixes every draw and step
+    def judged(history):  # the seconds aside
+        return [{k: v for k, v in entry.items() if k != "elapsed_s"} for entry in history]
+    assert judged(a["history"]) == judged(b["history"]) and a["test"] == b["test"]  # the seed fixes every draw and step
     assert len(a["history"]) == 3 and a["weights"] > 50
     polished = Controller.load(tmp_path / "a" / "polished.json")
     original = Controller.load(WALKER)
@@ -82,3 +85,20 @@ def test_robots_take_turns_at_several_ranges_each_drawn_as_its_ranges_alone_woul
     alone = {name: judge.run([judge.start], keys)[0][0] for name, judge in (("wide", wide), ("narrow", narrow))}
     assert score[0].tolist() == [alone["wide"][0], alone["narrow"][1], alone["wide"][2]]
     assert alone["wide"][1] != alone["narrow"][1]
+
+
+def test_on_best_sees_every_kept_walker_and_can_stop_the_search(tmp_path):
+    from evolve.polish import polish
+
+    seen = []
+
+    def on_best(kept, entry):
+        seen.append((entry["update"], Controller.load(kept).provenance["polish"]["kept_update"]))
+        return len(seen) == 2
+
+    # these settings keep the weights of updates 2, 3 and 6, each better on validation than the last
+    r = polish(Path(WALKER), tmp_path, updates=9, popsize=4, robots=1, validation=2, test=1, every=1, episode_s=2.0,
+               sigma=0.3, seed=3, on_best=on_best, log=lambda line: None)
+    assert seen == [(2, 2), (3, 3)] and r["kept_update"] == 3
+    assert [e["update"] for e in r["history"]] == list(range(4)), "the search stopped where on_best said so"
+    assert r["search_minutes"] <= r["minutes"]

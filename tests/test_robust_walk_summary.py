@@ -27,3 +27,62 @@ def test_a_fall_on_the_model_keeps_nothing_of_its_walk():
 def test_no_robust_walker_has_no_medians():
     s = summary([_run(1, False), _run(2, False)])
     assert s["robust_seeds"] == 0 and s["transfer_ratio_median"] is None and s["transfer_passed"] == 0
+
+
+
+def test_the_polish_phase_tests_every_kept_walker_and_times_the_first_robust_one(tmp_path, monkeypatch):
+    """The recipe's polish (``--polish``): NEAT's last champion polished, each walker the
+    validation keeps tested; the seed's minutes are NEAT's budget plus the search up to the
+    first robust one, the tests' own seconds aside.  The polish, the tests and the measures are
+    stand-ins here (each is tested on its own): what is checked is the bookkeeping."""
+    import shutil
+    import time
+
+    import evolve.polish
+    from benchmarks import robust_walk
+
+    def polish(source, out, *, on_best, **settings):  # keeps walkers at updates 5, 10 and 15
+        history = []
+        for update, elapsed_s in ((5, 60.0), (10, 120.0), (15, 180.0)):
+            shutil.copyfile(source, out / "kept.json")
+            history.append({"update": update, "elapsed_s": elapsed_s})
+            on_best(out / "kept.json", history[-1])
+        return {"history": history, "settings": settings}
+
+    def robustness(walker, draws):  # the second kept walker and the third pass
+        time.sleep(0.01)
+        robust = len(tested) >= 1
+        tested.append(walker)
+        return {"randomized": {"walked": 10 if robust else 3}, "default": {"walked": 3}, "draws": draws,
+                "default_episodes": 3}
+
+    tested = []
+    monkeypatch.setattr(evolve.polish, "polish", polish)
+    monkeypatch.setattr(robust_walk, "robustness", robustness)
+    monkeypatch.setattr(robust_walk, "after_test", lambda walker, log: {"rate": {"share": 0.9, "robots": 50}})
+    shutil.copyfile("configs/controllers/xl430_biped.json", tmp_path / "champion.json")
+    neat = {"seed": 2, "robust": False, "minutes": None, "generations": None, "champion_generation": 59,
+            "evolution_minutes": 45.0, "generations_run": 61, "run_dir": str(tmp_path), "tests": []}
+    r = robust_walk.polish_once(neat, tmp_path, updates=20, draws=10, need=8, quiet=True, speed_leg_s=0.8)
+    assert [(t["update"], t["robust"]) for t in r["polish"]["tests"]] == [(5, False), (10, True), (15, True)]
+    assert r["robust"] and 46.99 < r["minutes"] < 47.0  # 45 + 2 minutes, less the first test's seconds
+    assert r["walker_test"]["update"] == 15 and (tmp_path / "polish" / "robust_walker.json").exists()
+    assert r["rate"] == {"share": 0.9, "robots": 50} and r["neat"] is neat
+    assert r["polish"]["settings"]["speed_leg_s"] == 0.8 and r["polish"]["settings"]["seed"] == 2
+
+    tested.clear()
+    shutil.copyfile("configs/controllers/xl430_biped.json", tmp_path / "robust_walker.json")
+    first = robust_walk.polish_once({**neat, "robust": True, "minutes": 30.0, "tests": [{"generation": 40}],
+                                     "rate": "neat's", "transfer": {}, "sustained": {}, "steering": None},
+                                    tmp_path, updates=20, draws=10, need=8, quiet=True)
+    assert first["minutes"] == 30.0, "NEAT's robust walker came first: its minutes count"
+    assert first["walker"] == str(tmp_path / "polish" / "robust_walker.json") and first["rate"]["share"] == 0.9
+
+    # no kept walker passes: NEAT's walker stays the seed's
+    monkeypatch.setattr(robust_walk, "robustness", lambda walker, draws: {
+        "randomized": {"walked": 3}, "default": {"walked": 3}, "draws": draws, "default_episodes": 3})
+    stays = robust_walk.polish_once({**neat, "robust": True, "minutes": 30.0, "tests": [{"generation": 40}],
+                                     "rate": "neat's", "transfer": {}, "sustained": {}, "steering": None},
+                                    tmp_path, updates=20, draws=10, need=8, quiet=True)
+    assert stays["walker"] == str(tmp_path / "robust_walker.json") and stays["rate"] == "neat's"
+    assert stays["walker_test"] == {"generation": 40}
