@@ -218,8 +218,7 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
 
     polished = polish(source, out, updates=updates, popsize=POLISH_POPSIZE, robots=POLISH_ROBOTS, seed=seed,
                       speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s, on_best=on_best, log=log)
-    result["polish"] = {**{k: v for k, v in polished.items() if k != "history"}, "history": polished["history"],
-                        "tests": state["tests"], "test_s": state["test_s"],
+    result["polish"] = {**polished, "tests": state["tests"], "test_s": state["test_s"],
                         "first_robust_minutes": state["minutes"]}
     if walker.exists():
         if not neat["robust"]:
@@ -297,9 +296,9 @@ def main(argv=None) -> None:
         return
     if not 0 < args.need <= args.draws:
         p.error(f"--need {args.need}: must be within 1..--draws ({args.draws})")
-    out = args.out or Path(tempfile.mkdtemp(prefix="robust-walk-"))
     if args.polish < 0:
         p.error(f"--polish {args.polish}: must be 0 (no polish) or a number of updates")
+    out = args.out or Path(tempfile.mkdtemp(prefix="robust-walk-"))
     runs = []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
         folder = out / f"seed{seed}"
