@@ -53,6 +53,7 @@ from evolve.cli_commands import resolve_config
 from evolve.config import load_evolve_config
 from evolve.replay import evaluate_controller
 from evolve.run import Run
+from sim2real.arg_types import int_within, positive_float_at_most
 from sim2real.atomic_json import read_json, write_json_atomic
 
 TEST_SEED = 314_159  # the robustness test's episode seeds are [TEST_SEED, e]
@@ -278,12 +279,12 @@ def main(argv=None) -> None:
     p.add_argument("--ship", type=Path, metavar="FILE", help="write the best robust walker (highest transfer "
                    "ratio, then seconds upright in the 60 s walks) - or the --measure'd controller - here, with "
                    "this command and its measures in its provenance")
-    p.add_argument("--polish", type=int, default=0, metavar="UPDATES", help="then polish each seed's walker (its "
+    p.add_argument("--polish", type=int_within(0, 100_000), default=0, metavar="UPDATES", help="then polish each seed's walker (its "
                    "robust walker, or else its last champion) for up to UPDATES CMA-ES updates, testing every "
                    "walker the polish keeps (default 0: no polish)")
-    p.add_argument("--polish-speed-leg-s", type=float, metavar="V", help="the polish's velocity kernel target "
+    p.add_argument("--polish-speed-leg-s", type=positive_float_at_most(5.0), metavar="V", help="the polish's velocity kernel target "
                    "[leg lengths/s] (default: the task's)")
-    p.add_argument("--polish-min-speed", type=float, metavar="M_S", help="the polish counts no walk slower "
+    p.add_argument("--polish-min-speed", type=positive_float_at_most(5.0), metavar="M_S", help="the polish counts no walk slower "
                    "than this [m/s] (default: any)")
     args = p.parse_args(argv)
     if args.measure:
@@ -296,8 +297,6 @@ def main(argv=None) -> None:
         return
     if not 0 < args.need <= args.draws:
         p.error(f"--need {args.need}: must be within 1..--draws ({args.draws})")
-    if args.polish < 0:
-        p.error(f"--polish {args.polish}: must be 0 (no polish) or a number of updates")
     out = args.out or Path(tempfile.mkdtemp(prefix="robust-walk-"))
     runs = []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
