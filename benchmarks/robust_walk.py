@@ -2,7 +2,7 @@
 
     python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --json
     python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --minutes 60 --config walk_robust
-    python -m benchmarks.robust_walk --seeds 5 --config walk_straight3_p512 --minutes 45 --polish 20 --out runs/rwp --json
+    python -m benchmarks.robust_walk --seeds 5 --config walk_straight3_p512 --minutes 45 --polish 40 --out runs/rwp --json
     python -m benchmarks.robust_walk --measure CONTROLLER [--ship configs/controllers/xl430_biped.json] --json
 
 Per seed, one evolution of ``--config`` (the robust-walk recipe by default) until its first
