@@ -222,8 +222,8 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
     result["polish"] = {**polished, "tests": state["tests"], "test_s": state["test_s"],
                         "first_robust_minutes": state["minutes"]}
     if walker.exists():
-        if not neat["robust"]:
-            result.update(robust=True, minutes=state["minutes"])
+        if not neat["robust"]:  # its generations: all NEAT's, then the polish
+            result.update(robust=True, minutes=state["minutes"], generations=neat["generations_run"])
         last_robust = [t for t in state["tests"] if t["robust"]][-1]
         result.update(walker=str(walker), walker_test=last_robust, **after_test(walker, log))
     elif neat["robust"]:  # the polish kept no robust walker: NEAT's stays the seed's
