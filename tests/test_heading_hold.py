@@ -149,7 +149,7 @@ def test_biped_eval_steers_and_reports_how_far_from_the_heading_it_ends(tmp_path
 
 
 def test_the_shipped_walker_walks_straight_on_the_model_and_turns_when_told():
-    """``configs/controllers/xl430_biped.json`` (issue 33's straight polish; its provenance has
+    """``configs/controllers/xl430_biped.json`` (issue 33's recipe, then a speed polish; its provenance has
     the measures): on the nominal robot 20 s straight ahead, and a 90 deg turn told at 2 s."""
     from evolve.replay import evaluate_controller
 
@@ -157,5 +157,7 @@ def test_the_shipped_walker_walks_straight_on_the_model_and_turns_when_told():
     assert {"heading", "gyro"} <= set(Controller.load(shipped).input_channels)
     straight = evaluate_controller(shipped, seconds=20.0)["per_episode"][0]
     assert not straight["fell"] and straight["distance_m"] > 3.0 and abs(straight["turn_deg"]) < 10.0
-    turned = evaluate_controller(shipped, seconds=10.0, heading=schedule_command([(0.0, 0.0), (2.0, 90.0)]))
+    # issue 33's steering goal, as benchmarks.robust_walk measures it: told at 2 s, there within 10 s
+    turned = evaluate_controller(shipped, seconds=12.0, heading=schedule_command([(0.0, 0.0), (2.0, 90.0)]),
+                                 stagnation_stop=False)
     assert not turned["per_episode"][0]["fell"] and abs(turned["per_episode"][0]["heading_error_deg"]) < 15.0
