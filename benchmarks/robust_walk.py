@@ -212,6 +212,7 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
             f"{' - robust' if robust else ''}")
         if robust:
             shutil.copyfile(kept, walker)
+            state["walker_test"] = state["tests"][-1]
             if state["minutes"] is None:
                 state["minutes"] = neat["evolution_minutes"] + (entry["elapsed_s"] - state["test_s"]) / 60.0
         state["test_s"] += time.perf_counter() - t0
@@ -224,8 +225,7 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
     if walker.exists():
         if not neat["robust"]:  # its generations: all NEAT's, then the polish
             result.update(robust=True, minutes=state["minutes"], generations=neat["generations_run"])
-        last_robust = [t for t in state["tests"] if t["robust"]][-1]
-        result.update(walker=str(walker), walker_test=last_robust, **after_test(walker, log))
+        result.update(walker=str(walker), walker_test=state["walker_test"], **after_test(walker, log))
     elif neat["robust"]:  # the polish kept no robust walker: NEAT's stays the seed's
         result.update(walker=str(folder / "robust_walker.json"), walker_test=neat["tests"][-1],
                       **{k: neat[k] for k in ("rate", "transfer", "sustained", "steering")})
