@@ -174,33 +174,25 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
 
 
 POLISH_POPSIZE, POLISH_ROBOTS = 16, 16  # the settings of the polish that made the 98 % walker
+SPEED_POLISH_LEG_S = 0.8  # [leg lengths/s] the speed polish's kernel target: the task's 0.6 is 0.147 m/s on the
+                          # XL430 biped, the goal's own speed, so nothing paid a faster walk (sixth session)
 
 
-def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, need: int, quiet: bool = False,
-                speed_leg_s: float | None = None, min_speed_m_s: float | None = None) -> dict[str, Any]:
-    """The recipe's second phase: the seed's NEAT walker (its robust walker, or else its last
-    champion) with its weights polished for up to ``updates`` CMA-ES updates
-    (:func:`evolve.polish.polish`, seeded by the seed).  Every walker the polish's validation
-    keeps meets the robustness test; the seed's minutes to a robust walker are NEAT's, or NEAT's
-    budget plus the polish's search up to its first robust walker (the tests aside).  The final
-    walker is the last robust one kept, measured as :func:`robust_once`'s; the NEAT phase's
-    result rides along as ``neat``."""
+def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, need: int,
+                 log: Callable[[str], None], speed_leg_s: float | None = None,
+                 min_speed_m_s: float | None = None) -> tuple[dict[str, Any], dict[str, Any] | None]:
+    """Polish ``source`` into ``out`` for up to ``updates`` CMA-ES updates
+    (:func:`evolve.polish.polish`, POLISH_POPSIZE candidates on POLISH_ROBOTS robots, seeded by
+    the seed), giving every walker its validation keeps the robustness test; the last robust
+    one is copied to ``out/robust_walker.json``.  Returns the polish's record (with its tests,
+    their seconds, and ``first_robust_s``: the polish's own seconds to its first robust walker,
+    the tests aside) and the robust walker's test (None: no robust walker)."""
     from evolve.polish import polish
 
-    log = lambda line: progress(line, quiet)  # noqa: E731
-    seed = neat["seed"]
-    source = folder / ("robust_walker.json" if neat["robust"] else "champion.json")
-    result: dict[str, Any] = {**{k: neat[k] for k in ("seed", "robust", "minutes", "generations", "champion_generation",
-                                                     "evolution_minutes", "generations_run", "run_dir")},
-                              "neat": neat, "polish": None}
-    if not source.exists():  # no champion off the harness: nothing to polish
-        log(f"seed {seed}: no champion to polish")
-        return result
-    out = folder / "polish"
-    out.mkdir(exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     walker = out / "robust_walker.json"
     walker.unlink(missing_ok=True)  # a cut polish starts over (its seed fixes it)
-    state: dict[str, Any] = {"tests": [], "test_s": 0.0, "minutes": None}
+    state: dict[str, Any] = {"tests": [], "test_s": 0.0, "first_robust_s": None, "walker_test": None}
 
     def on_best(kept: Path, entry: dict[str, Any]) -> bool:
         t0 = time.perf_counter()
@@ -213,22 +205,73 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
         if robust:
             shutil.copyfile(kept, walker)
             state["walker_test"] = state["tests"][-1]
-            if state["minutes"] is None:
-                state["minutes"] = neat["evolution_minutes"] + (entry["elapsed_s"] - state["test_s"]) / 60.0
+            if state["first_robust_s"] is None:
+                state["first_robust_s"] = entry["elapsed_s"] - state["test_s"]
         state["test_s"] += time.perf_counter() - t0
         return False
 
     polished = polish(source, out, updates=updates, popsize=POLISH_POPSIZE, robots=POLISH_ROBOTS, seed=seed,
                       speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s, on_best=on_best, log=log)
-    result["polish"] = {**polished, "tests": state["tests"], "test_s": state["test_s"],
-                        "first_robust_minutes": state["minutes"]}
-    if walker.exists():
+    record = {**polished, "tests": state["tests"], "test_s": state["test_s"], "first_robust_s": state["first_robust_s"]}
+    return record, state["walker_test"]
+
+
+def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, need: int, quiet: bool = False,
+                speed_leg_s: float | None = None, min_speed_m_s: float | None = None) -> dict[str, Any]:
+    """The recipe's second phase: the seed's NEAT walker (its robust walker, or else its last
+    champion) polished by :func:`polish_stage` in ``folder/polish``.  The seed's minutes to a
+    robust walker are NEAT's, or NEAT's budget plus the polish's search up to its first robust
+    walker.  The final walker is the last robust one kept, measured as :func:`robust_once`'s;
+    the NEAT phase's result rides along as ``neat``."""
+    log = lambda line: progress(line, quiet)  # noqa: E731
+    seed = neat["seed"]
+    source = folder / ("robust_walker.json" if neat["robust"] else "champion.json")
+    result: dict[str, Any] = {**{k: neat[k] for k in ("seed", "robust", "minutes", "generations", "champion_generation",
+                                                     "evolution_minutes", "generations_run", "run_dir")},
+                              "neat": neat, "polish": None}
+    if not source.exists():  # no champion off the harness: nothing to polish
+        log(f"seed {seed}: no champion to polish")
+        return result
+    result["polish"], walker_test = polish_stage(source, folder / "polish", seed, updates, draws, need, log,
+                                                 speed_leg_s, min_speed_m_s)
+    walker = folder / "polish" / "robust_walker.json"
+    if walker_test is not None:
         if not neat["robust"]:  # its generations: all NEAT's, then the polish
-            result.update(robust=True, minutes=state["minutes"], generations=neat["generations_run"])
-        result.update(walker=str(walker), walker_test=state["walker_test"], **after_test(walker, log))
+            minutes = neat["evolution_minutes"] + result["polish"]["first_robust_s"] / 60.0
+            result.update(robust=True, minutes=minutes, generations=neat["generations_run"])
+        result.update(walker=str(walker), walker_test=walker_test, **after_test(walker, log))
     elif neat["robust"]:  # the polish kept no robust walker: NEAT's stays the seed's
         result.update(walker=str(folder / "robust_walker.json"), walker_test=neat["tests"][-1],
                       **{k: neat[k] for k in ("rate", "transfer", "sustained", "steering")})
+    return result
+
+
+def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws: int, need: int,
+                      quiet: bool = False, speed_leg_s: float = SPEED_POLISH_LEG_S,
+                      min_speed_m_s: float | None = None) -> dict[str, Any]:
+    """The recipe's third phase: a robust seed's final walker polished again by
+    :func:`polish_stage` in ``folder/speed_polish``, its velocity kernel centred on
+    ``speed_leg_s`` and no walk slower than ``min_speed_m_s`` counted (None: the walker's own
+    speed, the lower of its 60 s walks', so the polish keeps no slower walker).
+    A robust walker it keeps becomes the seed's final walker (measured again); the seed's
+    minutes to robustness stay as they were.  The stage's record is ``speed_polish`` (None
+    for a seed that is not robust)."""
+    log = lambda line: progress(line, quiet)  # noqa: E731
+    if not result["robust"]:
+        return {**result, "speed_polish": None}
+    polished = folder / "polish" / "robust_walker.json"  # the polish's, when it kept one, else NEAT's
+    source = polished if polished.exists() else folder / "robust_walker.json"
+    if min_speed_m_s is None:
+        min_speed_m_s = min(walk["speed_m_s"] for walk in result["sustained"].values())
+    record, walker_test = polish_stage(source, folder / "speed_polish", result["seed"], updates, draws, need, log,
+                                       speed_leg_s, min_speed_m_s)
+    record.update(source=str(source), speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s,
+                  before={k: result[k] for k in ("walker_test", "rate", "transfer", "sustained", "steering")
+                          if k in result})
+    result = {**result, "speed_polish": record}
+    if walker_test is not None:
+        walker = folder / "speed_polish" / "robust_walker.json"
+        result.update(walker=str(walker), walker_test=walker_test, **after_test(walker, log))
     return result
 
 
@@ -286,6 +329,12 @@ def main(argv=None) -> None:
                    "[leg lengths/s] (default: the task's)")
     p.add_argument("--polish-min-speed", type=positive_float_at_most(5.0), metavar="M_S", help="the polish counts no walk slower "
                    "than this [m/s] (default: any)")
+    p.add_argument("--speed-polish", type=int_within(0, 100_000), default=0, metavar="UPDATES", help="then polish each "
+                   "robust seed's final walker again for up to UPDATES updates, paying speed (default 0: no speed polish)")
+    p.add_argument("--speed-polish-leg-s", type=positive_float_at_most(5.0), default=SPEED_POLISH_LEG_S, metavar="V",
+                   help=f"its velocity kernel target [leg lengths/s] (default {SPEED_POLISH_LEG_S})")
+    p.add_argument("--speed-polish-min-speed", type=positive_float_at_most(5.0), metavar="M_S", help="it counts no walk "
+                   "slower than this [m/s] (default: the walker's own, the lower of its two 60 s walks')")
     args = p.parse_args(argv)
     if args.measure:
         test = robustness(args.measure, args.draws)
@@ -303,15 +352,20 @@ def main(argv=None) -> None:
         folder = out / f"seed{seed}"
         done = folder / "result.json"
         r = read_json(done) if done.exists() else None
-        if r is not None and (not args.polish or "polish" in r):
+        if r is not None and (not args.polish or "polish" in r) and (not args.speed_polish or "speed_polish" in r):
             runs.append(r)
             progress(f"seed {seed}: done before ({done})", args.json)
             continue
         if r is None:
             r = robust_once(args.config, seed, folder, args.minutes, args.draws, args.need, args.json, args.threads)
-        if args.polish:  # NEAT's result stays in result.json until the polish's replaces it
+        # each phase's result stays in result.json until the next one's replaces it
+        if args.polish and "polish" not in r:
             r = polish_once(r, folder, args.polish, args.draws, args.need, args.json, args.polish_speed_leg_s,
                             args.polish_min_speed)
+            write_json_atomic(done, r)
+        if args.speed_polish and "speed_polish" not in r:
+            r = speed_polish_once(r, folder, args.speed_polish, args.draws, args.need, args.json,
+                                  args.speed_polish_leg_s, args.speed_polish_min_speed)
             write_json_atomic(done, r)
         runs.append(r)
         progress(f"seed {seed}: robust={r['robust']} minutes={r['minutes']}", args.json)

@@ -87,3 +87,47 @@ def test_the_polish_phase_tests_every_kept_walker_and_times_the_first_robust_one
                                     tmp_path, updates=20, draws=10, need=8, quiet=True)
     assert stays["walker"] == str(tmp_path / "robust_walker.json") and stays["rate"] == "neat's"
     assert stays["walker_test"] == {"generation": 40}
+
+
+def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(tmp_path, monkeypatch):
+    """The recipe's speed polish (``--speed-polish``): a robust seed's final walker (the
+    polish's) polished again, counting no walk slower than the lower of its 60 s walks'
+    speeds; a robust walker it keeps becomes the seed's, its minutes to robustness unchanged;
+    a seed that is not robust is left as it is.  Stand-ins as above: the bookkeeping is checked."""
+    import shutil
+
+    import evolve.polish
+    from benchmarks import robust_walk
+
+    def polish(source, out, *, on_best, **settings):
+        calls.append((source, settings))
+        shutil.copyfile(source, out / "kept.json")
+        entry = {"update": 5, "elapsed_s": 30.0}
+        on_best(out / "kept.json", entry)
+        return {"history": [entry], "settings": settings}
+
+    calls = []
+    robust_now = {"randomized": {"walked": 9}, "default": {"walked": 3}, "draws": 10, "default_episodes": 3}
+    monkeypatch.setattr(evolve.polish, "polish", polish)
+    monkeypatch.setattr(robust_walk, "robustness", lambda walker, draws: robust_now)
+    monkeypatch.setattr(robust_walk, "after_test", lambda walker, log: {"rate": {"share": 0.96, "robots": 50}})
+    (tmp_path / "polish").mkdir()
+    shutil.copyfile("configs/controllers/xl430_biped.json", tmp_path / "polish" / "robust_walker.json")
+    before = {"seed": 1, "robust": True, "minutes": 50.8, "walker": "elsewhere/robust_walker.json",
+              "walker_test": {"update": 35}, "rate": {"share": 0.9}, "transfer": {"ratio": 0.9},
+              "sustained": {"nominal": {"speed_m_s": 0.12}, "default": {"speed_m_s": 0.11}}, "steering": None}
+    r = robust_walk.speed_polish_once(before, tmp_path, updates=20, draws=10, need=8, quiet=True)
+    (source, settings), = calls
+    assert source == tmp_path / "polish" / "robust_walker.json", "the polish's walker, not a stale path"
+    assert settings["min_speed_m_s"] == 0.11 and settings["speed_leg_s"] == robust_walk.SPEED_POLISH_LEG_S
+    assert r["walker"] == str(tmp_path / "speed_polish" / "robust_walker.json") and r["rate"]["share"] == 0.96
+    assert r["minutes"] == 50.8 and r["speed_polish"]["before"]["rate"] == {"share": 0.9}
+
+    # no robust walker kept: the polish's stays the seed's
+    robust_now = {**robust_now, "randomized": {"walked": 7}}
+    stays = robust_walk.speed_polish_once(before, tmp_path, updates=20, draws=10, need=8, quiet=True,
+                                          min_speed_m_s=0.15)
+    assert calls[-1][1]["min_speed_m_s"] == 0.15
+    assert stays["walker"] == before["walker"] and stays["rate"] == {"share": 0.9}
+    assert not (tmp_path / "speed_polish" / "robust_walker.json").exists()
+    assert robust_walk.speed_polish_once({"seed": 5, "robust": False}, tmp_path, 20, 10, 8, True)["speed_polish"] is None
