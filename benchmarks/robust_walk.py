@@ -174,6 +174,7 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
 
 
 POLISH_POPSIZE, POLISH_ROBOTS = 16, 16  # the settings of the polish that made the 98 % walker
+SPEED_GOAL_M_S = 0.15  # issue 33's straight-walk goal: the speed polish's gate asks no more than it
 SPEED_POLISH_LEG_S = 0.8  # [leg lengths/s] the speed polish's kernel target: the task's 0.6 is 0.147 m/s on the
                           # XL430 biped, the goal's own speed, so nothing paid a faster walk (sixth session)
 
@@ -252,7 +253,9 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
     """The recipe's third phase: a robust seed's final walker polished again by
     :func:`polish_stage` in ``folder/speed_polish``, its velocity kernel centred on
     ``speed_leg_s`` and no walk slower than ``min_speed_m_s`` counted (None: the walker's own
-    speed, the lower of its 60 s walks', so the polish keeps no slower walker).
+    speed, the lower of its 60 s walks', so the polish keeps no slower walker - but at most
+    SPEED_GOAL_M_S: a gate at a fast walker's 60 s speed is one no 10 s episode, start-up
+    included, passes, and validation then has no walk rate to keep walkers by).
     A robust walker it keeps becomes the seed's final walker (measured again); the seed's
     minutes to robustness stay as they were.  The stage's record is ``speed_polish`` (None
     for a seed that is not robust)."""
@@ -262,7 +265,7 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
     polished = folder / "polish" / "robust_walker.json"  # the polish's, when it kept one, else NEAT's
     source = polished if polished.exists() else folder / "robust_walker.json"
     if min_speed_m_s is None:
-        min_speed_m_s = min(walk["speed_m_s"] for walk in result["sustained"].values())
+        min_speed_m_s = min(SPEED_GOAL_M_S, *(walk["speed_m_s"] for walk in result["sustained"].values()))
     record, walker_test = polish_stage(source, folder / "speed_polish", result["seed"], updates, draws, need, log,
                                        speed_leg_s, min_speed_m_s)
     record.update(source=str(source), speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s,
@@ -334,7 +337,8 @@ def main(argv=None) -> None:
     p.add_argument("--speed-polish-leg-s", type=positive_float_at_most(5.0), default=SPEED_POLISH_LEG_S, metavar="V",
                    help=f"its velocity kernel target [leg lengths/s] (default {SPEED_POLISH_LEG_S})")
     p.add_argument("--speed-polish-min-speed", type=positive_float_at_most(5.0), metavar="M_S", help="it counts no walk "
-                   "slower than this [m/s] (default: the walker's own, the lower of its two 60 s walks')")
+                   "slower than this [m/s] (default: the walker's own, the lower of its two 60 s walks', "
+                   f"at most {SPEED_GOAL_M_S})")
     args = p.parse_args(argv)
     if args.measure:
         test = robustness(args.measure, args.draws)

@@ -131,3 +131,8 @@ def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(t
     assert stays["walker"] == before["walker"] and stays["rate"] == {"share": 0.9}
     assert not (tmp_path / "speed_polish" / "robust_walker.json").exists()
     assert robust_walk.speed_polish_once({"seed": 5, "robust": False}, tmp_path, 20, 10, 8, True)["speed_polish"] is None
+
+    # a walker faster than the goal: the gate asks the goal's speed, not its own
+    fast = {**before, "sustained": {"nominal": {"speed_m_s": 0.36}, "default": {"speed_m_s": 0.35}}}
+    robust_walk.speed_polish_once(fast, tmp_path, updates=20, draws=10, need=8, quiet=True)
+    assert calls[-1][1]["min_speed_m_s"] == robust_walk.SPEED_GOAL_M_S
