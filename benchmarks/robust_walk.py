@@ -2,7 +2,7 @@
 
     python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --json
     python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --minutes 60 --config walk_robust
-    python -m benchmarks.robust_walk --seeds 5 --config walk_straight3_p512 --minutes 45 --polish 40 --out runs/rwp --json
+    python -m benchmarks.robust_walk --seeds 5 --config walk_straight3_p512 --minutes 45 --polish 40 --speed-polish 20 --out runs/rwsp --json
     python -m benchmarks.robust_walk --measure CONTROLLER [--ship configs/controllers/xl430_biped.json] --json
 
 Per seed, one evolution of ``--config`` (the robust-walk recipe by default) until its first
@@ -31,7 +31,8 @@ walker (``biped polish``'s CMA-ES, :func:`polish_once`): every walker the polish
 tested the same way, and the seed's final walker is the last robust one.  A seed robust only
 after the polish counts NEAT's minutes plus the polish's up to its first robust walker.
 NEAT's result waits in ``result.json`` until the polish's replaces it (a cut polish starts
-over).  The summary's
+over).  With ``--speed-polish UPDATES`` each robust seed's final walker is polished once more
+for speed (:func:`speed_polish_once`), and a robust walker kept there becomes the seed's.  The summary's
 ``transfer_ratio_median`` counts a walker that falls on the nominal model as keeping 0 (there
 is no walk to keep), and ``transfer_passed`` counts the checks passed.  ``--measure CONTROLLER`` measures
 one controller the same way, without evolving; ``--ship FILE`` writes the walker with the
