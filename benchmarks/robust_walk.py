@@ -182,10 +182,12 @@ SPEED_POLISH_LEG_S = 0.8  # [leg lengths/s] the speed polish's kernel target: th
 
 def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, need: int,
                  log: Callable[[str], None], speed_leg_s: float | None = None,
-                 min_speed_m_s: float | None = None) -> tuple[dict[str, Any], dict[str, Any] | None]:
+                 min_speed_m_s: float | None = None, nominal: bool = False
+                 ) -> tuple[dict[str, Any], dict[str, Any] | None]:
     """Polish ``source`` into ``out`` for up to ``updates`` CMA-ES updates
     (:func:`evolve.polish.polish`, POLISH_POPSIZE candidates on POLISH_ROBOTS robots, seeded by
-    the seed), giving every walker its validation keeps the robustness test; the last robust
+    the seed; ``nominal``: the model itself among every update's robots), giving every walker
+    its validation keeps the robustness test; the last robust
     one is copied to ``out/robust_walker.json``.  Returns the polish's record (with its tests,
     their seconds, and ``first_robust_s``: the polish's own seconds to its first robust walker,
     the tests aside) and the robust walker's test (None: no robust walker)."""
@@ -213,7 +215,7 @@ def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, n
         return False
 
     polished = polish(source, out, updates=updates, popsize=POLISH_POPSIZE, robots=POLISH_ROBOTS, seed=seed,
-                      speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s, on_best=on_best, log=log)
+                      speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s, nominal=nominal, on_best=on_best, log=log)
     record = {**polished, "tests": state["tests"], "test_s": state["test_s"], "first_robust_s": state["first_robust_s"]}
     return record, state["walker_test"]
 
@@ -250,13 +252,14 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
 
 def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws: int, need: int,
                       quiet: bool = False, speed_leg_s: float = SPEED_POLISH_LEG_S,
-                      min_speed_m_s: float | None = None) -> dict[str, Any]:
+                      min_speed_m_s: float | None = None, nominal: bool = False) -> dict[str, Any]:
     """The recipe's third phase: a robust seed's final walker polished again by
     :func:`polish_stage` in ``folder/speed_polish``, its velocity kernel centred on
     ``speed_leg_s`` and no walk slower than ``min_speed_m_s`` counted (None: the walker's own
     speed, the lower of its 60 s walks', so the polish keeps no slower walker - but at most
     SPEED_GOAL_M_S: a gate at a fast walker's 60 s speed is one no 10 s episode, start-up
-    included, passes, and validation then has no walk rate to keep walkers by).
+    included, passes, and validation then has no walk rate to keep walkers by).  ``nominal``:
+    the model itself among every update's robots (drawn robots alone let a walker fall on it).
     A robust walker it keeps becomes the seed's final walker (measured again); the seed's
     minutes to robustness stay as they were.  The stage's record is ``speed_polish`` (None
     for a seed that is not robust)."""
@@ -268,7 +271,7 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
     if min_speed_m_s is None:
         min_speed_m_s = min(SPEED_GOAL_M_S, *(walk["speed_m_s"] for walk in result["sustained"].values()))
     record, walker_test = polish_stage(source, folder / "speed_polish", result["seed"], updates, draws, need, log,
-                                       speed_leg_s, min_speed_m_s)
+                                       speed_leg_s, min_speed_m_s, nominal)
     record.update(source=str(source), speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s,
                   before={k: result[k] for k in ("walker_test", "rate", "transfer", "sustained", "steering")
                           if k in result})
@@ -340,6 +343,8 @@ def main(argv=None) -> None:
     p.add_argument("--speed-polish-min-speed", type=positive_float_at_most(5.0), metavar="M_S", help="it counts no walk "
                    "slower than this [m/s] (default: the walker's own, the lower of its two 60 s walks', "
                    f"at most {SPEED_GOAL_M_S})")
+    p.add_argument("--speed-polish-with-nominal", action="store_true", help="the model itself among every update's "
+                   "robots of the speed polish (a walker tuned to drawn robots alone can fall on it)")
     args = p.parse_args(argv)
     if args.measure:
         test = robustness(args.measure, args.draws)
@@ -370,7 +375,8 @@ def main(argv=None) -> None:
             write_json_atomic(done, r)
         if args.speed_polish and "speed_polish" not in r:
             r = speed_polish_once(r, folder, args.speed_polish, args.draws, args.need, args.json,
-                                  args.speed_polish_leg_s, args.speed_polish_min_speed)
+                                  args.speed_polish_leg_s, args.speed_polish_min_speed,
+                                  args.speed_polish_with_nominal)
             write_json_atomic(done, r)
         runs.append(r)
         progress(f"seed {seed}: robust={r['robust']} minutes={r['minutes']}", args.json)
