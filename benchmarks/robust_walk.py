@@ -272,9 +272,8 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
         min_speed_m_s = min(SPEED_GOAL_M_S, *(walk["speed_m_s"] for walk in result["sustained"].values()))
     record, walker_test = polish_stage(source, folder / "speed_polish", result["seed"], updates, draws, need, log,
                                        speed_leg_s, min_speed_m_s, nominal)
-    record.update(source=str(source), speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s,
-                  before={k: result[k] for k in ("walker_test", "rate", "transfer", "sustained", "steering")
-                          if k in result})
+    # (the polish's record names its source and settings already)
+    record["before"] = {k: result[k] for k in ("walker_test", "rate", "transfer", "sustained", "steering") if k in result}
     result = {**result, "speed_polish": record}
     if walker_test is not None:
         walker = folder / "speed_polish" / "robust_walker.json"
