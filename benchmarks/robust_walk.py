@@ -187,8 +187,8 @@ def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, n
     """Polish ``source`` into ``out`` for up to ``updates`` CMA-ES updates
     (:func:`evolve.polish.polish`, POLISH_POPSIZE candidates on POLISH_ROBOTS robots, seeded by
     the seed; ``nominal``: the model itself among every update's robots), giving every walker
-    its validation keeps the robustness test; the last robust
-    one is copied to ``out/robust_walker.json``.  Returns the polish's record (with its tests,
+    its validation keeps the robustness test; the last robust one is copied to
+    ``out/robust_walker.json``.  Returns the polish's record (with its tests,
     their seconds, and ``first_robust_s``: the polish's own seconds to its first robust walker,
     the tests aside) and the robust walker's test (None: no robust walker)."""
     from evolve.polish import polish
