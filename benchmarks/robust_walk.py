@@ -175,6 +175,7 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
 
 
 POLISH_POPSIZE, POLISH_ROBOTS = 16, 16  # the settings of the polish that made the 98 % walker
+POLISH_VALIDATION = 30
 SPEED_GOAL_M_S = 0.15  # issue 33's straight-walk goal: the speed polish's gate asks no more than it
 SPEED_POLISH_LEG_S = 0.8  # [leg lengths/s] the speed polish's kernel target: the task's 0.6 is 0.147 m/s on the
                           # XL430 biped, the goal's own speed, so nothing paid a faster walk (sixth session)
@@ -182,11 +183,13 @@ SPEED_POLISH_LEG_S = 0.8  # [leg lengths/s] the speed polish's kernel target: th
 
 def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, need: int,
                  log: Callable[[str], None], speed_leg_s: float | None = None,
-                 min_speed_m_s: float | None = None, nominal: bool = False
+                 min_speed_m_s: float | None = None, nominal: bool = False,
+                 validation: int = POLISH_VALIDATION, walk_bonus: float | None = None
                  ) -> tuple[dict[str, Any], dict[str, Any] | None]:
     """Polish ``source`` into ``out`` for up to ``updates`` CMA-ES updates
     (:func:`evolve.polish.polish`, POLISH_POPSIZE candidates on POLISH_ROBOTS robots, seeded by
-    the seed; ``nominal``: the model itself among every update's robots), giving every walker
+    the seed; ``nominal``: the model itself among every update's robots; ``validation``
+    robots judge the search's mean; ``walk_bonus``: selection's pay for a walk), giving every walker
     its validation keeps the robustness test; the last robust one is copied to
     ``out/robust_walker.json``.  Returns the polish's record (with its tests,
     their seconds, and ``first_robust_s``: the polish's own seconds to its first robust walker,
@@ -215,13 +218,15 @@ def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, n
         return False
 
     polished = polish(source, out, updates=updates, popsize=POLISH_POPSIZE, robots=POLISH_ROBOTS, seed=seed,
-                      speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s, nominal=nominal, on_best=on_best, log=log)
+                      validation=validation, speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s,
+                      walk_bonus=walk_bonus, nominal=nominal, on_best=on_best, log=log)
     record = {**polished, "tests": state["tests"], "test_s": state["test_s"], "first_robust_s": state["first_robust_s"]}
     return record, state["walker_test"]
 
 
 def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, need: int, quiet: bool = False,
-                speed_leg_s: float | None = None, min_speed_m_s: float | None = None) -> dict[str, Any]:
+                speed_leg_s: float | None = None, min_speed_m_s: float | None = None,
+                validation: int = POLISH_VALIDATION) -> dict[str, Any]:
     """The recipe's second phase: the seed's NEAT walker (its robust walker, or else its last
     champion) polished by :func:`polish_stage` in ``folder/polish``.  The seed's minutes to a
     robust walker are NEAT's, or NEAT's budget plus the polish's search up to its first robust
@@ -237,7 +242,7 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
         log(f"seed {seed}: no champion to polish")
         return result
     result["polish"], walker_test = polish_stage(source, folder / "polish", seed, updates, draws, need, log,
-                                                 speed_leg_s, min_speed_m_s)
+                                                 speed_leg_s, min_speed_m_s, validation=validation)
     walker = folder / "polish" / "robust_walker.json"
     if walker_test is not None:
         if not neat["robust"]:  # its generations: all NEAT's, then the polish
@@ -252,7 +257,8 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
 
 def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws: int, need: int,
                       quiet: bool = False, speed_leg_s: float = SPEED_POLISH_LEG_S,
-                      min_speed_m_s: float | None = None, nominal: bool = False) -> dict[str, Any]:
+                      min_speed_m_s: float | None = None, nominal: bool = False,
+                      validation: int = POLISH_VALIDATION, walk_bonus: float | None = None) -> dict[str, Any]:
     """The recipe's third phase: a robust seed's final walker polished again by
     :func:`polish_stage` in ``folder/speed_polish``, its velocity kernel centred on
     ``speed_leg_s`` and no walk slower than ``min_speed_m_s`` counted (None: the walker's own
@@ -260,6 +266,7 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
     SPEED_GOAL_M_S: a gate at a fast walker's 60 s speed is one no 10 s episode, start-up
     included, passes, and validation then has no walk rate to keep walkers by).  ``nominal``:
     the model itself among every update's robots (drawn robots alone let a walker fall on it).
+    ``walk_bonus``: selection's pay for a walk (None: the task's).
     A robust walker it keeps becomes the seed's final walker (measured again); the seed's
     minutes to robustness stay as they were.  The stage's record is ``speed_polish`` (None
     for a seed that is not robust)."""
@@ -271,7 +278,7 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
     if min_speed_m_s is None:
         min_speed_m_s = min(SPEED_GOAL_M_S, *(walk["speed_m_s"] for walk in result["sustained"].values()))
     record, walker_test = polish_stage(source, folder / "speed_polish", result["seed"], updates, draws, need, log,
-                                       speed_leg_s, min_speed_m_s, nominal)
+                                       speed_leg_s, min_speed_m_s, nominal, validation, walk_bonus)
     # (the polish's record names its source and settings already)
     record["before"] = {k: result[k] for k in ("walker_test", "rate", "transfer", "sustained", "steering") if k in result}
     result = {**result, "speed_polish": record}
@@ -335,6 +342,8 @@ def main(argv=None) -> None:
                    "[leg lengths/s] (default: the task's)")
     p.add_argument("--polish-min-speed", type=positive_float_at_most(5.0), metavar="M_S", help="the polish counts no walk slower "
                    "than this [m/s] (default: any)")
+    p.add_argument("--polish-validation", type=int_within(1, 10_000), default=POLISH_VALIDATION, metavar="N",
+                   help=f"robots each polish judges its search's mean on (default {POLISH_VALIDATION})")
     p.add_argument("--speed-polish", type=int_within(0, 100_000), default=0, metavar="UPDATES", help="then polish each "
                    "robust seed's final walker again for up to UPDATES updates, paying speed (default 0: no speed polish)")
     p.add_argument("--speed-polish-leg-s", type=positive_float_at_most(5.0), default=SPEED_POLISH_LEG_S, metavar="V",
@@ -342,6 +351,8 @@ def main(argv=None) -> None:
     p.add_argument("--speed-polish-min-speed", type=positive_float_at_most(5.0), metavar="M_S", help="it counts no walk "
                    "slower than this [m/s] (default: the walker's own, the lower of its two 60 s walks', "
                    f"at most {SPEED_GOAL_M_S})")
+    p.add_argument("--speed-polish-walk-bonus", type=positive_float_at_most(1000.0), metavar="B", help="what its "
+                   "selection pays an episode that walks (default: the task's)")
     p.add_argument("--speed-polish-with-nominal", action="store_true", help="the model itself among every update's "
                    "robots of the speed polish (a walker tuned to drawn robots alone can fall on it)")
     args = p.parse_args(argv)
@@ -370,12 +381,13 @@ def main(argv=None) -> None:
         # each phase's result stays in result.json until the next one's replaces it
         if args.polish and "polish" not in r:
             r = polish_once(r, folder, args.polish, args.draws, args.need, args.json, args.polish_speed_leg_s,
-                            args.polish_min_speed)
+                            args.polish_min_speed, args.polish_validation)
             write_json_atomic(done, r)
         if args.speed_polish and "speed_polish" not in r:
             r = speed_polish_once(r, folder, args.speed_polish, args.draws, args.need, args.json,
                                   args.speed_polish_leg_s, args.speed_polish_min_speed,
-                                  args.speed_polish_with_nominal)
+                                  args.speed_polish_with_nominal, args.polish_validation,
+                                  args.speed_polish_walk_bonus)
             write_json_atomic(done, r)
         runs.append(r)
         progress(f"seed {seed}: robust={r['robust']} minutes={r['minutes']}", args.json)

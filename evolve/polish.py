@@ -133,7 +133,7 @@ def _keys(seed: int, stream: int, index: int, robots: int) -> np.ndarray:
 def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robots: int = 8, sigma: float = 0.1,
            every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str | list[str] = "randomize",
            episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,
-           speed_leg_s: float | None = None, min_speed_m_s: float | None = None,
+           speed_leg_s: float | None = None, min_speed_m_s: float | None = None, walk_bonus: float | None = None,
            nominal: bool = False, on_best: Callable[[Path, dict[str, Any]], bool] | None = None,
            log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
@@ -142,7 +142,9 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     ``episode_s`` longer episodes, ``straight`` selection's straight term weighted so
     (``selection_straight_coeff``), ``heading_deg`` walks that turn further not counted.
     For a faster walk: ``speed_leg_s`` the velocity kernel's target [leg lengths/s]
-    (``selection_speed_leg_s``), ``min_speed_m_s`` slower walks not counted.
+    (``selection_speed_leg_s``), ``min_speed_m_s`` slower walks not counted.  For a higher
+    walk rate: ``walk_bonus`` what selection pays an episode that walks (``selection_walk_bonus``;
+    a fast walker's speed can outweigh the task's bonus for a fall or two).
     ``nominal``: every candidate meets the nominal robot too, in each update (not in the
     validation and test, which judge drawn robots).  ``reality``: the ranges robots are drawn
     from, or a list of them that robots take turns at (validation and test draw the same way).
@@ -155,7 +157,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     started = time.monotonic()
     realities = [reality] if isinstance(reality, str) else list(reality)
     selection = {key: value for key, value in (("selection_straight_coeff", straight),
-                                               ("selection_speed_leg_s", speed_leg_s)) if value is not None}
+                                               ("selection_speed_leg_s", speed_leg_s),
+                                               ("selection_walk_bonus", walk_bonus)) if value is not None}
     judge = Judge(path, realities, max(popsize * robots, validation, 1), episode_s, selection, heading_deg,
                   nominal, min_speed_m_s)
     x0 = judge.start
@@ -165,7 +168,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     settings = {"updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed,
                 "reality": reality, "episode_s": judge.evaluator.episode_s, "straight": straight,
                 "heading_deg": heading_deg, "nominal": nominal, "speed_leg_s": speed_leg_s,
-                "min_speed_m_s": min_speed_m_s}
+                "min_speed_m_s": min_speed_m_s, "walk_bonus": walk_bonus}
 
     def save(weights: np.ndarray, to: Path, outcome: dict[str, Any]) -> None:
         """The walker with ``weights``, the polish's settings and ``outcome`` in its provenance."""

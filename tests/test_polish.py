@@ -62,6 +62,9 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
     too_fast = Judge(WALKER, ["randomize"], 1, min_speed_m_s=5.0, nominal=True)  # no small robot walks at 5 m/s
     none = np.empty((0, 4), dtype=np.int64)  # the nominal robot alone
     assert on_model.run([on_model.start], none)[1].all() and not too_fast.run([too_fast.start], none)[1].any()
+    paid = Judge(WALKER, ["randomize"], 1, selection={"selection_walk_bonus": 50.0}, nominal=True)
+    bonus = 50.0 - on_model.evaluator.task.selection_walk_bonus  # the model walks: the walk is paid so much more
+    assert paid.run([paid.start], none)[0][0, 0] == pytest.approx(on_model.run([on_model.start], none)[0][0, 0] + bonus)
     faster = Judge(WALKER, ["randomize"], 2, episode_s=4.0,
                    selection={"selection_straight_coeff": 8.0, "selection_speed_leg_s": 1.2})
     assert faster.run([faster.start], keys)[0][0, 0] != s8[0, 0]  # the straight term's kernel moved
@@ -70,9 +73,10 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
     assert both.shape == (1, 2) and both[0, 0] == score[0, 0]  # the drawn robot as before, then the model
     assert main(["polish", WALKER, "--out", str(tmp_path / "p"), "--updates", "1", "--popsize", "4", "--robots", "1",
                  "--validation", "1", "--test", "1", "--episode-s", "2", "--straight", "8", "--heading-deg", "45",
-                 "--with-nominal", "--speed-leg-s", "0.8", "--min-speed", "0.15", "--json"]) == 0
+                 "--with-nominal", "--speed-leg-s", "0.8", "--min-speed", "0.15", "--walk-bonus", "20", "--json"]) == 0
     provenance = Controller.load(tmp_path / "p" / "polished.json").provenance["polish"]
-    assert (provenance["straight"], provenance["speed_leg_s"], provenance["min_speed_m_s"]) == (8.0, 0.8, 0.15)
+    assert (provenance["straight"], provenance["speed_leg_s"], provenance["min_speed_m_s"],
+            provenance["walk_bonus"]) == (8.0, 0.8, 0.15, 20.0)
 
 
 def test_robots_take_turns_at_several_ranges_each_drawn_as_its_ranges_alone_would():

@@ -120,15 +120,17 @@ def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(t
     (source, settings), = calls
     assert source == tmp_path / "polish" / "robust_walker.json", "the polish's walker, not a stale path"
     assert settings["min_speed_m_s"] == 0.11 and settings["speed_leg_s"] == robust_walk.SPEED_POLISH_LEG_S
-    assert settings["nominal"] is False
+    assert settings["nominal"] is False and settings["walk_bonus"] is None
+    assert settings["validation"] == robust_walk.POLISH_VALIDATION
     assert r["walker"] == str(tmp_path / "speed_polish" / "robust_walker.json") and r["rate"]["share"] == 0.96
     assert r["minutes"] == 50.8 and r["speed_polish"]["before"]["rate"] == {"share": 0.9}
 
     # no robust walker kept: the polish's stays the seed's
     robust_now = {**robust_now, "randomized": {"walked": 7}}
     stays = robust_walk.speed_polish_once(before, tmp_path, updates=20, draws=10, need=8, quiet=True,
-                                          min_speed_m_s=0.15, nominal=True)
+                                          min_speed_m_s=0.15, nominal=True, validation=100, walk_bonus=20.0)
     assert calls[-1][1]["min_speed_m_s"] == 0.15 and calls[-1][1]["nominal"] is True
+    assert (calls[-1][1]["validation"], calls[-1][1]["walk_bonus"]) == (100, 20.0)
     assert stays["walker"] == before["walker"] and stays["rate"] == {"share": 0.9}
     assert not (tmp_path / "speed_polish" / "robust_walker.json").exists()
     assert robust_walk.speed_polish_once({"seed": 5, "robust": False}, tmp_path, 20, 10, 8, True)["speed_polish"] is None
