@@ -226,7 +226,7 @@ def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, n
 
 def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, need: int, quiet: bool = False,
                 speed_leg_s: float | None = None, min_speed_m_s: float | None = None,
-                validation: int = POLISH_VALIDATION) -> dict[str, Any]:
+                validation: int = POLISH_VALIDATION, walk_bonus: float | None = None) -> dict[str, Any]:
     """The recipe's second phase: the seed's NEAT walker (its robust walker, or else its last
     champion) polished by :func:`polish_stage` in ``folder/polish``.  The seed's minutes to a
     robust walker are NEAT's, or NEAT's budget plus the polish's search up to its first robust
@@ -242,7 +242,8 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
         log(f"seed {seed}: no champion to polish")
         return result
     result["polish"], walker_test = polish_stage(source, folder / "polish", seed, updates, draws, need, log,
-                                                 speed_leg_s, min_speed_m_s, validation=validation)
+                                                 speed_leg_s, min_speed_m_s, validation=validation,
+                                                 walk_bonus=walk_bonus)
     walker = folder / "polish" / "robust_walker.json"
     if walker_test is not None:
         if not neat["robust"]:  # its generations: all NEAT's, then the polish
@@ -342,6 +343,8 @@ def main(argv=None) -> None:
                    "[leg lengths/s] (default: the task's)")
     p.add_argument("--polish-min-speed", type=positive_float_at_most(5.0), metavar="M_S", help="the polish counts no walk slower "
                    "than this [m/s] (default: any)")
+    p.add_argument("--polish-walk-bonus", type=positive_float_at_most(1000.0), metavar="B", help="what the polish's "
+                   "selection pays an episode that walks (default: the task's)")
     p.add_argument("--polish-validation", type=int_within(1, 10_000), default=POLISH_VALIDATION, metavar="N",
                    help=f"robots each polish judges its search's mean on (default {POLISH_VALIDATION})")
     p.add_argument("--speed-polish", type=int_within(0, 100_000), default=0, metavar="UPDATES", help="then polish each "
@@ -381,7 +384,7 @@ def main(argv=None) -> None:
         # each phase's result stays in result.json until the next one's replaces it
         if args.polish and "polish" not in r:
             r = polish_once(r, folder, args.polish, args.draws, args.need, args.json, args.polish_speed_leg_s,
-                            args.polish_min_speed, args.polish_validation)
+                            args.polish_min_speed, args.polish_validation, args.polish_walk_bonus)
             write_json_atomic(done, r)
         if args.speed_polish and "speed_polish" not in r:
             r = speed_polish_once(r, folder, args.speed_polish, args.draws, args.need, args.json,

@@ -63,13 +63,15 @@ def test_the_polish_phase_tests_every_kept_walker_and_times_the_first_robust_one
     shutil.copyfile("configs/controllers/xl430_biped.json", tmp_path / "champion.json")
     neat = {"seed": 2, "robust": False, "minutes": None, "generations": None, "champion_generation": 59,
             "evolution_minutes": 45.0, "generations_run": 61, "run_dir": str(tmp_path), "tests": []}
-    r = robust_walk.polish_once(neat, tmp_path, updates=20, draws=10, need=8, quiet=True, speed_leg_s=0.8)
+    r = robust_walk.polish_once(neat, tmp_path, updates=20, draws=10, need=8, quiet=True, speed_leg_s=0.8,
+                                validation=100, walk_bonus=20.0)
     assert [(t["update"], t["robust"]) for t in r["polish"]["tests"]] == [(5, False), (10, True), (15, True)]
     assert r["robust"] and 46.99 < r["minutes"] < 47.0  # 45 + 2 minutes, less the first test's seconds
     assert r["generations"] == 61  # all NEAT's
     assert r["walker_test"]["update"] == 15 and (tmp_path / "polish" / "robust_walker.json").exists()
     assert r["rate"] == {"share": 0.9, "robots": 50} and r["neat"] is neat
     assert r["polish"]["settings"]["speed_leg_s"] == 0.8 and r["polish"]["settings"]["seed"] == 2
+    assert (r["polish"]["settings"]["validation"], r["polish"]["settings"]["walk_bonus"]) == (100, 20.0)
 
     tested.clear()
     shutil.copyfile("configs/controllers/xl430_biped.json", tmp_path / "robust_walker.json")
