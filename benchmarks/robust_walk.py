@@ -125,9 +125,10 @@ def after_test(walker: Path, log: Callable[[str], None]) -> dict[str, Any]:
 
 
 def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws: int, need: int,
-                quiet: bool = False, threads: int | None = None) -> dict[str, Any]:
-    """One seed: evolve until a robust walker (or the budget), then measure it.  ``threads``:
-    simulation threads (None: the config's)."""
+                quiet: bool = False, threads: int | None = None, generations: int | None = None) -> dict[str, Any]:
+    """One seed: evolve until a robust walker or the budget (``minutes`` of evolution, or
+    ``generations`` in all, whichever ends first), then measure it.  ``threads``: simulation
+    threads (None: the config's)."""
     log = lambda line: progress(line, quiet)  # noqa: E731
     if (folder / "checkpoint.json.gz").exists():
         run = Run.resume(folder, threads=threads, log=log)
@@ -159,7 +160,7 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
                 state.update(robust=True, generation=best.generation, minutes=run.wall_s / 60.0,
                              generations=row["generation"] + 1)
                 return True
-        return run.wall_s > minutes * 60.0
+        return run.wall_s > minutes * 60.0 or (generations is not None and row["generation"] + 1 >= generations)
 
     run.evolve(stop=stop)
     result: dict[str, Any] = {
@@ -326,6 +327,8 @@ def main(argv=None) -> None:
     p.add_argument("--seeds", type=int, default=5, help="independent runs, seeds --first-seed.. (default 5)")
     p.add_argument("--first-seed", type=int, default=1)
     p.add_argument("--minutes", type=float, default=60.0, help="evolution wall-time budget per seed (default 60)")
+    p.add_argument("--generations", type=int_within(1, 1_000_000), metavar="G", help="also stop a seed's evolution "
+                   "after G generations (a budget that does not depend on the robot's cost per generation)")
     p.add_argument("--config", default="walk_robust", help="evolution config (default: the robust-walk recipe)")
     p.add_argument("--threads", type=int, help="simulation threads (default: the config's)")
     p.add_argument("--draws", type=int, default=10, help="unseen randomized robots a champion is tested on")
@@ -380,7 +383,8 @@ def main(argv=None) -> None:
             progress(f"seed {seed}: done before ({done})", args.json)
             continue
         if r is None:
-            r = robust_once(args.config, seed, folder, args.minutes, args.draws, args.need, args.json, args.threads)
+            r = robust_once(args.config, seed, folder, args.minutes, args.draws, args.need, args.json, args.threads,
+                            args.generations)
         # each phase's result stays in result.json until the next one's replaces it
         if args.polish and "polish" not in r:
             r = polish_once(r, folder, args.polish, args.draws, args.need, args.json, args.polish_speed_leg_s,

@@ -141,3 +141,22 @@ def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(t
     fast = {**before, "sustained": {"nominal": {"speed_m_s": 0.36}, "default": {"speed_m_s": 0.35}}}
     robust_walk.speed_polish_once(fast, tmp_path, updates=20, draws=10, need=8, quiet=True)
     assert calls[-1][1]["min_speed_m_s"] == robust_walk.SPEED_GOAL_M_S
+
+
+def test_a_budget_in_generations_ends_the_neat_phase_whatever_the_minutes(tmp_path, monkeypatch):
+    """``--generations G``: a robot that costs twice the steps gets the same generations, not
+    half; the evolution stops after G generations in all though minutes remain."""
+    import yaml
+
+    from benchmarks import robust_walk
+
+    config = {"robot": "xl430_biped", "seed": 1, "generations": 50, "threads": 1, "checkpoint_every": 100,
+              "task": {"episode_s": 0.5, "harness_generations": 0},
+              "neat": {"population_size": 6, "target_species": 2, "compat_threshold": 0.5}}
+    (tmp_path / "tiny.yaml").write_text(yaml.safe_dump(config))
+    monkeypatch.setattr(robust_walk, "robustness", lambda walker, draws: {
+        "randomized": {"walked": 0}, "default": {"walked": 0}, "draws": draws, "default_episodes": 3})
+    r = robust_walk.robust_once(str(tmp_path / "tiny.yaml"), 1, tmp_path / "seed1", minutes=60.0, draws=10,
+                                need=8, quiet=True, generations=3)
+    assert r["generations_run"] == 3 and not r["robust"] and r["evolution_minutes"] < 60.0
+    assert len(r["tests"]) >= 1, "the champions were tested on the way"
