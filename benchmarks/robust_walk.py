@@ -183,18 +183,15 @@ SPEED_POLISH_LEG_S = 0.8  # [leg lengths/s] the speed polish's kernel target: th
 
 
 def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, need: int,
-                 log: Callable[[str], None], speed_leg_s: float | None = None,
-                 min_speed_m_s: float | None = None, nominal: bool = False,
-                 validation: int = POLISH_VALIDATION, walk_bonus: float | None = None
-                 ) -> tuple[dict[str, Any], dict[str, Any] | None]:
+                 log: Callable[[str], None], **settings: Any) -> tuple[dict[str, Any], dict[str, Any] | None]:
     """Polish ``source`` into ``out`` for up to ``updates`` CMA-ES updates
     (:func:`evolve.polish.polish`, POLISH_POPSIZE candidates on POLISH_ROBOTS robots, seeded by
-    the seed; ``nominal``: the model itself among every update's robots; ``validation``
-    robots judge the search's mean; ``walk_bonus``: selection's pay for a walk), giving every walker
-    its validation keeps the robustness test; the last robust one is copied to
-    ``out/robust_walker.json``.  Returns the polish's record (with its tests,
-    their seconds, and ``first_robust_s``: the polish's own seconds to its first robust walker,
-    the tests aside) and the robust walker's test (None: no robust walker)."""
+    the seed, POLISH_VALIDATION validation robots; ``settings``: more of its keywords, e.g.
+    ``speed_leg_s``, ``min_speed_m_s``, ``nominal``, ``validation``, ``walk_bonus``,
+    ``lr_adapt``), giving every walker its validation keeps the robustness test; the last
+    robust one is copied to ``out/robust_walker.json``.  Returns the polish's record (with its
+    tests, their seconds, and ``first_robust_s``: the polish's own seconds to its first robust
+    walker, the tests aside) and the robust walker's test (None: no robust walker)."""
     from evolve.polish import polish
 
     out.mkdir(parents=True, exist_ok=True)
@@ -219,17 +216,15 @@ def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, n
         return False
 
     polished = polish(source, out, updates=updates, popsize=POLISH_POPSIZE, robots=POLISH_ROBOTS, seed=seed,
-                      validation=validation, speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s,
-                      walk_bonus=walk_bonus, nominal=nominal, on_best=on_best, log=log)
+                      on_best=on_best, log=log, **{"validation": POLISH_VALIDATION, **settings})
     record = {**polished, "tests": state["tests"], "test_s": state["test_s"], "first_robust_s": state["first_robust_s"]}
     return record, state["walker_test"]
 
 
 def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, need: int, quiet: bool = False,
-                speed_leg_s: float | None = None, min_speed_m_s: float | None = None,
-                validation: int = POLISH_VALIDATION, walk_bonus: float | None = None) -> dict[str, Any]:
+                **settings: Any) -> dict[str, Any]:
     """The recipe's second phase: the seed's NEAT walker (its robust walker, or else its last
-    champion) polished by :func:`polish_stage` in ``folder/polish``.  The seed's minutes to a
+    champion) polished by :func:`polish_stage` in ``folder/polish`` (with its ``settings``).  The seed's minutes to a
     robust walker are NEAT's, or NEAT's budget plus the polish's search up to its first robust
     walker.  The final walker is the last robust one kept, measured as :func:`robust_once`'s;
     the NEAT phase's result rides along as ``neat``."""
@@ -243,8 +238,7 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
         log(f"seed {seed}: no champion to polish")
         return result
     result["polish"], walker_test = polish_stage(source, folder / "polish", seed, updates, draws, need, log,
-                                                 speed_leg_s, min_speed_m_s, validation=validation,
-                                                 walk_bonus=walk_bonus)
+                                                 **settings)
     walker = folder / "polish" / "robust_walker.json"
     if walker_test is not None:
         if not neat["robust"]:  # its generations: all NEAT's, then the polish
@@ -259,16 +253,15 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
 
 def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws: int, need: int,
                       quiet: bool = False, speed_leg_s: float = SPEED_POLISH_LEG_S,
-                      min_speed_m_s: float | None = None, nominal: bool = False,
-                      validation: int = POLISH_VALIDATION, walk_bonus: float | None = None) -> dict[str, Any]:
+                      min_speed_m_s: float | None = None, **settings: Any) -> dict[str, Any]:
     """The recipe's third phase: a robust seed's final walker polished again by
     :func:`polish_stage` in ``folder/speed_polish``, its velocity kernel centred on
     ``speed_leg_s`` and no walk slower than ``min_speed_m_s`` counted (None: the walker's own
     speed, the lower of its 60 s walks', so the polish keeps no slower walker - but at most
     SPEED_GOAL_M_S: a gate at a fast walker's 60 s speed is one no 10 s episode, start-up
-    included, passes, and validation then has no walk rate to keep walkers by).  ``nominal``:
-    the model itself among every update's robots (drawn robots alone let a walker fall on it).
-    ``walk_bonus``: selection's pay for a walk (None: the task's).
+    included, passes, and validation then has no walk rate to keep walkers by).  ``settings``:
+    the stage's others (e.g. ``nominal``: the model itself among every update's robots, which
+    drawn robots alone let a walker fall on).
     A robust walker it keeps becomes the seed's final walker (measured again); the seed's
     minutes to robustness stay as they were.  The stage's record is ``speed_polish`` (None
     for a seed that is not robust)."""
@@ -280,7 +273,7 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
     if min_speed_m_s is None:
         min_speed_m_s = min(SPEED_GOAL_M_S, *(walk["speed_m_s"] for walk in result["sustained"].values()))
     record, walker_test = polish_stage(source, folder / "speed_polish", result["seed"], updates, draws, need, log,
-                                       speed_leg_s, min_speed_m_s, nominal, validation, walk_bonus)
+                                       speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s, **settings)
     # (the polish's record names its source and settings already)
     record["before"] = {k: result[k] for k in ("walker_test", "rate", "transfer", "sustained", "steering") if k in result}
     result = {**result, "speed_polish": record}
@@ -350,6 +343,8 @@ def main(argv=None) -> None:
                    "selection pays an episode that walks (default: the task's)")
     p.add_argument("--polish-validation", type=int_within(1, 10_000), default=POLISH_VALIDATION, metavar="N",
                    help=f"robots each polish judges its search's mean on (default {POLISH_VALIDATION})")
+    p.add_argument("--polish-lr-adapt", action="store_true", help="both polishes with CMA-ES's learning-rate "
+                   "adaptation (Nomura et al. 2023, for noisy objectives)")
     p.add_argument("--speed-polish", type=int_within(0, 100_000), default=0, metavar="UPDATES", help="then polish each "
                    "robust seed's final walker again for up to UPDATES updates, paying speed (default 0: no speed polish)")
     p.add_argument("--speed-polish-leg-s", type=positive_float_at_most(5.0), default=SPEED_POLISH_LEG_S, metavar="V",
@@ -373,6 +368,7 @@ def main(argv=None) -> None:
     if not 0 < args.need <= args.draws:
         p.error(f"--need {args.need}: must be within 1..--draws ({args.draws})")
     out = args.out or Path(tempfile.mkdtemp(prefix="robust-walk-"))
+    both = {"validation": args.polish_validation, "lr_adapt": args.polish_lr_adapt}  # the two polishes' settings
     runs = []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
         folder = out / f"seed{seed}"
@@ -387,14 +383,15 @@ def main(argv=None) -> None:
                             args.generations)
         # each phase's result stays in result.json until the next one's replaces it
         if args.polish and "polish" not in r:
-            r = polish_once(r, folder, args.polish, args.draws, args.need, args.json, args.polish_speed_leg_s,
-                            args.polish_min_speed, args.polish_validation, args.polish_walk_bonus)
+            r = polish_once(r, folder, args.polish, args.draws, args.need, args.json,
+                            speed_leg_s=args.polish_speed_leg_s, min_speed_m_s=args.polish_min_speed,
+                            walk_bonus=args.polish_walk_bonus, **both)
             write_json_atomic(done, r)
         if args.speed_polish and "speed_polish" not in r:
             r = speed_polish_once(r, folder, args.speed_polish, args.draws, args.need, args.json,
                                   args.speed_polish_leg_s, args.speed_polish_min_speed,
-                                  args.speed_polish_with_nominal, args.polish_validation,
-                                  args.speed_polish_walk_bonus)
+                                  nominal=args.speed_polish_with_nominal, walk_bonus=args.speed_polish_walk_bonus,
+                                  **both)
             write_json_atomic(done, r)
         runs.append(r)
         progress(f"seed {seed}: robust={r['robust']} minutes={r['minutes']}", args.json)

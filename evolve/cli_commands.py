@@ -119,6 +119,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     po.add_argument("--walk-bonus", type=non_negative_finite_float, metavar="B",
                     help="what selection pays an episode that walks (selection_walk_bonus; default: the task's); "
                     "a larger one trades speed for the walk rate")
+    po.add_argument("--lr-adapt", action="store_true", help="CMA-ES with learning-rate adaptation (Nomura et "
+                    "al. 2023), for a noisy walk rate")
     po.add_argument("--with-nominal", action="store_true",
                     help="every candidate meets the nominal robot too in each update (randomized draws seldom "
                     "resemble it)")
@@ -347,7 +349,7 @@ def cmd_polish(args: argparse.Namespace) -> int:
                     sigma=args.sigma, every=args.every, validation=args.validation, test=args.test, seed=args.seed,
                     reality=args.randomize or "randomize", episode_s=args.episode_s, straight=args.straight,
                     heading_deg=args.heading_deg, speed_leg_s=args.speed_leg_s, min_speed_m_s=args.min_speed,
-                    walk_bonus=args.walk_bonus, nominal=args.with_nominal, log=log)
+                    walk_bonus=args.walk_bonus, nominal=args.with_nominal, lr_adapt=args.lr_adapt, log=log)
     if args.json:
         print(json.dumps(result))
     return 0

@@ -134,7 +134,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
            every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str | list[str] = "randomize",
            episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,
            speed_leg_s: float | None = None, min_speed_m_s: float | None = None, walk_bonus: float | None = None,
-           nominal: bool = False, on_best: Callable[[Path, dict[str, Any]], bool] | None = None,
+           nominal: bool = False, lr_adapt: bool = False, on_best: Callable[[Path, dict[str, Any]], bool] | None = None,
            log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
     ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
@@ -148,6 +148,9 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     ``nominal``: every candidate meets the nominal robot too, in each update (not in the
     validation and test, which judge drawn robots).  ``reality``: the ranges robots are drawn
     from, or a list of them that robots take turns at (validation and test draw the same way).
+    ``lr_adapt``: CMA-ES with learning-rate adaptation (Nomura, Akimoto & Ono, GECCO 2023: the
+    mean's and covariance's learning rates follow the update's signal-to-noise ratio, for noisy
+    objectives at the default population size; a walk rate on 16 robots is one).
     ``on_best(path, entry)``: called whenever validation keeps new weights, with them written
     to ``path`` (``out/kept.json``) and the history ``entry`` (its ``elapsed_s``: the
     polish's seconds so far); True stops the search there (the test still follows)."""
@@ -162,13 +165,13 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     judge = Judge(path, realities, max(popsize * robots, validation, 1), episode_s, selection, heading_deg,
                   nominal, min_speed_m_s)
     x0 = judge.start
-    optimizer = CMA(mean=x0.copy(), sigma=sigma, population_size=popsize, seed=seed,
+    optimizer = CMA(mean=x0.copy(), sigma=sigma, population_size=popsize, seed=seed, lr_adapt=lr_adapt,
                     bounds=np.tile([-WEIGHT_LIMIT, WEIGHT_LIMIT], (len(x0), 1)))
     checks = _keys(seed, VALIDATION_STREAM, 0, validation)
     settings = {"updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed,
                 "reality": reality, "episode_s": judge.evaluator.episode_s, "straight": straight,
                 "heading_deg": heading_deg, "nominal": nominal, "speed_leg_s": speed_leg_s,
-                "min_speed_m_s": min_speed_m_s, "walk_bonus": walk_bonus}
+                "min_speed_m_s": min_speed_m_s, "walk_bonus": walk_bonus, "lr_adapt": lr_adapt}
 
     def save(weights: np.ndarray, to: Path, outcome: dict[str, Any]) -> None:
         """The walker with ``weights``, the polish's settings and ``outcome`` in its provenance."""

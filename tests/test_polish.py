@@ -73,10 +73,10 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
     assert both.shape == (1, 2) and both[0, 0] == score[0, 0]  # the drawn robot as before, then the model
     assert main(["polish", WALKER, "--out", str(tmp_path / "p"), "--updates", "1", "--popsize", "4", "--robots", "1",
                  "--validation", "1", "--test", "1", "--episode-s", "2", "--straight", "8", "--heading-deg", "45",
-                 "--with-nominal", "--speed-leg-s", "0.8", "--min-speed", "0.15", "--walk-bonus", "20", "--json"]) == 0
+                 "--with-nominal", "--speed-leg-s", "0.8", "--min-speed", "0.15", "--walk-bonus", "20", "--lr-adapt", "--json"]) == 0
     provenance = Controller.load(tmp_path / "p" / "polished.json").provenance["polish"]
     assert (provenance["straight"], provenance["speed_leg_s"], provenance["min_speed_m_s"],
-            provenance["walk_bonus"]) == (8.0, 0.8, 0.15, 20.0)
+            provenance["walk_bonus"], provenance["lr_adapt"]) == (8.0, 0.8, 0.15, 20.0, True)
 
 
 def test_robots_take_turns_at_several_ranges_each_drawn_as_its_ranges_alone_would():
