@@ -175,8 +175,12 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
     return result
 
 
-POLISH_POPSIZE, POLISH_ROBOTS = 16, 16  # the settings of the polish that made the 98 % walker
-POLISH_VALIDATION = 30
+POLISH_POPSIZE, POLISH_ROBOTS, POLISH_VALIDATION = 16, 16, 30  # the polish that made the 98 % walker
+# The speed polish starts from a robust walker, where candidates differ by a few robots in a
+# hundred: 16 robots each (+-0.09 on a rate near 0.85) hid what 32 show, and the first step
+# of 0.1 moved it off more often than on; 100 validation robots keep the choice honest (30 read
+# 0.90-0.93 for walkers that then walked on 84-88 % of 50: eighth session, benchmarks/RESULTS.md).
+SPEED_POLISH_ROBOTS, SPEED_POLISH_SIGMA, SPEED_POLISH_VALIDATION = 32, 0.05, 100
 SPEED_GOAL_M_S = 0.15  # issue 33's straight-walk goal: the speed polish's gate asks no more than it
 SPEED_POLISH_LEG_S = 0.8  # [leg lengths/s] the speed polish's kernel target: the task's 0.6 is 0.147 m/s on the
                           # XL430 biped, the goal's own speed, so nothing paid a faster walk (sixth session)
@@ -185,10 +189,10 @@ SPEED_POLISH_LEG_S = 0.8  # [leg lengths/s] the speed polish's kernel target: th
 def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, need: int,
                  log: Callable[[str], None], **settings: Any) -> tuple[dict[str, Any], dict[str, Any] | None]:
     """Polish ``source`` into ``out`` for up to ``updates`` CMA-ES updates
-    (:func:`evolve.polish.polish`, POLISH_POPSIZE candidates on POLISH_ROBOTS robots, seeded by
-    the seed, POLISH_VALIDATION validation robots; ``settings``: more of its keywords, e.g.
-    ``speed_leg_s``, ``min_speed_m_s``, ``nominal``, ``validation``, ``walk_bonus``,
-    ``lr_adapt``), giving every walker its validation keeps the robustness test; the last
+    (:func:`evolve.polish.polish`, POLISH_POPSIZE candidates an update, seeded by the seed;
+    ``settings``: its other keywords, e.g. ``robots`` (POLISH_ROBOTS), ``validation``
+    (POLISH_VALIDATION), ``sigma``, ``speed_leg_s``, ``min_speed_m_s``, ``nominal``,
+    ``walk_bonus``), giving every walker its validation keeps the robustness test; the last
     robust one is copied to ``out/robust_walker.json``.  Returns the polish's record (with its
     tests, their seconds, and ``first_robust_s``: the polish's own seconds to its first robust
     walker, the tests aside) and the robust walker's test (None: no robust walker)."""
@@ -215,8 +219,8 @@ def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, n
         state["test_s"] += time.perf_counter() - t0
         return False
 
-    polished = polish(source, out, updates=updates, popsize=POLISH_POPSIZE, robots=POLISH_ROBOTS, seed=seed,
-                      on_best=on_best, log=log, **{"validation": POLISH_VALIDATION, **settings})
+    polished = polish(source, out, updates=updates, popsize=POLISH_POPSIZE, seed=seed, on_best=on_best, log=log,
+                      **{"robots": POLISH_ROBOTS, "validation": POLISH_VALIDATION, **settings})
     record = {**polished, "tests": state["tests"], "test_s": state["test_s"], "first_robust_s": state["first_robust_s"]}
     return record, state["walker_test"]
 
@@ -253,13 +257,16 @@ def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, ne
 
 def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws: int, need: int,
                       quiet: bool = False, speed_leg_s: float = SPEED_POLISH_LEG_S,
-                      min_speed_m_s: float | None = None, **settings: Any) -> dict[str, Any]:
+                      min_speed_m_s: float | None = None, robots: int = SPEED_POLISH_ROBOTS,
+                      sigma: float = SPEED_POLISH_SIGMA, validation: int = SPEED_POLISH_VALIDATION,
+                      **settings: Any) -> dict[str, Any]:
     """The recipe's third phase: a robust seed's final walker polished again by
     :func:`polish_stage` in ``folder/speed_polish``, its velocity kernel centred on
     ``speed_leg_s`` and no walk slower than ``min_speed_m_s`` counted (None: the walker's own
     speed, the lower of its 60 s walks', so the polish keeps no slower walker - but at most
     SPEED_GOAL_M_S: a gate at a fast walker's 60 s speed is one no 10 s episode, start-up
-    included, passes, and validation then has no walk rate to keep walkers by).  ``settings``:
+    included, passes, and validation then has no walk rate to keep walkers by).  ``robots``
+    each candidate meets an update, CMA-ES's first step ``sigma``, ``validation`` robots; ``settings``:
     the stage's others (e.g. ``nominal``: the model itself among every update's robots, which
     drawn robots alone let a walker fall on).
     A robust walker it keeps becomes the seed's final walker (measured again); the seed's
@@ -273,7 +280,8 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
     if min_speed_m_s is None:
         min_speed_m_s = min(SPEED_GOAL_M_S, *(walk["speed_m_s"] for walk in result["sustained"].values()))
     record, walker_test = polish_stage(source, folder / "speed_polish", result["seed"], updates, draws, need, log,
-                                       speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s, **settings)
+                                       speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s, robots=robots,
+                                       sigma=sigma, validation=validation, **settings)
     # (the polish's record names its source and settings already)
     record["before"] = {k: result[k] for k in ("walker_test", "rate", "transfer", "sustained", "steering") if k in result}
     result = {**result, "speed_polish": record}
@@ -342,9 +350,7 @@ def main(argv=None) -> None:
     p.add_argument("--polish-walk-bonus", type=positive_float_at_most(1000.0), metavar="B", help="what the polish's "
                    "selection pays an episode that walks (default: the task's)")
     p.add_argument("--polish-validation", type=int_within(1, 10_000), default=POLISH_VALIDATION, metavar="N",
-                   help=f"robots each polish judges its search's mean on (default {POLISH_VALIDATION})")
-    p.add_argument("--polish-lr-adapt", action="store_true", help="both polishes with CMA-ES's learning-rate "
-                   "adaptation (Nomura et al. 2023, for noisy objectives)")
+                   help=f"robots the polish judges its search's mean on (default {POLISH_VALIDATION})")
     p.add_argument("--speed-polish", type=int_within(0, 100_000), default=0, metavar="UPDATES", help="then polish each "
                    "robust seed's final walker again for up to UPDATES updates, paying speed (default 0: no speed polish)")
     p.add_argument("--speed-polish-leg-s", type=positive_float_at_most(5.0), default=SPEED_POLISH_LEG_S, metavar="V",
@@ -352,6 +358,14 @@ def main(argv=None) -> None:
     p.add_argument("--speed-polish-min-speed", type=positive_float_at_most(5.0), metavar="M_S", help="it counts no walk "
                    "slower than this [m/s] (default: the walker's own, the lower of its two 60 s walks', "
                    f"at most {SPEED_GOAL_M_S})")
+    p.add_argument("--speed-polish-robots", type=int_within(1, 1024), default=SPEED_POLISH_ROBOTS, metavar="N",
+                   help=f"robots each of its candidates meets an update (default {SPEED_POLISH_ROBOTS})")
+    p.add_argument("--speed-polish-sigma", type=positive_float_at_most(20.0), default=SPEED_POLISH_SIGMA,
+                   metavar="S", help=f"its first step size [weight units] (default {SPEED_POLISH_SIGMA})")
+    p.add_argument("--speed-polish-validation", type=int_within(1, 10_000), default=SPEED_POLISH_VALIDATION,
+                   metavar="N", help=f"its validation robots (default {SPEED_POLISH_VALIDATION}; "
+                   "the seventh session's runs: --speed-polish-robots 16 --speed-polish-sigma 0.1 "
+                   "--speed-polish-validation 30)")
     p.add_argument("--speed-polish-walk-bonus", type=positive_float_at_most(1000.0), metavar="B", help="what its "
                    "selection pays an episode that walks (default: the task's)")
     p.add_argument("--speed-polish-with-nominal", action="store_true", help="the model itself among every update's "
@@ -368,7 +382,6 @@ def main(argv=None) -> None:
     if not 0 < args.need <= args.draws:
         p.error(f"--need {args.need}: must be within 1..--draws ({args.draws})")
     out = args.out or Path(tempfile.mkdtemp(prefix="robust-walk-"))
-    both = {"validation": args.polish_validation, "lr_adapt": args.polish_lr_adapt}  # the two polishes' settings
     runs = []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
         folder = out / f"seed{seed}"
@@ -385,13 +398,13 @@ def main(argv=None) -> None:
         if args.polish and "polish" not in r:
             r = polish_once(r, folder, args.polish, args.draws, args.need, args.json,
                             speed_leg_s=args.polish_speed_leg_s, min_speed_m_s=args.polish_min_speed,
-                            walk_bonus=args.polish_walk_bonus, **both)
+                            walk_bonus=args.polish_walk_bonus, validation=args.polish_validation)
             write_json_atomic(done, r)
         if args.speed_polish and "speed_polish" not in r:
             r = speed_polish_once(r, folder, args.speed_polish, args.draws, args.need, args.json,
                                   args.speed_polish_leg_s, args.speed_polish_min_speed,
-                                  nominal=args.speed_polish_with_nominal, walk_bonus=args.speed_polish_walk_bonus,
-                                  **both)
+                                  args.speed_polish_robots, args.speed_polish_sigma, args.speed_polish_validation,
+                                  nominal=args.speed_polish_with_nominal, walk_bonus=args.speed_polish_walk_bonus)
             write_json_atomic(done, r)
         runs.append(r)
         progress(f"seed {seed}: robust={r['robust']} minutes={r['minutes']}", args.json)

@@ -71,6 +71,7 @@ def test_the_polish_phase_tests_every_kept_walker_and_times_the_first_robust_one
     assert r["walker_test"]["update"] == 15 and (tmp_path / "polish" / "robust_walker.json").exists()
     assert r["rate"] == {"share": 0.9, "robots": 50} and r["neat"] is neat
     assert r["polish"]["settings"]["speed_leg_s"] == 0.8 and r["polish"]["settings"]["seed"] == 2
+    assert r["polish"]["settings"]["robots"] == robust_walk.POLISH_ROBOTS
     assert (r["polish"]["settings"]["validation"], r["polish"]["settings"]["walk_bonus"]) == (100, 20.0)
 
     tested.clear()
@@ -122,16 +123,19 @@ def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(t
     (source, settings), = calls
     assert source == tmp_path / "polish" / "robust_walker.json", "the polish's walker, not a stale path"
     assert settings["min_speed_m_s"] == 0.11 and settings["speed_leg_s"] == robust_walk.SPEED_POLISH_LEG_S
-    assert settings["validation"] == robust_walk.POLISH_VALIDATION and "nominal" not in settings
+    assert (settings["robots"], settings["sigma"], settings["validation"]) == (
+        robust_walk.SPEED_POLISH_ROBOTS, robust_walk.SPEED_POLISH_SIGMA, robust_walk.SPEED_POLISH_VALIDATION)
+    assert "nominal" not in settings
     assert r["walker"] == str(tmp_path / "speed_polish" / "robust_walker.json") and r["rate"]["share"] == 0.96
     assert r["minutes"] == 50.8 and r["speed_polish"]["before"]["rate"] == {"share": 0.9}
 
     # no robust walker kept: the polish's stays the seed's
     robust_now = {**robust_now, "randomized": {"walked": 7}}
     stays = robust_walk.speed_polish_once(before, tmp_path, updates=20, draws=10, need=8, quiet=True,
-                                          min_speed_m_s=0.15, nominal=True, validation=100, walk_bonus=20.0)
+                                          min_speed_m_s=0.15, nominal=True, robots=16, sigma=0.1, validation=30,
+                                          walk_bonus=20.0)
     assert calls[-1][1]["min_speed_m_s"] == 0.15 and calls[-1][1]["nominal"] is True
-    assert (calls[-1][1]["validation"], calls[-1][1]["walk_bonus"]) == (100, 20.0)
+    assert [calls[-1][1][k] for k in ("robots", "sigma", "validation", "walk_bonus")] == [16, 0.1, 30, 20.0]
     assert stays["walker"] == before["walker"] and stays["rate"] == {"share": 0.9}
     assert not (tmp_path / "speed_polish" / "robust_walker.json").exists()
     assert robust_walk.speed_polish_once({"seed": 5, "robust": False}, tmp_path, 20, 10, 8, True)["speed_polish"] is None
