@@ -163,3 +163,31 @@ def test_a_budget_in_generations_ends_the_neat_phase_whatever_the_minutes(tmp_pa
                                 need=8, quiet=True, generations=3)
     assert r["generations_run"] == 3 and not r["robust"] and r["evolution_minutes"] < 60.0
     assert len(r["tests"]) >= 1, "the champions were tested on the way"
+
+
+def test_a_speed_polish_that_loses_the_walk_on_the_model_is_undone():
+    from benchmarks.robust_walk import keep_the_model_walk
+
+    def walk(falls, upright_s=60.0):
+        return {"nominal": {"falls": falls, "upright_s": upright_s}, "default": {"falls": 0, "upright_s": 60.0}}
+
+    before = {"walker_test": {"update": 20}, "rate": {"walked": 35}, "transfer": {"ratio": 1.01},
+              "sustained": walk(0), "steering": {"reached": True}}
+    stage = {"controller": "seed1/polish/robust_walker.json", "before": before}
+    sped = {"seed": 1, "robust": True, "walker": "seed1/speed_polish/robust_walker.json", "walker_test": {"update": 15},
+            "rate": {"walked": 36}, "transfer": {"ratio": 0.9}, "sustained": walk(1, 8.1),
+            "steering": {"reached": False}, "speed_polish": stage}
+    undone = keep_the_model_walk(sped)
+    assert undone["walker"] == "seed1/polish/robust_walker.json" and undone["rate"] == {"walked": 35}
+    assert undone["sustained"] == before["sustained"] and undone["steering"] == {"reached": True}
+    assert "8.1 s" in undone["speed_polish"]["rejected"] and undone["speed_polish"]["after"]["rate"] == {"walked": 36}
+    assert keep_the_model_walk(undone) is undone, "applied twice, it changes nothing"
+    # the walker before fell on the model too, or the new one does not: the speed polish stands
+    fell_before = {**sped, "speed_polish": {**stage, "before": {**before, "sustained": walk(1, 3.2)}}}
+    assert keep_the_model_walk(fell_before) is fell_before
+    steady = {**sped, "sustained": walk(0)}
+    assert keep_the_model_walk(steady) is steady
+    # no walker kept by the speed polish, or no speed polish: nothing to undo
+    unchanged = {**sped, "walker": stage["controller"]}
+    assert keep_the_model_walk(unchanged) is unchanged
+    assert keep_the_model_walk({"seed": 5, "robust": False, "speed_polish": None})["speed_polish"] is None
