@@ -177,9 +177,10 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
 
 POLISH_POPSIZE, POLISH_ROBOTS, POLISH_VALIDATION = 16, 16, 30  # the polish that made the 98 % walker
 # The speed polish starts from a robust walker, where candidates differ by a few robots in a
-# hundred: 16 robots each (+-0.09 on a rate near 0.85) hid what 32 show, and the first step
-# of 0.1 moved it off more often than on; 100 validation robots keep the choice honest (30 read
-# 0.90-0.93 for walkers that then walked on 84-88 % of 50: eighth session, benchmarks/RESULTS.md).
+# hundred and 16 robots give a rate near 0.85 a standard error of 0.09: at 32 robots and a first
+# step of 0.05 (changed together) seed 3 reached 47 of 50 where 16 and 0.1 reached 42.  30
+# validation robots read 0.90-0.93 for walkers that then walked on 84-88 % of 50; 100 read
+# closer (eighth session, benchmarks/RESULTS.md).
 SPEED_POLISH_ROBOTS, SPEED_POLISH_SIGMA, SPEED_POLISH_VALIDATION = 32, 0.05, 100
 SPEED_GOAL_M_S = 0.15  # issue 33's straight-walk goal: the speed polish's gate asks no more than it
 SPEED_POLISH_LEG_S = 0.8  # [leg lengths/s] the speed polish's kernel target: the task's 0.6 is 0.147 m/s on the
@@ -228,9 +229,9 @@ def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, n
 def polish_once(neat: dict[str, Any], folder: Path, updates: int, draws: int, need: int, quiet: bool = False,
                 **settings: Any) -> dict[str, Any]:
     """The recipe's second phase: the seed's NEAT walker (its robust walker, or else its last
-    champion) polished by :func:`polish_stage` in ``folder/polish`` (with its ``settings``).  The seed's minutes to a
-    robust walker are NEAT's, or NEAT's budget plus the polish's search up to its first robust
-    walker.  The final walker is the last robust one kept, measured as :func:`robust_once`'s;
+    champion) polished by :func:`polish_stage` in ``folder/polish`` (with its ``settings``).
+    The seed's minutes to a robust walker are NEAT's, or NEAT's budget plus the polish's search
+    up to its first robust walker.  The final walker is the last robust one kept, measured as :func:`robust_once`'s;
     the NEAT phase's result rides along as ``neat``."""
     log = lambda line: progress(line, quiet)  # noqa: E731
     seed = neat["seed"]
@@ -266,9 +267,9 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
     speed, the lower of its 60 s walks', so the polish keeps no slower walker - but at most
     SPEED_GOAL_M_S: a gate at a fast walker's 60 s speed is one no 10 s episode, start-up
     included, passes, and validation then has no walk rate to keep walkers by).  ``robots``
-    each candidate meets an update, CMA-ES's first step ``sigma``, ``validation`` robots; ``settings``:
-    the stage's others (e.g. ``nominal``: the model itself among every update's robots, which
-    drawn robots alone let a walker fall on).
+    each candidate meets an update, CMA-ES's first step ``sigma``, ``validation`` robots;
+    ``settings``: the stage's others (e.g. ``nominal``: the model itself among every update's
+    robots, which drawn robots alone let a walker fall on).
     A robust walker it keeps becomes the seed's final walker (measured again); the seed's
     minutes to robustness stay as they were.  The stage's record is ``speed_polish`` (None
     for a seed that is not robust)."""
