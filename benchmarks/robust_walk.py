@@ -309,6 +309,13 @@ def keep_the_model_walk(result: dict[str, Any]) -> dict[str, Any]:
     return {**result, **stage["before"], "walker": stage["controller"], "speed_polish": undone}
 
 
+def ship_rank(result: dict[str, Any]) -> tuple[bool, float, float]:
+    """How a robust seed's walker ranks for shipping: one that walks the 60 s on the nominal
+    model first (a user starts from the model), then the higher walk rate on 50 robots (a user's
+    robot is not the model), then the larger share of its walk kept through the bus."""
+    return result["sustained"]["nominal"]["falls"] == 0, result["rate"]["share"], kept(result["transfer"])
+
+
 def kept(transfer: dict[str, Any]) -> float:
     """The transfer check's ratio, or 0 when the nominal simulation did not walk: a share kept
     of a walk that never was (a fall on the model) is no transfer."""
@@ -355,9 +362,9 @@ def main(argv=None) -> None:
     p.add_argument("--out", type=Path, help="keep every run here; finished seeds are reused, cut ones resumed")
     p.add_argument("--measure", type=Path, metavar="CONTROLLER", help="no evolution: measure this controller "
                    "as a champion is measured (robustness test, transfer check, 60 s walks)")
-    p.add_argument("--ship", type=Path, metavar="FILE", help="write the best robust walker (highest transfer "
-                   "ratio, then seconds upright in the 60 s walks) - or the --measure'd controller - here, with "
-                   "this command and its measures in its provenance")
+    p.add_argument("--ship", type=Path, metavar="FILE", help="write the best robust walker (one that walks the "
+                   "60 s on the model, then the highest walk rate, then transfer) - or the --measure'd controller - "
+                   "here, with this command and its measures in its provenance")
     p.add_argument("--polish", type=int_within(0, 100_000), default=0, metavar="UPDATES", help="then polish each seed's walker (its "
                    "robust walker, or else its last champion) for up to UPDATES CMA-ES updates, testing every "
                    "walker the polish keeps (default 0: no polish)")
@@ -431,7 +438,7 @@ def main(argv=None) -> None:
     result = summary(runs)
     robust = [r for r in runs if r["robust"]]
     if args.ship and robust:
-        best = max(robust, key=lambda r: (r["transfer"]["ratio"], r["sustained"]["default"]["upright_s"]))
+        best = max(robust, key=ship_rank)
         walker = Path(best.get("walker") or Path(best["run_dir"]) / "robust_walker.json")
         result["shipped"] = ship(walker, {"robust": True, "test": best.get("walker_test") or best["tests"][-1],
                                           **best}, args.ship, argv)

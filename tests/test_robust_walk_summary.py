@@ -191,3 +191,15 @@ def test_a_speed_polish_that_loses_the_walk_on_the_model_is_undone():
     unchanged = {**sped, "walker": stage["controller"]}
     assert keep_the_model_walk(unchanged) is unchanged
     assert keep_the_model_walk({"seed": 5, "robust": False, "speed_polish": None})["speed_polish"] is None
+
+
+def test_the_walker_shipped_walks_on_the_model_then_on_the_most_robots():
+    from benchmarks.robust_walk import ship_rank
+
+    def seed(falls, share, ratio):
+        return {"sustained": {"nominal": {"falls": falls}}, "rate": {"share": share},
+                "transfer": {"ratio": ratio, "sim_walked": True}}
+
+    fast_but_falls, steady, most_robots = seed(1, 0.94, 1.10), seed(0, 0.88, 0.93), seed(0, 1.0, 0.91)
+    assert max([fast_but_falls, steady, most_robots], key=ship_rank) is most_robots
+    assert max([fast_but_falls, steady], key=ship_rank) is steady
