@@ -175,7 +175,7 @@ def robust_once(config_name: str, seed: int, folder: Path, minutes: float, draws
     return result
 
 
-POLISH_POPSIZE, POLISH_ROBOTS, POLISH_VALIDATION = 16, 16, 30  # the polish that made the 98 % walker
+POLISH_POPSIZE, POLISH_ROBOTS, POLISH_SIGMA, POLISH_VALIDATION = 16, 16, 0.1, 30  # the polish that made the 98 % walker
 # The speed polish starts from a robust walker, where candidates differ by a few robots in a
 # hundred and 16 robots give a rate near 0.85 a standard error of 0.09: at 32 robots and a first
 # step of 0.05 (changed together) seed 3 reached 47 of 50 where 16 and 0.1 reached 42.  30
@@ -221,7 +221,7 @@ def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, n
         return False
 
     polished = polish(source, out, updates=updates, popsize=POLISH_POPSIZE, seed=seed, on_best=on_best, log=log,
-                      **{"robots": POLISH_ROBOTS, "validation": POLISH_VALIDATION, **settings})
+                      **{"robots": POLISH_ROBOTS, "sigma": POLISH_SIGMA, "validation": POLISH_VALIDATION, **settings})
     record = {**polished, "tests": state["tests"], "test_s": state["test_s"], "first_robust_s": state["first_robust_s"]}
     return record, state["walker_test"]
 
@@ -376,6 +376,10 @@ def main(argv=None) -> None:
                    "selection pays an episode that walks (default: the task's)")
     p.add_argument("--polish-validation", type=int_within(1, 10_000), default=POLISH_VALIDATION, metavar="N",
                    help=f"robots the polish judges its search's mean on (default {POLISH_VALIDATION})")
+    p.add_argument("--polish-robots", type=int_within(1, 1024), default=POLISH_ROBOTS, metavar="N",
+                   help=f"randomized robots every candidate of one polish update walks on (default {POLISH_ROBOTS})")
+    p.add_argument("--polish-sigma", type=positive_float_at_most(20.0), default=POLISH_SIGMA, metavar="S",
+                   help=f"the polish's first CMA-ES step [weight units] (default {POLISH_SIGMA})")
     p.add_argument("--speed-polish", type=int_within(0, 100_000), default=0, metavar="UPDATES", help="then polish each "
                    "robust seed's final walker again for up to UPDATES updates, paying speed (default 0: no speed polish)")
     p.add_argument("--speed-polish-leg-s", type=positive_float_at_most(5.0), default=SPEED_POLISH_LEG_S, metavar="V",
@@ -421,7 +425,8 @@ def main(argv=None) -> None:
         if args.polish and "polish" not in r:
             r = polish_once(r, folder, args.polish, args.draws, args.need, args.json,
                             speed_leg_s=args.polish_speed_leg_s, min_speed_m_s=args.polish_min_speed,
-                            walk_bonus=args.polish_walk_bonus, validation=args.polish_validation)
+                            walk_bonus=args.polish_walk_bonus, validation=args.polish_validation,
+                            robots=args.polish_robots, sigma=args.polish_sigma)
             write_json_atomic(done, r)
         if args.speed_polish and "speed_polish" not in r:
             r = speed_polish_once(r, folder, args.speed_polish, args.draws, args.need, args.json,

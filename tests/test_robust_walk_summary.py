@@ -71,14 +71,16 @@ def test_the_polish_phase_tests_every_kept_walker_and_times_the_first_robust_one
     assert r["walker_test"]["update"] == 15 and (tmp_path / "polish" / "robust_walker.json").exists()
     assert r["rate"] == {"share": 0.9, "robots": 50} and r["neat"] is neat
     assert r["polish"]["settings"]["speed_leg_s"] == 0.8 and r["polish"]["settings"]["seed"] == 2
-    assert r["polish"]["settings"]["robots"] == robust_walk.POLISH_ROBOTS
+    assert (r["polish"]["settings"]["robots"], r["polish"]["settings"]["sigma"]) == (
+        robust_walk.POLISH_ROBOTS, robust_walk.POLISH_SIGMA)
     assert (r["polish"]["settings"]["validation"], r["polish"]["settings"]["walk_bonus"]) == (100, 20.0)
 
     tested.clear()
     shutil.copyfile("configs/controllers/xl430_biped.json", tmp_path / "robust_walker.json")
     first = robust_walk.polish_once({**neat, "robust": True, "minutes": 30.0, "tests": [{"generation": 40}],
                                      "rate": "neat's", "transfer": {}, "sustained": {}, "steering": None},
-                                    tmp_path, updates=20, draws=10, need=8, quiet=True)
+                                    tmp_path, updates=20, draws=10, need=8, quiet=True, robots=32, sigma=0.05)
+    assert (first["polish"]["settings"]["robots"], first["polish"]["settings"]["sigma"]) == (32, 0.05)
     assert first["minutes"] == 30.0, "NEAT's robust walker came first: its minutes count"
     assert first["walker"] == str(tmp_path / "polish" / "robust_walker.json") and first["rate"]["share"] == 0.9
 
