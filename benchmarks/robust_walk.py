@@ -30,8 +30,8 @@ With ``--polish UPDATES`` each seed goes on, whatever NEAT found, to a weight po
 walker (``biped polish``'s CMA-ES, :func:`polish_once`): every walker the polish keeps is
 tested the same way, and the seed's final walker is the last robust one.  A seed robust only
 after the polish counts NEAT's minutes plus the polish's up to its first robust walker.
-NEAT's result waits in ``result.json`` until the polish's replaces it (a cut polish starts
-over).  With ``--speed-polish UPDATES`` each robust seed's final walker is polished once more
+NEAT's result waits in ``result.json`` until the polish's replaces it (a cut polish resumes
+from its checkpoint).  With ``--speed-polish UPDATES`` each robust seed's final walker is polished once more
 for speed (:func:`speed_polish_once`), and a robust walker kept there becomes the seed's.  The summary's
 ``transfer_ratio_median`` counts a walker that falls on the nominal model as keeping 0 (there
 is no walk to keep), and ``transfer_passed`` counts the checks passed.  ``--measure CONTROLLER`` measures
@@ -196,15 +196,26 @@ def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, n
     ``walk_bonus``), giving every walker its validation keeps the robustness test; the last
     robust one is copied to ``out/robust_walker.json``.  Returns the polish's record (with its
     tests, their seconds, and ``first_robust_s``: the polish's own seconds to its first robust
-    walker, the tests aside) and the robust walker's test (None: no robust walker)."""
-    from evolve.polish import polish
+    walker, the tests aside) and the robust walker's test (None: no robust walker).
+    A cut stage resumes: the polish from its checkpoint, the tests from ``out/tests.json``."""
+    from evolve.polish import CHECKPOINT, polish
 
     out.mkdir(parents=True, exist_ok=True)
-    walker = out / "robust_walker.json"
-    walker.unlink(missing_ok=True)  # a cut polish starts over (its seed fixes it)
-    state: dict[str, Any] = {"tests": [], "test_s": 0.0, "first_robust_s": None, "walker_test": None}
+    walker, tests = out / "robust_walker.json", out / "tests.json"
+    resume = (out / CHECKPOINT).exists()
+    if resume and tests.exists():
+        state: dict[str, Any] = read_json(tests)
+        log(f"seed {seed}: resuming the polish in {out}")
+    else:
+        walker.unlink(missing_ok=True)
+        state = {"tests": [], "test_s": 0.0, "first_robust_s": None, "walker_test": None}
 
     def on_best(kept: Path, entry: dict[str, Any]) -> bool:
+        done = [t for t in state["tests"] if t["update"] == entry["update"]]
+        if done:  # cut after this test, before the polish's checkpoint: the update was done again
+            if done[0]["robust"]:
+                shutil.copyfile(kept, walker)
+            return False
         t0 = time.perf_counter()
         test = robustness(kept, draws)
         robust = is_robust(test, need)
@@ -218,9 +229,11 @@ def polish_stage(source: Path, out: Path, seed: int, updates: int, draws: int, n
             if state["first_robust_s"] is None:
                 state["first_robust_s"] = entry["elapsed_s"] - state["test_s"]
         state["test_s"] += time.perf_counter() - t0
+        write_json_atomic(tests, state)
         return False
 
     polished = polish(source, out, updates=updates, popsize=POLISH_POPSIZE, seed=seed, on_best=on_best, log=log,
+                      resume=resume,
                       **{"robots": POLISH_ROBOTS, "sigma": POLISH_SIGMA, "validation": POLISH_VALIDATION, **settings})
     record = {**polished, "tests": state["tests"], "test_s": state["test_s"], "first_robust_s": state["first_robust_s"]}
     return record, state["walker_test"]

@@ -88,7 +88,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         description="Freeze the walker's topology and tune its weights with CMA-ES: every update "
                         "runs each candidate on the same freshly drawn robots; the search's mean is judged every "
                         "few updates on fixed validation robots, the best kept; at the end the kept weights and "
-                        "the original are judged on fresh robots.  Writes OUT/polished.json and OUT/result.json.")
+                        "the original are judged on fresh robots.  Writes OUT/polished.json and OUT/result.json, and "
+                        "OUT/checkpoint.json after every update (--resume continues a cut polish).")
     po.add_argument("controller", type=Path)
     po.add_argument("--out", type=output_dir, required=True, help="folder for polished.json and result.json")
     po.add_argument("--updates", type=int_within(1, 100_000), default=60, help="CMA-ES updates (default 60)")
@@ -124,6 +125,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     po.add_argument("--with-nominal", action="store_true",
                     help="every candidate meets the nominal robot too in each update (randomized draws seldom "
                     "resemble it)")
+    po.add_argument("--resume", action="store_true", help="continue the polish cut in --out from its checkpoint "
+                    "(the same walker and settings; --updates may grow)")
     po.add_argument("--json", action="store_true", help="print the result as one JSON object")
     po.set_defaults(func=cmd_polish)
 
@@ -342,14 +345,21 @@ def cmd_adapt(args: argparse.Namespace) -> int:
 
 def cmd_polish(args: argparse.Namespace) -> int:
     require_module("cmaes", "biped polish", extra="sim")
-    from evolve.polish import polish
+    from evolve.polish import CHECKPOINT, polish
 
     log = (lambda line: None) if args.json else (lambda line: print(line, file=sys.stderr, flush=True))
-    result = polish(args.controller, args.out, updates=args.updates, popsize=args.popsize, robots=args.robots,
-                    sigma=args.sigma, every=args.every, validation=args.validation, test=args.test, seed=args.seed,
-                    reality=args.randomize or "randomize", episode_s=args.episode_s, straight=args.straight,
-                    heading_deg=args.heading_deg, speed_leg_s=args.speed_leg_s, min_speed_m_s=args.min_speed,
-                    walk_bonus=args.walk_bonus, nominal=args.with_nominal, lr_adapt=args.lr_adapt, log=log)
+    try:
+        result = polish(args.controller, args.out, updates=args.updates, popsize=args.popsize, robots=args.robots,
+                        sigma=args.sigma, every=args.every, validation=args.validation, test=args.test,
+                        seed=args.seed, reality=args.randomize or "randomize", episode_s=args.episode_s,
+                        straight=args.straight, heading_deg=args.heading_deg, speed_leg_s=args.speed_leg_s,
+                        min_speed_m_s=args.min_speed, walk_bonus=args.walk_bonus, nominal=args.with_nominal,
+                        lr_adapt=args.lr_adapt, resume=args.resume, log=log)
+    except KeyboardInterrupt:
+        if (args.out / CHECKPOINT).exists():
+            print(f"\ninterrupted: the polish's checkpoint is in {args.out}; continue with the same command and "
+                  "--resume", file=sys.stderr)
+        return 130
     if args.json:
         print(json.dumps(result))
     return 0

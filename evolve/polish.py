@@ -18,11 +18,19 @@ polish is worth keeping only if it lifts the walk rate (``lifted``).
 
 Each draw comes from a key of its own (``[seed, stream, update, robot]``): a seed fixes the
 polish.  The evaluator is the evolution's (``mujoco.batch``), so the numbers are evolution's.
+
+A polish takes an hour or more, so after every update ``out/checkpoint.json`` records what the
+search was told (each update's candidate scores) and what it kept; ``resume=True`` continues a
+cut polish from there.  The CMA-ES state is not stored: a seeded CMA-ES asked and told the same
+scores again is the same search, so a resumed polish goes on exactly as the uncut one would
+(each update's candidates are checked against a digest of the cut run's).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -32,11 +40,14 @@ import numpy as np
 from evolve.locomotion.export import controller_from_genome
 from evolve.neat import Genome, NeatConfig
 from evolve.replay import controller_setup
-from sim2real.atomic_json import write_json_atomic
+from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.errors import ConfigError
 from sim2real.simulation.reality import Perturbation, Reality, latency_capacity_s, load_reality, sample
 
 WEIGHT_LIMIT = NeatConfig().weight_limit  # [the weights' unit] as evolution clips them
 UPDATE_STREAM, VALIDATION_STREAM, TEST_STREAM = 0x504F_4C31, 0x504F_4C32, 0x504F_4C33  # keys' second entry
+CHECKPOINT = "checkpoint.json"  # in a polish's folder: what resume=True continues from
+CHECKPOINT_VERSION = 1
 
 
 def weights_of(genome: Genome) -> tuple[list[int], np.ndarray]:
@@ -130,12 +141,34 @@ def _keys(seed: int, stream: int, index: int, robots: int) -> np.ndarray:
     return np.array([[seed, stream, index, k] for k in range(robots)], dtype=np.int64)
 
 
+def _digest(candidates: list[np.ndarray]) -> str:
+    """A short fingerprint of one update's candidates (a replayed search must ask the same)."""
+    return hashlib.sha256(np.stack(candidates).tobytes()).hexdigest()[:16]
+
+
+def _resumed(checkpoint: Path, identity: dict[str, Any], updates: int) -> dict[str, Any]:
+    """The cut polish's record in ``checkpoint``, checked against this polish's ``identity``
+    (its source walker's digest and every setting that shapes the search but ``updates``)."""
+    saved = read_json(checkpoint)
+    if not isinstance(saved, dict) or saved.get("version") != CHECKPOINT_VERSION:
+        raise ConfigError(checkpoint, "version", f"not a version-{CHECKPOINT_VERSION} polish checkpoint")
+    for key, value in identity.items():
+        if saved["identity"].get(key) != value:
+            raise ConfigError(checkpoint, f"identity.{key}", f"the cut polish had {saved['identity'].get(key)!r}, "
+                              f"this one {value!r}: resume it with its own walker and settings, or polish into "
+                              "another folder")
+    if len(saved["scores"]) > updates:
+        raise ConfigError(checkpoint, "scores", f"the cut polish is at update {len(saved['scores'])}, beyond "
+                          f"the {updates} updates asked")
+    return saved
+
+
 def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robots: int = 8, sigma: float = 0.1,
            every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str | list[str] = "randomize",
            episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,
            speed_leg_s: float | None = None, min_speed_m_s: float | None = None, walk_bonus: float | None = None,
            nominal: bool = False, lr_adapt: bool = False, on_best: Callable[[Path, dict[str, Any]], bool] | None = None,
-           log: Callable[[str], None] = print) -> dict[str, Any]:
+           resume: bool = False, log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
     ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
     step size [weight units] (NEAT perturbs a weight by about 0.5).  For a straight walk:
@@ -153,9 +186,14 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     objectives at the default population size; a walk rate on 16 robots is one).
     ``on_best(path, entry)``: called whenever validation keeps new weights, with them written
     to ``path`` (``out/kept.json``) and the history ``entry`` (its ``elapsed_s``: the
-    polish's seconds so far); True stops the search there (the test still follows)."""
+    polish's seconds so far); True stops the search there (the test still follows).
+    ``resume``: continue from ``out/checkpoint.json`` (the same walker and settings; ``updates``
+    may grow); without it a folder holding a checkpoint is refused, so no polish is lost."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
+    checkpoint = out / CHECKPOINT
+    if checkpoint.exists() and not resume:
+        raise FileExistsError(f"{out} holds a polish ({checkpoint}); resume it, or polish into another folder")
     out.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
     realities = [reality] if isinstance(reality, str) else list(reality)
@@ -172,6 +210,9 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
                 "reality": reality, "episode_s": judge.evaluator.episode_s, "straight": straight,
                 "heading_deg": heading_deg, "nominal": nominal, "speed_leg_s": speed_leg_s,
                 "min_speed_m_s": min_speed_m_s, "walk_bonus": walk_bonus, "lr_adapt": lr_adapt}
+    identity = json.loads(json.dumps({**{k: v for k, v in settings.items() if k != "updates"}, "every": every,
+                                      "validation": validation,
+                                      "source_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()}))
 
     def save(weights: np.ndarray, to: Path, outcome: dict[str, Any]) -> None:
         """The walker with ``weights``, the polish's settings and ``outcome`` in its provenance."""
@@ -186,14 +227,44 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
             score, walked = score[:, :-1], walked[:, :-1]
         return {"walk_rate": float(walked.mean()), "score": float(score.mean())}
 
-    best = {"update": 0, "weights": x0.copy(), **validate(x0)}
-    history = [{"update": 0, **{k: best[k] for k in ("walk_rate", "score")}}]
-    log(f"polish {path.name}: {len(x0)} weights, {popsize} candidates x {robots} robots an update; "
-        f"validation walk rate {best['walk_rate']:.2f} at the start")
-    for update in range(1, updates + 1):
+    told: dict[str, Any] = {"scores": [], "digests": [], "stopped": False}  # what the checkpoint keeps
+
+    def tell(candidates: list[np.ndarray], scores: list[float]) -> None:
+        optimizer.tell([(x, -s) for x, s in zip(candidates, scores)])  # CMA minimizes
+        told["scores"].append(scores)
+        told["digests"].append(_digest(candidates))
+
+    if resume and checkpoint.exists():
+        saved = _resumed(checkpoint, identity, updates)
+        for update, (scores, digest) in enumerate(zip(saved["scores"], saved["digests"]), 1):
+            candidates = [optimizer.ask() for _ in range(popsize)]
+            if _digest(candidates) != digest:
+                raise ConfigError(checkpoint, f"digests[{update - 1}]", "this search asks other candidates "
+                                  "than the cut polish did (another cmaes version?); polish into another folder")
+            tell(candidates, scores)
+        told["stopped"] = saved["stopped"]
+        best = {**saved["best"], "weights": np.array(saved["best"]["weights"])}
+        history, judge.steps = saved["history"], saved["physics_steps"]
+        started -= saved["elapsed_s"]
+        log(f"polish {path.name}: resumed at update {len(saved['scores'])}/{updates} "
+            f"(best validation walk rate {best['walk_rate']:.2f} at update {best['update']})")
+    else:
+        best = {"update": 0, "weights": x0.copy(), **validate(x0)}
+        history = [{"update": 0, **{k: best[k] for k in ("walk_rate", "score")}}]
+        log(f"polish {path.name}: {len(x0)} weights, {popsize} candidates x {robots} robots an update; "
+            f"validation walk rate {best['walk_rate']:.2f} at the start")
+
+    def save_checkpoint() -> None:
+        write_json_atomic(checkpoint, {
+            "version": CHECKPOINT_VERSION, "identity": identity, **told, "history": history,
+            "best": {**best, "weights": best["weights"].tolist()}, "physics_steps": judge.steps,
+            "elapsed_s": time.monotonic() - started})
+
+    first = len(told["scores"]) + 1
+    for update in range(first, first if told["stopped"] else updates + 1):
         candidates = [optimizer.ask() for _ in range(popsize)]
         score, walked = judge.run(candidates, _keys(seed, UPDATE_STREAM, update, robots))
-        optimizer.tell([(x, -float(s)) for x, s in zip(candidates, score.mean(axis=1))])  # CMA minimizes
+        tell(candidates, [float(s) for s in score.mean(axis=1)])
         if update % every == 0 or update == updates:
             checked = validate(optimizer.mean)
             entry = {"update": update, "candidates_walked": float(walked.mean()), **checked,
@@ -207,9 +278,11 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
                 f"{entry['elapsed_s']:.0f} s")
             if improved and on_best is not None:
                 save(best["weights"], out / "kept.json", {"kept_update": update, "validation_walk_rate": best["walk_rate"]})
-                if on_best(out / "kept.json", entry):
-                    log(f"stopped at update {update}")
-                    break
+                told["stopped"] = on_best(out / "kept.json", entry)
+        save_checkpoint()  # after on_best: a polish cut during its test does this update again
+        if told["stopped"]:
+            log(f"stopped at update {update}")
+            break
     search_s = time.monotonic() - started
     fresh = _keys(seed, TEST_STREAM, 0, test)
     _, walked = judge.run([x0, best["weights"]], fresh)

@@ -94,15 +94,96 @@ def test_robots_take_turns_at_several_ranges_each_drawn_as_its_ranges_alone_woul
 def test_on_best_sees_every_kept_walker_and_can_stop_the_search(tmp_path):
     from evolve.polish import polish
 
+    settings = dict(updates=6, popsize=4, robots=1, validation=2, test=1, every=1, episode_s=2.0, sigma=0.3,
+                    seed=3, log=lambda line: None)
     seen = []
 
     def on_best(kept, entry):
         seen.append((entry["update"], Controller.load(kept).provenance["polish"]["kept_update"]))
-        return len(seen) == 2
+        return False
 
-    # these settings keep the weights of updates 2, 3 and 6, each better on validation than the last
-    r = polish(Path(WALKER), tmp_path, updates=9, popsize=4, robots=1, validation=2, test=1, every=1, episode_s=2.0,
-               sigma=0.3, seed=3, on_best=on_best, log=lambda line: None)
-    assert seen == [(2, 2), (3, 3)] and r["kept_update"] == 3
-    assert [e["update"] for e in r["history"]] == list(range(4)), "the search stopped where on_best said so"
-    assert r["search_minutes"] <= r["minutes"]
+    r = polish(Path(WALKER), tmp_path / "all", on_best=on_best, **settings)
+    best, improved = (-1.0, -np.inf), []  # the updates whose validation beat every earlier one
+    for entry in r["history"]:
+        if (entry["walk_rate"], entry["score"]) > best:
+            best = (entry["walk_rate"], entry["score"])
+            improved.append(entry["update"])
+    assert improved[1:], "these settings keep some update's weights"
+    assert seen == [(u, u) for u in improved[1:]] and r["kept_update"] == improved[-1]
+
+    stops = polish(Path(WALKER), tmp_path / "stop", on_best=lambda kept, entry: True, **settings)
+    assert [e["update"] for e in stops["history"]] == list(range(improved[1] + 1)), "stopped where on_best said so"
+    assert stops["kept_update"] == improved[1] and stops["search_minutes"] <= stops["minutes"]
+
+
+def test_a_cut_polish_resumes_as_the_uncut_one_goes_on_and_nothing_else_resumes_it(tmp_path):
+    """A polish cut after any update continues from ``checkpoint.json`` exactly as the uncut
+    polish went on (its CMA-ES replayed from the scores it was told); a folder holding a
+    checkpoint is not overwritten, and another walker or setting does not resume it."""
+    from evolve.polish import polish
+    from sim2real.errors import ConfigError
+
+    settings = dict(updates=4, popsize=4, robots=1, validation=2, test=2, every=1, episode_s=2.0, sigma=0.3,
+                    seed=3, log=lambda line: None)
+    whole = polish(Path(WALKER), tmp_path / "whole", **settings)
+
+    def cut_at(update):
+        def log(line):
+            if line.startswith(f"update {update}/"):
+                raise KeyboardInterrupt  # after the update's validation, before its checkpoint
+        return log
+
+    cut = tmp_path / "cut"
+    with pytest.raises(KeyboardInterrupt):
+        polish(Path(WALKER), cut, **{**settings, "log": cut_at(3)})
+    assert len(json.loads((cut / "checkpoint.json").read_text())["scores"]) == 2
+    with pytest.raises(FileExistsError, match="holds a polish"):
+        polish(Path(WALKER), cut, **settings)
+    with pytest.raises(ConfigError, match="identity.sigma"):
+        polish(Path(WALKER), cut, **{**settings, "sigma": 0.2}, resume=True)
+    resumed = polish(Path(WALKER), cut, **settings, resume=True)
+
+    def judged(result):  # the seconds aside
+        return {**{k: v for k, v in result.items() if k not in ("minutes", "search_minutes", "polished")},
+                "history": [{k: v for k, v in e.items() if k != "elapsed_s"} for e in result["history"]]}
+    assert judged(resumed) == judged(whole)
+    assert Controller.load(cut / "polished.json").connections == Controller.load(tmp_path / "whole" /
+                                                                                 "polished.json").connections
+    longer = polish(Path(WALKER), cut, **{**settings, "updates": 5}, resume=True)  # a finished polish goes on
+    assert [e["update"] for e in longer["history"]] == list(range(6))
+    assert longer["history"][:5] == resumed["history"]
+
+
+def test_biped_polish_refuses_a_folder_holding_a_polish_unless_resumed(tmp_path, capsys):
+    (tmp_path / "checkpoint.json").write_text("{}")
+    assert main(["polish", WALKER, "--out", str(tmp_path)]) == 2
+    assert "holds a polish" in capsys.readouterr().err
+    assert main(["polish", WALKER, "--out", str(tmp_path), "--resume"]) == 2
+    assert "checkpoint.json: version: not a version-1 polish checkpoint" in capsys.readouterr().err
+
+
+def test_ctrl_c_leaves_a_checkpoint_that_resume_continues(tmp_path):
+    """A real ``biped polish`` process interrupted (SIGINT) mid-search exits 130 naming the way
+    on; ``--resume`` continues it to a finished polish."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "p"
+    args = [sys.executable, "-m", "evolve.cli", "polish", WALKER, "--out", str(out), "--popsize", "4", "--robots",
+            "1", "--validation", "1", "--test", "1", "--every", "1", "--episode-s", "1", "--seed", "2"]
+    process = subprocess.Popen([*args, "--updates", "1000"], stderr=subprocess.PIPE, text=True,
+                               env={**os.environ, "PYTHONPATH": os.getcwd()})
+    deadline = time.monotonic() + 300
+    while not (out / "checkpoint.json").exists() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=300)
+    assert process.returncode == 130 and "--resume" in err
+    done = len(json.loads((out / "checkpoint.json").read_text())["scores"])
+    finished = subprocess.run([*args, "--updates", str(done + 1), "--resume", "--json"], capture_output=True,
+                              text=True, timeout=300, env={**os.environ, "PYTHONPATH": os.getcwd()})
+    assert finished.returncode == 0, finished.stderr
+    assert [e["update"] for e in json.loads(finished.stdout)["history"]] == list(range(done + 2))

@@ -94,6 +94,54 @@ def test_the_polish_phase_tests_every_kept_walker_and_times_the_first_robust_one
     assert stays["walker_test"] == {"generation": 40}
 
 
+def test_a_cut_polish_stage_resumes_with_its_tests_and_tests_no_walker_twice(tmp_path, monkeypatch):
+    """A polish stage cut mid-way (here after its update-10 test, before the polish's checkpoint
+    of update 10) resumes: the polish from its checkpoint, the stage's tests from tests.json;
+    the update done again keeps its test, and no walker is tested twice.  Stand-ins as above."""
+    import shutil
+
+    import evolve.polish
+    from benchmarks import robust_walk
+
+    def polish(source, out, *, on_best, resume, **settings):
+        assert resume == (out / "checkpoint.json").exists()
+        done = 5 if resume else 0  # the checkpoint: update 5
+        (out / "checkpoint.json").write_text("{}")
+        history = []
+        for update in (5, 10, 15):
+            if update <= done:
+                continue
+            shutil.copyfile(source, out / "kept.json")
+            history.append({"update": update, "elapsed_s": 60.0 * update / 5})
+            on_best(out / "kept.json", history[-1])
+            if update == 10 and not resume:
+                raise KeyboardInterrupt
+        return {"history": history}
+
+    tested = []
+
+    def robustness(walker, draws):
+        tested.append(walker)
+        return {"randomized": {"walked": 10 if len(tested) >= 2 else 3}, "default": {"walked": 3}, "draws": draws,
+                "default_episodes": 3}
+
+    monkeypatch.setattr(evolve.polish, "polish", polish)
+    monkeypatch.setattr(robust_walk, "robustness", robustness)
+    source = tmp_path / "walker.json"
+    shutil.copyfile("configs/controllers/xl430_biped.json", source)
+    out = tmp_path / "polish"
+    try:
+        robust_walk.polish_stage(source, out, 2, 20, 10, 8, lambda line: None)
+    except KeyboardInterrupt:
+        pass
+    assert len(tested) == 2 and (out / "robust_walker.json").exists()
+    record, walker_test = robust_walk.polish_stage(source, out, 2, 20, 10, 8, lambda line: None)
+    assert len(tested) == 3, "updates 5, 10 and 15 each tested once"
+    assert [(t["update"], t["robust"]) for t in record["tests"]] == [(5, False), (10, True), (15, True)]
+    assert walker_test["update"] == 15 and record["first_robust_s"] is not None
+    assert robust_walk.read_json(out / "tests.json")["tests"] == record["tests"]
+
+
 def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(tmp_path, monkeypatch):
     """The recipe's speed polish (``--speed-polish``): a robust seed's final walker (the
     polish's) polished again, counting no walk slower than the lower of its 60 s walks'
