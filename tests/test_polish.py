@@ -54,14 +54,16 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
                      heading_deg=1e-6)
     assert straight.evaluator.episode_s == pytest.approx(4.0, abs=0.05) and straight.evaluator.task.selection_straight_coeff == 8.0
     keys = np.array([[1, 0, 0, 0]])
-    score, _ = plain.run([plain.start], keys)
-    s8, walked = straight.run([straight.start], keys)
+    score, _, _ = plain.run([plain.start], keys)
+    s8, walked, walked_any = straight.run([straight.start], keys)
     assert not walked.any()  # every walk turns a little: none is within 1e-6 deg
+    assert walked_any.all(), "a walk of any heading is still a walk"
     assert s8[0, 0] != score[0, 0]
     on_model = Judge(WALKER, ["randomize"], 1, nominal=True)
     too_fast = Judge(WALKER, ["randomize"], 1, min_speed_m_s=5.0, nominal=True)  # no small robot walks at 5 m/s
     none = np.empty((0, 4), dtype=np.int64)  # the nominal robot alone
     assert on_model.run([on_model.start], none)[1].all() and not too_fast.run([too_fast.start], none)[1].any()
+    assert too_fast.run([too_fast.start], none)[2].all()  # ... but it walks
     paid = Judge(WALKER, ["randomize"], 1, selection={"selection_walk_bonus": 50.0}, nominal=True)
     bonus = 50.0 - on_model.evaluator.task.selection_walk_bonus  # the model walks: the walk is paid so much more
     assert paid.run([paid.start], none)[0][0, 0] == pytest.approx(on_model.run([on_model.start], none)[0][0, 0] + bonus)
@@ -69,7 +71,7 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
                    selection={"selection_straight_coeff": 8.0, "selection_speed_leg_s": 1.2})
     assert faster.run([faster.start], keys)[0][0, 0] != s8[0, 0]  # the straight term's kernel moved
     with_model = Judge(WALKER, ["randomize"], 2, nominal=True)
-    both, _ = with_model.run([with_model.start], keys)
+    both, _, _ = with_model.run([with_model.start], keys)
     assert both.shape == (1, 2) and both[0, 0] == score[0, 0]  # the drawn robot as before, then the model
     assert main(["polish", WALKER, "--out", str(tmp_path / "p"), "--updates", "1", "--popsize", "4", "--robots", "1",
                  "--validation", "1", "--test", "1", "--episode-s", "2", "--straight", "8", "--heading-deg", "45",
@@ -85,7 +87,7 @@ def test_robots_take_turns_at_several_ranges_each_drawn_as_its_ranges_alone_woul
     keys = np.array([[3, 0, 0, 0], [3, 0, 0, 1], [3, 0, 0, 2]])
     mixed, wide, narrow = (Judge(WALKER, names, 3) for names in
                            (["randomize", "narrow"], ["randomize"], ["narrow"]))
-    score, _ = mixed.run([mixed.start], keys)
+    score, _, _ = mixed.run([mixed.start], keys)
     alone = {name: judge.run([judge.start], keys)[0][0] for name, judge in (("wide", wide), ("narrow", narrow))}
     assert score[0].tolist() == [alone["wide"][0], alone["narrow"][1], alone["wide"][2]]
     assert alone["wide"][1] != alone["narrow"][1]
