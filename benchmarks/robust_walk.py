@@ -410,6 +410,10 @@ def main(argv=None) -> None:
                    "--speed-polish-validation 30)")
     p.add_argument("--speed-polish-walk-bonus", type=positive_float_at_most(1000.0), metavar="B", help="what its "
                    "selection pays an episode that walks (default: the task's)")
+    p.add_argument("--polish-worst", type=positive_float_at_most(1.0), metavar="SHARE", help="the polish ranks "
+                   "candidates by their mean score on the worst SHARE of an update's robots (default: the mean over all)")
+    p.add_argument("--speed-polish-worst", type=positive_float_at_most(1.0), metavar="SHARE", help="the same for "
+                   "the speed polish")
     p.add_argument("--speed-polish-with-nominal", action="store_true", help="the model itself among every update's "
                    "robots of the speed polish (a walker tuned to drawn robots alone can fall on it)")
     args = p.parse_args(argv)
@@ -439,13 +443,15 @@ def main(argv=None) -> None:
             r = polish_once(r, folder, args.polish, args.draws, args.need, args.json,
                             speed_leg_s=args.polish_speed_leg_s, min_speed_m_s=args.polish_min_speed,
                             walk_bonus=args.polish_walk_bonus, validation=args.polish_validation,
-                            robots=args.polish_robots, sigma=args.polish_sigma)
+                            robots=args.polish_robots, sigma=args.polish_sigma,
+                            **({"worst": args.polish_worst} if args.polish_worst else {}))
             write_json_atomic(done, r)
         if args.speed_polish and "speed_polish" not in r:
             r = speed_polish_once(r, folder, args.speed_polish, args.draws, args.need, args.json,
                                   args.speed_polish_leg_s, args.speed_polish_min_speed,
                                   args.speed_polish_robots, args.speed_polish_sigma, args.speed_polish_validation,
-                                  nominal=args.speed_polish_with_nominal, walk_bonus=args.speed_polish_walk_bonus)
+                                  nominal=args.speed_polish_with_nominal, walk_bonus=args.speed_polish_walk_bonus,
+                                  **({"worst": args.speed_polish_worst} if args.speed_polish_worst else {}))
             write_json_atomic(done, r)
         if (settled := keep_the_model_walk(r)) is not r:
             progress(f"seed {seed}: the speed polish's walker {settled['speed_polish']['rejected']}: undone", args.json)

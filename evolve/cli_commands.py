@@ -122,6 +122,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                     "a larger one trades speed for the walk rate")
     po.add_argument("--lr-adapt", action="store_true", help="CMA-ES with learning-rate adaptation (Nomura et "
                     "al. 2023), for a noisy walk rate")
+    po.add_argument("--worst", type=positive_float_at_most(1.0, "a share of the robots"), default=1.0, metavar="SHARE",
+                    help="rank candidates by their mean score on the worst SHARE of the update's robots (a CVaR: "
+                    "the robots a walker fails on weigh more; default 1: the mean over all)")
     po.add_argument("--with-nominal", action="store_true",
                     help="every candidate meets the nominal robot too in each update (randomized draws seldom "
                     "resemble it)")
@@ -354,7 +357,7 @@ def cmd_polish(args: argparse.Namespace) -> int:
                         seed=args.seed, reality=args.randomize or "randomize", episode_s=args.episode_s,
                         straight=args.straight, heading_deg=args.heading_deg, speed_leg_s=args.speed_leg_s,
                         min_speed_m_s=args.min_speed, walk_bonus=args.walk_bonus, nominal=args.with_nominal,
-                        lr_adapt=args.lr_adapt, resume=args.resume, log=log)
+                        lr_adapt=args.lr_adapt, worst=args.worst, resume=args.resume, log=log)
     except KeyboardInterrupt:
         if (args.out / CHECKPOINT).exists():
             print(f"\ninterrupted: the polish's checkpoint is in {args.out}; continue with the same command and "

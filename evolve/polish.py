@@ -142,6 +142,12 @@ def _keys(seed: int, stream: int, index: int, robots: int) -> np.ndarray:
     return np.array([[seed, stream, index, k] for k in range(robots)], dtype=np.int64)
 
 
+def ranked_by(score: np.ndarray, worst: float) -> np.ndarray:
+    """Each candidate's (row's) mean score on its worst ``worst`` share of the robots (at least one)."""
+    k = max(1, int(np.ceil(worst * score.shape[1] - 1e-9)))
+    return np.sort(score, axis=1)[:, :k].mean(axis=1)
+
+
 def _digest(candidates: list[np.ndarray]) -> str:
     """A short fingerprint of one update's candidates (a replayed search must ask the same)."""
     return hashlib.sha256(np.stack(candidates).tobytes()).hexdigest()[:16]
@@ -168,8 +174,9 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
            every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str | list[str] = "randomize",
            episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,
            speed_leg_s: float | None = None, min_speed_m_s: float | None = None, walk_bonus: float | None = None,
-           nominal: bool = False, lr_adapt: bool = False, on_best: Callable[[Path, dict[str, Any]], bool] | None = None,
-           resume: bool = False, log: Callable[[str], None] = print) -> dict[str, Any]:
+           nominal: bool = False, lr_adapt: bool = False, worst: float = 1.0,
+           on_best: Callable[[Path, dict[str, Any]], bool] | None = None, resume: bool = False,
+           log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
     ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
     step size [weight units] (NEAT perturbs a weight by about 0.5).  For a straight walk:
@@ -185,6 +192,10 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     ``lr_adapt``: CMA-ES with learning-rate adaptation (Nomura, Akimoto & Ono, GECCO 2023: the
     mean's and covariance's learning rates follow the update's signal-to-noise ratio, for noisy
     objectives at the default population size; a walk rate on 16 robots is one).
+    ``worst``: candidates ranked by their mean score on the worst this share of the update's
+    robots (a conditional value at risk, as EPOpt's robust policy search (Rajeswaran et al.,
+    ICLR 2017) trains on its worst episodes): the robots a walker fails on weigh on every
+    ranking instead of a few in the mean; 1 ranks by the mean over all.
     ``on_best(path, entry)``: called whenever validation keeps new weights, with them written
     to ``path`` (``out/kept.json``) and the history ``entry`` (its ``elapsed_s``: the
     polish's seconds so far); True stops the search there (the test still follows).
@@ -210,7 +221,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     settings = {"updates": updates, "popsize": popsize, "robots": robots, "sigma": sigma, "seed": seed,
                 "reality": reality, "episode_s": judge.evaluator.episode_s, "straight": straight,
                 "heading_deg": heading_deg, "nominal": nominal, "speed_leg_s": speed_leg_s,
-                "min_speed_m_s": min_speed_m_s, "walk_bonus": walk_bonus, "lr_adapt": lr_adapt}
+                "min_speed_m_s": min_speed_m_s, "walk_bonus": walk_bonus, "lr_adapt": lr_adapt,
+                "worst": worst}
     identity = json.loads(json.dumps({**{k: v for k, v in settings.items() if k != "updates"}, "every": every,
                                       "validation": validation,
                                       "source_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()}))
@@ -265,7 +277,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     for update in range(first, first if told["stopped"] else updates + 1):
         candidates = [optimizer.ask() for _ in range(popsize)]
         score, walked, _ = judge.run(candidates, _keys(seed, UPDATE_STREAM, update, robots))
-        tell(candidates, [float(s) for s in score.mean(axis=1)])
+        tell(candidates, [float(s) for s in ranked_by(score, worst)])
         if update % every == 0 or update == updates:
             checked = validate(optimizer.mean)
             entry = {"update": update, "candidates_walked": float(walked.mean()), **checked,

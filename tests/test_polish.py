@@ -75,10 +75,21 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
     assert both.shape == (1, 2) and both[0, 0] == score[0, 0]  # the drawn robot as before, then the model
     assert main(["polish", WALKER, "--out", str(tmp_path / "p"), "--updates", "1", "--popsize", "4", "--robots", "1",
                  "--validation", "1", "--test", "1", "--episode-s", "2", "--straight", "8", "--heading-deg", "45",
-                 "--with-nominal", "--speed-leg-s", "0.8", "--min-speed", "0.15", "--walk-bonus", "20", "--lr-adapt", "--json"]) == 0
+                 "--with-nominal", "--speed-leg-s", "0.8", "--min-speed", "0.15", "--walk-bonus", "20", "--lr-adapt",
+                 "--worst", "0.5", "--json"]) == 0
     provenance = Controller.load(tmp_path / "p" / "polished.json").provenance["polish"]
     assert (provenance["straight"], provenance["speed_leg_s"], provenance["min_speed_m_s"],
-            provenance["walk_bonus"], provenance["lr_adapt"]) == (8.0, 0.8, 0.15, 20.0, True)
+            provenance["walk_bonus"], provenance["lr_adapt"], provenance["worst"]) == (8.0, 0.8, 0.15, 20.0, True, 0.5)
+
+
+def test_a_cvar_ranking_scores_each_candidate_by_its_worst_robots():
+    from evolve.polish import ranked_by
+
+    score = np.array([[9.0, 1.0, 5.0, 7.0], [4.0, 4.0, 4.0, 4.0]])
+    assert ranked_by(score, 1.0).tolist() == [5.5, 4.0]  # the mean: the first candidate ranks higher
+    assert ranked_by(score, 0.5).tolist() == [3.0, 4.0]  # its two worst robots: the steady one ranks higher
+    assert ranked_by(score, 0.01).tolist() == [1.0, 4.0]  # at least one robot
+    assert ranked_by(score, 0.75).tolist() == [13.0 / 3, 4.0]
 
 
 def test_robots_take_turns_at_several_ranges_each_drawn_as_its_ranges_alone_would():

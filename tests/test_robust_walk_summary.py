@@ -183,9 +183,9 @@ def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(t
     robust_now = {**robust_now, "randomized": {"walked": 7}}
     stays = robust_walk.speed_polish_once(before, tmp_path, updates=20, draws=10, need=8, quiet=True,
                                           min_speed_m_s=0.15, nominal=True, robots=16, sigma=0.1, validation=30,
-                                          walk_bonus=20.0)
+                                          walk_bonus=20.0, worst=0.25)
     assert calls[-1][1]["min_speed_m_s"] == 0.15 and calls[-1][1]["nominal"] is True
-    assert [calls[-1][1][k] for k in ("robots", "sigma", "validation", "walk_bonus")] == [16, 0.1, 30, 20.0]
+    assert [calls[-1][1][k] for k in ("robots", "sigma", "validation", "walk_bonus", "worst")] == [16, 0.1, 30, 20.0, 0.25]
     assert stays["walker"] == before["walker"] and stays["rate"] == {"share": 0.9}
     assert not (tmp_path / "speed_polish" / "robust_walker.json").exists()
     assert robust_walk.speed_polish_once({"seed": 5, "robust": False}, tmp_path, 20, 10, 8, True)["speed_polish"] is None
