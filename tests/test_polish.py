@@ -187,16 +187,19 @@ def test_ctrl_c_leaves_a_checkpoint_that_resume_continues(tmp_path):
     out = tmp_path / "p"
     args = [sys.executable, "-m", "evolve.cli", "polish", WALKER, "--out", str(out), "--popsize", "4", "--robots",
             "1", "--validation", "1", "--test", "1", "--every", "1", "--episode-s", "1", "--seed", "2"]
-    process = subprocess.Popen([*args, "--updates", "1000"], stderr=subprocess.PIPE, text=True,
-                               env={**os.environ, "PYTHONPATH": os.getcwd()})
-    deadline = time.monotonic() + 300
+    # (a shell's background job inherits SIGINT ignored; a user's Ctrl-C reaches a polish that is not)
+    process = subprocess.Popen([*args, "--updates", "100000"], stderr=subprocess.PIPE, text=True,
+                               env={**os.environ, "PYTHONPATH": os.getcwd()},
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.monotonic() + 900  # a loaded machine takes minutes to start MuJoCo
     while not (out / "checkpoint.json").exists() and process.poll() is None and time.monotonic() < deadline:
         time.sleep(0.1)
+    assert (out / "checkpoint.json").exists(), f"no checkpoint in {time.monotonic() - deadline + 900:.0f} s"
     process.send_signal(signal.SIGINT)
-    _, err = process.communicate(timeout=300)
+    _, err = process.communicate(timeout=900)
     assert process.returncode == 130 and "--resume" in err
     done = len(json.loads((out / "checkpoint.json").read_text())["scores"])
     finished = subprocess.run([*args, "--updates", str(done + 1), "--resume", "--json"], capture_output=True,
-                              text=True, timeout=300, env={**os.environ, "PYTHONPATH": os.getcwd()})
+                              text=True, timeout=900, env={**os.environ, "PYTHONPATH": os.getcwd()})
     assert finished.returncode == 0, finished.stderr
     assert [e["update"] for e in json.loads(finished.stdout)["history"]] == list(range(done + 2))
