@@ -2,7 +2,7 @@
 
     python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --json
     python -m benchmarks.robust_walk --seeds 5 --out runs/robust_walk --minutes 60 --config walk_robust
-    python -m benchmarks.robust_walk --seeds 5 --config walk_straight3_p512 --minutes 45 --polish 40 --speed-polish 20 --out runs/rwsp --json
+    python -m benchmarks.robust_walk --seeds 5 --config walk_straight3_p512 --minutes 45 --polish 40 --speed-polish 40 --out runs/cv --json
     python -m benchmarks.robust_walk --measure CONTROLLER [--ship configs/controllers/xl430_biped.json] --json
 
 Per seed, one evolution of ``--config`` (the robust-walk recipe by default) until its first
@@ -182,6 +182,10 @@ POLISH_POPSIZE, POLISH_ROBOTS, POLISH_SIGMA, POLISH_VALIDATION = 16, 16, 0.1, 30
 # validation robots read 0.90-0.93 for walkers that then walked on 84-88 % of 50; 100 read
 # closer (eighth session, benchmarks/RESULTS.md).
 SPEED_POLISH_ROBOTS, SPEED_POLISH_SIGMA, SPEED_POLISH_VALIDATION = 32, 0.05, 100
+# Ranked on each candidate's worst quarter of its robots (a CVaR) the speed polish lifted all four
+# robust seeds' walk rate on 200 further robots (98 -> 99, 99.5 -> 99.5, 85.5 -> 87, 88 -> 96 %)
+# and all four then reached the 90 deg turn (ninth session, benchmarks/RESULTS.md).
+SPEED_POLISH_WORST = 0.25
 SPEED_GOAL_M_S = 0.15  # issue 33's straight-walk goal: the speed polish's gate asks no more than it
 SPEED_POLISH_LEG_S = 0.8  # [leg lengths/s] the speed polish's kernel target: the task's 0.6 is 0.147 m/s on the
                           # XL430 biped, the goal's own speed, so nothing paid a faster walk (sixth session)
@@ -273,14 +277,15 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
                       quiet: bool = False, speed_leg_s: float = SPEED_POLISH_LEG_S,
                       min_speed_m_s: float | None = None, robots: int = SPEED_POLISH_ROBOTS,
                       sigma: float = SPEED_POLISH_SIGMA, validation: int = SPEED_POLISH_VALIDATION,
-                      **settings: Any) -> dict[str, Any]:
+                      worst: float = SPEED_POLISH_WORST, **settings: Any) -> dict[str, Any]:
     """The recipe's third phase: a robust seed's final walker polished again by
     :func:`polish_stage` in ``folder/speed_polish``, its velocity kernel centred on
     ``speed_leg_s`` and no walk slower than ``min_speed_m_s`` counted (None: the walker's own
     speed, the lower of its 60 s walks', so the polish keeps no slower walker - but at most
     SPEED_GOAL_M_S: a gate at a fast walker's 60 s speed is one no 10 s episode, start-up
     included, passes, and validation then has no walk rate to keep walkers by).  ``robots``
-    each candidate meets an update, CMA-ES's first step ``sigma``, ``validation`` robots;
+    each candidate meets an update, CMA-ES's first step ``sigma``, ``validation`` robots,
+    candidates ranked on their ``worst`` share of the robots;
     ``settings``: the stage's others (e.g. ``nominal``: the model itself among every update's
     robots, which drawn robots alone let a walker fall on).
     A robust walker it keeps becomes the seed's final walker (measured again); the seed's
@@ -295,7 +300,7 @@ def speed_polish_once(result: dict[str, Any], folder: Path, updates: int, draws:
         min_speed_m_s = min(SPEED_GOAL_M_S, *(walk["speed_m_s"] for walk in result["sustained"].values()))
     record, walker_test = polish_stage(source, folder / "speed_polish", result["seed"], updates, draws, need, log,
                                        speed_leg_s=speed_leg_s, min_speed_m_s=min_speed_m_s, robots=robots,
-                                       sigma=sigma, validation=validation, **settings)
+                                       sigma=sigma, validation=validation, worst=worst, **settings)
     # (the polish's record names its source and settings already)
     record["before"] = {k: result[k] for k in ("walker_test", "rate", "transfer", "sustained", "steering") if k in result}
     result = {**result, "speed_polish": record}
@@ -412,8 +417,9 @@ def main(argv=None) -> None:
                    "selection pays an episode that walks (default: the task's)")
     p.add_argument("--polish-worst", type=positive_float_at_most(1.0), metavar="SHARE", help="the polish ranks "
                    "candidates by their mean score on the worst SHARE of an update's robots (default: the mean over all)")
-    p.add_argument("--speed-polish-worst", type=positive_float_at_most(1.0), metavar="SHARE", help="the same for "
-                   "the speed polish")
+    p.add_argument("--speed-polish-worst", type=positive_float_at_most(1.0), default=SPEED_POLISH_WORST,
+                   metavar="SHARE", help=f"the same for the speed polish (default {SPEED_POLISH_WORST}; 1: the mean, "
+                   "as before the ninth session)")
     p.add_argument("--speed-polish-with-nominal", action="store_true", help="the model itself among every update's "
                    "robots of the speed polish (a walker tuned to drawn robots alone can fall on it)")
     args = p.parse_args(argv)
@@ -451,7 +457,7 @@ def main(argv=None) -> None:
                                   args.speed_polish_leg_s, args.speed_polish_min_speed,
                                   args.speed_polish_robots, args.speed_polish_sigma, args.speed_polish_validation,
                                   nominal=args.speed_polish_with_nominal, walk_bonus=args.speed_polish_walk_bonus,
-                                  **({"worst": args.speed_polish_worst} if args.speed_polish_worst else {}))
+                                  worst=args.speed_polish_worst)
             write_json_atomic(done, r)
         if (settled := keep_the_model_walk(r)) is not r:
             progress(f"seed {seed}: the speed polish's walker {settled['speed_polish']['rejected']}: undone", args.json)

@@ -173,8 +173,9 @@ def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(t
     (source, settings), = calls
     assert source == tmp_path / "polish" / "robust_walker.json", "the polish's walker, not a stale path"
     assert settings["min_speed_m_s"] == 0.11 and settings["speed_leg_s"] == robust_walk.SPEED_POLISH_LEG_S
-    assert (settings["robots"], settings["sigma"], settings["validation"]) == (
-        robust_walk.SPEED_POLISH_ROBOTS, robust_walk.SPEED_POLISH_SIGMA, robust_walk.SPEED_POLISH_VALIDATION)
+    assert (settings["robots"], settings["sigma"], settings["validation"], settings["worst"]) == (
+        robust_walk.SPEED_POLISH_ROBOTS, robust_walk.SPEED_POLISH_SIGMA, robust_walk.SPEED_POLISH_VALIDATION,
+        robust_walk.SPEED_POLISH_WORST)
     assert "nominal" not in settings
     assert r["walker"] == str(tmp_path / "speed_polish" / "robust_walker.json") and r["rate"]["share"] == 0.96
     assert r["minutes"] == 50.8 and r["speed_polish"]["before"]["rate"] == {"share": 0.9}
