@@ -415,8 +415,9 @@ def main(argv=None) -> None:
                    "--speed-polish-validation 30)")
     p.add_argument("--speed-polish-walk-bonus", type=positive_float_at_most(1000.0), metavar="B", help="what its "
                    "selection pays an episode that walks (default: the task's)")
-    p.add_argument("--polish-worst", type=positive_float_at_most(1.0), metavar="SHARE", help="the polish ranks "
-                   "candidates by their mean score on the worst SHARE of an update's robots (default: the mean over all)")
+    p.add_argument("--polish-worst", type=positive_float_at_most(1.0), default=1.0, metavar="SHARE", help="the polish "
+                   "ranks candidates by their mean score on the worst SHARE of an update's robots (default 1: the mean "
+                   "over all)")
     p.add_argument("--speed-polish-worst", type=positive_float_at_most(1.0), default=SPEED_POLISH_WORST,
                    metavar="SHARE", help=f"the same for the speed polish (default {SPEED_POLISH_WORST}; 1: the mean, "
                    "as before the ninth session)")
@@ -449,8 +450,7 @@ def main(argv=None) -> None:
             r = polish_once(r, folder, args.polish, args.draws, args.need, args.json,
                             speed_leg_s=args.polish_speed_leg_s, min_speed_m_s=args.polish_min_speed,
                             walk_bonus=args.polish_walk_bonus, validation=args.polish_validation,
-                            robots=args.polish_robots, sigma=args.polish_sigma,
-                            **({"worst": args.polish_worst} if args.polish_worst else {}))
+                            robots=args.polish_robots, sigma=args.polish_sigma, worst=args.polish_worst)
             write_json_atomic(done, r)
         if args.speed_polish and "speed_polish" not in r:
             r = speed_polish_once(r, folder, args.speed_polish, args.draws, args.need, args.json,

@@ -144,6 +144,8 @@ def _keys(seed: int, stream: int, index: int, robots: int) -> np.ndarray:
 
 def ranked_by(score: np.ndarray, worst: float) -> np.ndarray:
     """Each candidate's (row's) mean score on its worst ``worst`` share of the robots (at least one)."""
+    if worst >= 1.0:  # the plain mean, summed as before the share existed
+        return score.mean(axis=1)
     k = max(1, int(np.ceil(worst * score.shape[1] - 1e-9)))
     return np.sort(score, axis=1)[:, :k].mean(axis=1)
 
