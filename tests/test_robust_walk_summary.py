@@ -197,6 +197,52 @@ def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(t
     assert calls[-1][1]["min_speed_m_s"] == robust_walk.SPEED_GOAL_M_S
 
 
+def test_a_restart_polishes_the_walker_the_speed_polish_kept_and_comes_only_after_one(tmp_path, monkeypatch):
+    """``--speed-polish-restarts``: restart k starts from the walker restart k-1 (or the first
+    speed polish) kept, in its own folder, its record appended; none follows a speed polish
+    that kept no robust walker, or one undone, or the last restart asked for."""
+    import shutil
+
+    import evolve.polish
+    from benchmarks import robust_walk
+
+    calls = []
+
+    def polish(source, out, *, on_best, **settings):
+        calls.append((source, out))
+        shutil.copyfile(source, out / "kept.json")
+        entry = {"update": 40, "elapsed_s": 30.0}
+        on_best(out / "kept.json", entry)
+        return {"controller": str(source), "history": [entry]}
+
+    monkeypatch.setattr(evolve.polish, "polish", polish)
+    monkeypatch.setattr(robust_walk, "robustness", lambda walker, draws: {
+        "randomized": {"walked": 9}, "default": {"walked": 3}, "draws": 10, "default_episodes": 3})
+    monkeypatch.setattr(robust_walk, "after_test", lambda walker, log: {"rate": {"share": 0.96, "robots": 50}})
+    (tmp_path / "speed_polish").mkdir()
+    shutil.copyfile("configs/controllers/xl430_biped.json", tmp_path / "speed_polish" / "robust_walker.json")
+    first = {"first_robust_s": 100.0, "controller": "polish/robust_walker.json"}
+    sped = {"seed": 3, "robust": True, "minutes": 55.6, "walker": str(tmp_path / "speed_polish" / "robust_walker.json"),
+            "walker_test": {"update": 20}, "rate": {"share": 0.84}, "transfer": {"ratio": 1.0},
+            "sustained": {"nominal": {"speed_m_s": 0.24}, "default": {"speed_m_s": 0.24}}, "steering": None,
+            "speed_polish": first}
+    assert robust_walk.next_speed_polish(sped, restarts=1) == 1
+    assert robust_walk.next_speed_polish(sped, restarts=0) is None
+    r = robust_walk.speed_polish_once(sped, tmp_path, updates=40, draws=10, need=8, quiet=True, restart=1)
+    assert calls == [(tmp_path / "speed_polish" / "robust_walker.json", tmp_path / "speed_polish_restart1")]
+    assert r["speed_polish"] is first and len(r["speed_polish_restarts"]) == 1
+    assert r["speed_polish_restarts"][0]["before"]["rate"] == {"share": 0.84}
+    assert r["walker"] == str(tmp_path / "speed_polish_restart1" / "robust_walker.json") and r["rate"]["share"] == 0.96
+    assert robust_walk.last_speed_polish(r) is r["speed_polish_restarts"][0]
+    assert robust_walk.next_speed_polish(r, restarts=1) is None, "the one restart asked for is done"
+    assert robust_walk.next_speed_polish(r, restarts=2) == 2
+
+    assert robust_walk.next_speed_polish({"seed": 3, "robust": True}, restarts=1) == 0, "the first comes first"
+    assert robust_walk.next_speed_polish({**sped, "speed_polish": {**first, "first_robust_s": None}}, 1) is None
+    assert robust_walk.next_speed_polish({**sped, "speed_polish": {**first, "rejected": "falls"}}, 1) is None
+    assert robust_walk.next_speed_polish({"seed": 5, "robust": False, "speed_polish": None}, 1) is None
+
+
 def test_a_budget_in_generations_ends_the_neat_phase_whatever_the_minutes(tmp_path, monkeypatch):
     """``--generations G``: a robot that costs twice the steps gets the same generations, not
     half; the evolution stops after G generations in all though minutes remain."""
@@ -242,6 +288,57 @@ def test_a_speed_polish_that_loses_the_walk_on_the_model_is_undone():
     unchanged = {**sped, "walker": stage["controller"]}
     assert keep_the_model_walk(unchanged) is unchanged
     assert keep_the_model_walk({"seed": 5, "robust": False, "speed_polish": None})["speed_polish"] is None
+
+
+def test_the_benchmark_runs_the_restarts_a_seed_lacks_and_no_more(tmp_path, monkeypatch):
+    """A seed folder whose speed polish kept a walker gets its restart from ``--out``, once; a
+    rerun finds it done; ``--speed-polish-restarts 0`` asks for none."""
+    from benchmarks import robust_walk
+    from sim2real.atomic_json import read_json, write_json_atomic
+
+    calls = []
+
+    def speed_polish_once(result, folder, *args, restart=0, **settings):
+        calls.append(restart)
+        record = {"controller": "before.json", "first_robust_s": 5.0}
+        return {**result, **robust_walk.with_last_speed_polish(result, record, restart)}
+
+    monkeypatch.setattr(robust_walk, "speed_polish_once", speed_polish_once)
+    walk = {"falls": 0, "upright_s": 60.0, "distance_m": 9.0, "speed_m_s": 0.15, "heading_deg_per_min": 3.0}
+    seed = {"seed": 1, "robust": True, "minutes": 50.0, "generations": 60, "polish": {}, "rate": {"share": 0.96},
+            "transfer": {"ratio": 0.9, "passed": True, "sim_walked": True}, "steering": {"reached": True},
+            "sustained": {"nominal": walk, "default": walk},
+            "speed_polish": {"controller": "polish/robust_walker.json", "first_robust_s": 9.0}}
+    write_json_atomic(tmp_path / "seed1" / "result.json", seed)
+    argv = ["--seeds", "1", "--out", str(tmp_path), "--polish", "40", "--speed-polish", "40", "--json"]
+    robust_walk.main(argv)
+    assert calls == [1] and len(read_json(tmp_path / "seed1" / "result.json")["speed_polish_restarts"]) == 1
+    robust_walk.main(argv)
+    assert calls == [1], "done before"
+    write_json_atomic(tmp_path / "seed1" / "result.json", seed)
+    robust_walk.main([*argv, "--speed-polish-restarts", "0"])
+    assert calls == [1]
+
+
+def test_a_restart_that_loses_the_walk_on_the_model_is_undone_alone():
+    from benchmarks.robust_walk import keep_the_model_walk
+
+    def walk(falls, upright_s=60.0):
+        return {"nominal": {"falls": falls, "upright_s": upright_s}, "default": {"falls": 0, "upright_s": 60.0}}
+
+    first = {"controller": "seed1/polish/robust_walker.json", "first_robust_s": 9.0}
+    before = {"walker_test": {"update": 40}, "rate": {"walked": 47}, "transfer": {"ratio": 0.95},
+              "sustained": walk(0), "steering": {"reached": True}}
+    restart = {"controller": "seed1/speed_polish/robust_walker.json", "before": before}
+    sped = {"seed": 1, "robust": True, "walker": "seed1/speed_polish_restart1/robust_walker.json",
+            "walker_test": {"update": 5}, "rate": {"walked": 49}, "transfer": {"ratio": 0.9},
+            "sustained": walk(1, 12.0), "steering": {"reached": True}, "speed_polish": first,
+            "speed_polish_restarts": [restart]}
+    undone = keep_the_model_walk(sped)
+    assert undone["walker"] == "seed1/speed_polish/robust_walker.json" and undone["rate"] == {"walked": 47}
+    assert undone["speed_polish"] is first, "the first speed polish stands"
+    assert "12.0 s" in undone["speed_polish_restarts"][0]["rejected"]
+    assert keep_the_model_walk(undone) is undone
 
 
 def test_the_walker_shipped_walks_on_the_model_then_on_the_most_robots():
