@@ -64,13 +64,14 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
     controller file (keys "view", "render"); without it those refuse one."""
     robot = sub.add_parser("robot", help="describe a robot or export its MuJoCo model",
                            description="Describe a robot config or export its MuJoCo model.")
-    rsub = robot.add_subparsers(dest="robot_command", required=True, metavar="{show,mjcf,import}")
+    rsub = robot.add_subparsers(dest="robot_command", required=True, metavar="{show,stand,mjcf,import}")
     show = rsub.add_parser("show", help="joints, servos, masses, control tick and torque margins",
                            description="Print the robot's joints, servos, masses, height, the control "
                            "tick with its derivation, and each joint's torque margin in a half crouch.")
     show.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
     show.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     show.set_defaults(func=cmd_robot_show)
+    _add_stand(rsub)
 
     mjcf = rsub.add_parser("mjcf", help="write the robot as self-contained MJCF",
                            description="Write self-contained MJCF: one position actuator per servo, "
@@ -224,6 +225,26 @@ def cmd_robot_show(args: argparse.Namespace) -> int:
     else:
         _print_description(d)
     return 0
+
+
+def _add_stand(rsub: argparse._SubParsersAction) -> None:
+    stand = rsub.add_parser("stand", help="does it stand? 5 s from home, the servos holding home",
+                            description="Simulate the robot 5 s from its home pose with every servo holding "
+                            "home; print the torso's up-vector, the sag, the share of its weight on the feet, "
+                            "the joints' torque margins, whether it fell or slid, and a verdict (stands, "
+                            "stands with a warning, falls). Exit status 1 when it falls. "
+                            "See docs/robot-stand.md.")
+    stand.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    stand.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    stand.set_defaults(func=cmd_robot_stand)
+
+
+def cmd_robot_stand(args: argparse.Namespace) -> int:
+    from sim2real.simulation.stand_check import check_stand
+
+    report = check_stand(_robot(args.robot))
+    print(json.dumps(report.to_json(), indent=2) if args.json else "\n".join(report.lines()))
+    return 0 if report.stands else 1
 
 
 def cmd_robot_mjcf(args: argparse.Namespace) -> int:

@@ -110,6 +110,7 @@ class StandReport:
         out["holds"] = [dict(asdict(h), margin=h.margin) for h in self.holds]
         out["weakest"] = [h.joint for h in self.weakest[:WORST_SHOWN]]
         out["reasons"] = list(self.reasons)
+        out["reason"] = self.reason
         return out
 
     def lines(self) -> list[str]:
@@ -205,7 +206,7 @@ def check_stand(robot: RobotSpec, seconds: float = STAND_S, model: mujoco.MjMode
         mujoco.mj_step(model, data)
         unstable = instability(data)
         if unstable:
-            fell_at = data.time
+            fell_at = float(data.time)
             break
         up_z = float(parts.up(data.sensordata)[2])
         up_worst = min(up_worst, up_z)
@@ -227,7 +228,7 @@ def check_stand(robot: RobotSpec, seconds: float = STAND_S, model: mujoco.MjMode
     fell = fell_at is not None or share < FEET_FALL_SHARE
     slid = not fell and slide > WARN_SLIDE_SHARE * robot.leg_length
     verdict, reasons = _verdict(robot, unstable, fell_at, share, up_worst, sag, slide, slid, holds)
-    return StandReport(robot.name, float(data.time), up_final, up_worst, sag, share, slide, com_ahead, fell,
+    return StandReport(robot.name, round(float(data.time), 6), up_final, up_worst, sag, share, slide, com_ahead, fell,
                        fell_at, slid, holds, verdict, tuple(reasons))
 
 
