@@ -14,7 +14,8 @@ and left to stand for ``seconds`` with every actuator's target at home.  What is
   window) against its limit - the servo's stall torque from its firmware profile, or a PD
   robot's torque cap - as a margin ``limit / holding`` (as ``robot show`` gives it);
 * whether it fell (evolution's test: the root's centre of mass below :data:`FALL_HEIGHT` of
-  its start, or the torso tilted past :data:`FALL_TILT_DEG`) and whether its feet slid.
+  its start, or the torso tilted past :data:`FALL_TILT_DEG`; or, at the end, tilted past
+  :data:`STAND_TILT_DEG`, or resting on other parts than its feet) and whether its feet slid.
 
 The verdict is ``stands``, ``stands with a warning`` or ``falls``, with every reason.
 
@@ -41,6 +42,7 @@ AVERAGE_S = 0.5  # [s] the final window the weight share and the holding torques
 # fall_tilt_deg; sim2real/simulation/simbus/physics.py FALL_HEIGHT, FALL_TILT_DEG)
 FALL_HEIGHT = 0.7  # the root's centre of mass below this share of its start height
 FALL_TILT_DEG = 60.0  # or the torso tilted this far from upright [deg]
+STAND_TILT_DEG = 45.0  # a torso tilted this far at the end does not stand, however still it rests [deg]
 FEET_FALL_SHARE = 0.5  # the feet carry less than this share of the weight at the end: it rests on something else
 # Warnings: it stands, but the stance is not one to start walking from
 WARN_TILT_DEG = 15.0  # the torso tilted this far at some moment [deg]
@@ -115,7 +117,7 @@ class StandReport:
 
     def lines(self) -> list[str]:
         """The report as text, one fact a line."""
-        tilt = lambda z: math.degrees(math.acos(min(1.0, max(-1.0, z))))  # noqa: E731
+        tilt = _tilt_deg
         out = [f"{self.robot}: {self.seconds:g} s from home, the servos holding home",
                f"  torso up-vector z {self.up_z_final:.4f} at the end ({tilt(self.up_z_final):.1f} deg), "
                f"worst {self.up_z_worst:.4f} ({tilt(self.up_z_worst):.1f} deg)",
@@ -200,7 +202,7 @@ def check_stand(robot: RobotSpec, seconds: float = STAND_S, model: mujoco.MjMode
 
     steps = int(round(seconds / model.opt.timestep))
     window = max(1, int(round(AVERAGE_S / model.opt.timestep)))
-    up_worst, fell_at, unstable = 1.0, None, None
+    up_worst, fell_at, fall, unstable = 1.0, None, "", None
     force_sum, torque_sum, averaged = 0.0, np.zeros(model.nu), 0
     for step in range(steps):
         mujoco.mj_step(model, data)
@@ -210,8 +212,11 @@ def check_stand(robot: RobotSpec, seconds: float = STAND_S, model: mujoco.MjMode
             break
         up_z = float(parts.up(data.sensordata)[2])
         up_worst = min(up_worst, up_z)
-        if parts.root_com(data.xipos)[2] < FALL_HEIGHT * start_z or up_z < min_up_z:
-            fell_at = float(data.time)
+        if parts.root_com(data.xipos)[2] < FALL_HEIGHT * start_z:
+            fell_at, fall = float(data.time), f"the root's centre of mass sank below {FALL_HEIGHT:g} of its start height"
+            break
+        if up_z < min_up_z:
+            fell_at, fall = float(data.time), f"the torso tilted past {FALL_TILT_DEG:g} deg"
             break
         if step >= steps - window:
             force_sum += floor_force_on(model, data, feet)
@@ -225,22 +230,30 @@ def check_stand(robot: RobotSpec, seconds: float = STAND_S, model: mujoco.MjMode
     share = force_sum / averaged / weight
     sag = start_z - float(parts.root_com(data.xipos)[2])
     up_final = float(parts.up(data.sensordata)[2]) if not unstable else float("nan")
-    fell = fell_at is not None or share < FEET_FALL_SHARE
+    fell = fell_at is not None or share < FEET_FALL_SHARE or not _tilt_deg(up_final) <= STAND_TILT_DEG
     slid = not fell and slide > WARN_SLIDE_SHARE * robot.leg_length
-    verdict, reasons = _verdict(robot, unstable, fell_at, share, up_worst, sag, slide, slid, holds)
+    verdict, reasons = _verdict(robot, unstable, fell_at, fall, share, up_final, up_worst, sag, slide, slid, holds)
     return StandReport(robot.name, round(float(data.time), 6), up_final, up_worst, sag, share, slide, com_ahead, fell,
                        fell_at, slid, holds, verdict, tuple(reasons))
 
 
-def _verdict(robot: RobotSpec, unstable: str | None, fell_at: float | None, share: float, up_worst: float,
-             sag: float, slide: float, slid: bool, holds: tuple[JointHold, ...]) -> tuple[str, list[str]]:
+def _tilt_deg(up_z: float) -> float:
+    """The torso's tilt from upright [deg] from its up-vector's z (NaN stays NaN)."""
+    return math.degrees(math.acos(min(1.0, max(-1.0, up_z)))) if math.isfinite(up_z) else float("nan")
+
+
+def _verdict(robot: RobotSpec, unstable: str | None, fell_at: float | None, fall: str, share: float,
+             up_final: float, up_worst: float, sag: float, slide: float, slid: bool,
+             holds: tuple[JointHold, ...]) -> tuple[str, list[str]]:
     """The verdict and its reasons, the deciding one first."""
     if unstable:
         return "falls", [f"the simulation went {unstable}"]
     falls = []
     if fell_at is not None:
-        falls.append(f"it fell after {fell_at:.2f} s (the root's centre of mass below {FALL_HEIGHT:g} of its "
-                     f"start height, or the torso tilted past {FALL_TILT_DEG:g} deg)")
+        falls.append(f"it fell after {fell_at:.2f} s: {fall}")
+    elif _tilt_deg(up_final) > STAND_TILT_DEG:
+        falls.append(f"it ends with the torso tilted {_tilt_deg(up_final):.0f} deg, past {STAND_TILT_DEG:g}: "
+                     "bent over or lying, not standing")
     elif share < FEET_FALL_SHARE:
         falls.append(f"its feet carry only {100 * share:.0f} % of its weight at the end: it rests on "
                      "another part")
@@ -250,7 +263,7 @@ def _verdict(robot: RobotSpec, unstable: str | None, fell_at: float | None, shar
     stalled = [h.joint for h in holds if h.margin is not None and h.margin < STALLED_MARGIN]
     if stalled:  # it stands in the simulation, but a real servo held at stall overheats
         warnings.append(f"{', '.join(stalled)} at the limit of their torque: the servo stalls")
-    tilt = math.degrees(math.acos(min(1.0, up_worst)))
+    tilt = _tilt_deg(up_worst)
     if tilt > WARN_TILT_DEG:
         warnings.append(f"the torso tilted {tilt:.0f} deg (over {WARN_TILT_DEG:g})")
     if sag > WARN_SAG_SHARE * robot.leg_length:
