@@ -5,6 +5,7 @@ home falls, checked on the generated URDF humanoid imported as a user would."""
 import json
 import math
 
+import mujoco
 import pytest
 import yaml
 from robots.urdf_humanoid import write_humanoid
@@ -12,7 +13,8 @@ from robots.urdf_humanoid import write_humanoid
 from evolve.cli import main
 from sim2real.robot import load_robot
 from sim2real.robot.validation import load_yaml
-from sim2real.simulation.stand_check import VERDICTS, check_stand
+from sim2real.simulation.robot_model import RobotModel
+from sim2real.simulation.stand_check import VERDICTS, check_stand, floor_force_on, foot_bodies
 from sim2real.simulation.stand_home import NoStandingHome, leg_pitch_joints, needs_home, propose_home, with_stance
 from sim2real.simulation.model_builder import build_model
 
@@ -93,6 +95,38 @@ def test_a_stance_tilted_past_fifteen_degrees_stands_with_a_warning(imported):
     report = check_stand(bent)
     assert report.verdict == "stands with a warning" and report.stands
     assert report.reasons[0].startswith("the torso tilted") and not report.fell
+
+
+def test_feet_that_slide_are_reported():
+    """On ice (friction 0.05) tilted by a slope's share of gravity (0.5 m/s^2 along x)."""
+    robot = load_robot("xl430_biped")
+    model = build_model(robot)
+    model.opt.gravity[:] = (0.5, 0.0, -9.81)
+    model.geom_friction[:, 0] = 0.05
+    report = check_stand(robot, model=model)
+    assert report.slid and report.slide_m > 0.05 and not report.fell
+    assert report.verdict == "stands with a warning" and "a foot slid" in report.reason
+
+
+def test_the_weight_share_counts_only_the_floor_under_the_feet():
+    """A robot lying on its back: the floor carries its weight, on its trunk and pelvis as well as
+    its heels; the feet's share is the heels' alone."""
+    robot = load_robot("xl430_biped")
+    model = build_model(robot)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    data.qpos[2], data.qpos[3:7] = 0.1, (math.cos(math.pi / 4), 0.0, -math.sin(math.pi / 4), 0.0)  # on its back
+    for _ in range(int(1.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    weight = model.body_mass.sum() * 9.81
+    parts = RobotModel.of(model, robot)
+    everything = set(range(1, model.nbody))
+    feet = foot_bodies(model, parts)
+    assert feet == {model.body("left_foot").id, model.body("right_foot").id}
+    assert floor_force_on(model, data, everything) == pytest.approx(weight, rel=0.02)
+    rest = floor_force_on(model, data, everything - feet)
+    assert rest > 0.3 * weight
+    assert floor_force_on(model, data, feet) == pytest.approx(weight - rest, rel=0.02)
 
 
 # -- the command and its JSON ------------------------------------------------------------------
