@@ -191,6 +191,22 @@ def test_the_proposed_home_stands_where_the_bent_forward_one_falls(imported, cap
     assert json.loads(capsys.readouterr().out)["verdict"] == "stands"
 
 
+def test_robot_stand_proposes_a_home_for_an_imported_yaml_that_falls(imported, capsys):
+    doc = _pitch_home(load_yaml(imported), 60, 0, 0)
+    bent = imported.with_name("kit_bent.yaml")
+    bent.write_text(yaml.safe_dump(doc))
+    assert main(["robot", "stand", str(bent), "--propose-home", "--json"]) == 1  # its own home falls
+    d = json.loads(capsys.readouterr().out)
+    assert d["verdict"] == "falls" and set(d["proposed_home"]) == {"knee_deg", "home_deg", "range_deg", "centred",
+                                                                    "stand", "tried", "notes"}
+    proposed = d["proposed_home"]
+    assert proposed["stand"]["verdict"] == "stands" and proposed["home_deg"]["l_knee_joint"] == 30.0
+    assert main(["robot", "stand", str(bent), "--propose-home"]) == 1
+    out = capsys.readouterr().out
+    assert "verdict: falls" in out and "home: proposed, knees bent 30 deg" in out
+    assert "  r_knee_joint: home_deg: 30.0, range_deg: [0.0, 60.0]" in out
+
+
 def test_no_standing_home_says_what_each_knee_bend_did(imported):
     robot = load_robot(str(imported))
     with pytest.raises(NoStandingHome) as err:

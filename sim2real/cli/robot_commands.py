@@ -236,14 +236,28 @@ def _add_stand(rsub: argparse._SubParsersAction) -> None:
                             "See docs/robot-stand.md.")
     stand.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
     stand.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    stand.add_argument("--propose-home", action="store_true",
+                       help="also propose a home that stands (knees bent, feet flat, the centre of mass over "
+                       "the soles) and leg ranges centred on it, checked the same way (the exit status is "
+                       "still the given home's)")
     stand.set_defaults(func=cmd_robot_stand)
 
 
 def cmd_robot_stand(args: argparse.Namespace) -> int:
     from sim2real.simulation.stand_check import check_stand
 
-    report = check_stand(_robot(args.robot))
-    print(json.dumps(report.to_json(), indent=2) if args.json else "\n".join(report.lines()))
+    robot = _robot(args.robot)
+    report = check_stand(robot)
+    proposal = None
+    if args.propose_home:
+        from sim2real.simulation.stand_home import propose_home
+
+        proposal = propose_home(robot)
+    if args.json:
+        print(json.dumps(report.to_json() | ({"proposed_home": proposal.to_json()} if proposal else {}), indent=2))
+    else:
+        print("\n".join(report.lines() + (proposal.report() + ["in the robot YAML:"] + proposal.yaml_lines()
+                                          if proposal else [])))
     return 0 if report.stands else 1
 
 

@@ -85,6 +85,21 @@ class HomeProposal:
         """``robot`` with this home and these ranges."""
         return with_stance(robot, self.home_rad, self.range_rad)
 
+    def to_json(self) -> dict:
+        """The proposal as ``biped robot stand --propose-home --json`` prints it (degrees, as a
+        robot YAML holds them)."""
+        return {"knee_deg": self.knee_deg,
+                "home_deg": {n: round(math.degrees(a), 1) for n, a in self.home_rad.items()},
+                "range_deg": {n: [round(math.degrees(a), 1) for a in r] for n, r in self.range_rad.items()},
+                "centred": list(self.centred), "stand": self.stand.to_json(),
+                "tried": list(self.tried), "notes": list(self.notes)}
+
+    def yaml_lines(self) -> list[str]:
+        """Each changed joint's ``home_deg`` and ``range_deg``, to copy into the robot YAML."""
+        return [f"  {name}: home_deg: {math.degrees(self.home_rad[name]):.1f}, range_deg: "
+                f"[{math.degrees(lo):.1f}, {math.degrees(hi):.1f}]"
+                for name, (lo, hi) in self.range_rad.items() if name in self.centred]
+
     def report(self) -> list[str]:
         """What the importer says about it, one fact a line."""
         deg = {name: math.degrees(a) for name, a in self.home_rad.items()}
@@ -96,10 +111,8 @@ class HomeProposal:
                f"  it {s.verdict} by the {s.seconds:g} s stand check: up-vector z {s.up_z_final:.4f}, sag "
                f"{1e3 * s.sag_m:.1f} mm, the feet carry {100 * s.feet_weight_share:.0f} % of its weight"
                + (f" ({s.reason})" if s.reasons else ""),
-               "  leg ranges centred on this stance (the networks drive the central 80 % of each range, so a "
-               "network at rest holds it): " + ", ".join(
-                   f"{name} [{math.degrees(lo):.1f}, {math.degrees(hi):.1f}]"
-                   for name, (lo, hi) in self.range_rad.items() if name in self.centred)]
+               f"  the ranges of the {len(self.centred)} leg joints centred on this stance (the networks drive the "
+               "central 80 % of each range, so a network at rest holds it), within the joints' limits"]
         out += [f"  {t}" for t in self.tried]
         out += [f"  {n}" for n in self.notes]
         return out
