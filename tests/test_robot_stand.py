@@ -221,3 +221,10 @@ def test_a_leg_without_a_knee_is_named():
     object.__setattr__(kneeless, "joints", tuple(j for j in robot.joints if j.name != "left_knee"))
     with pytest.raises(ValueError, match="the left leg has no knee pitch joint"):
         leg_pitch_joints(kneeless, model)
+
+
+def test_a_bad_robot_file_is_refused_with_the_file_named(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\ndescription: y\nbody: {}\njoints: []\ncontrol_sets: {}\nwings: 2\n")
+    assert main(["robot", "stand", str(bad)]) == 2
+    assert main(["robot", "stand", str(tmp_path / "none.yaml")]) == 2
