@@ -91,7 +91,8 @@ def test_a_model_robot_bent_over_at_the_hips_falls_though_it_rests_still():
 
 def test_a_stance_tilted_past_fifteen_degrees_stands_with_a_warning(imported):
     robot = load_robot(str(imported))
-    bent = with_stance(robot, {j.name: math.radians(20) for j in robot.joints if j.location == "hip" and j.axis == "pitch"})
+    hips = [j.name for j in robot.joints if j.location == "hip" and j.axis == "pitch"]
+    bent = with_stance(robot, {n: math.radians(20) for n in hips})
     report = check_stand(bent)
     assert report.verdict == "stands with a warning" and report.stands
     assert report.reasons[0].startswith("the torso tilted") and not report.fell
