@@ -49,6 +49,7 @@ def test_op3_stands_with_the_numbers_the_readme_quotes():
     assert report.sag_m == pytest.approx(0.0026, abs=0.001)  # README: 2.6 mm sag
     assert report.feet_weight_share == pytest.approx(1.0, abs=0.01)  # README: feet carry its weight
     assert not report.fell and not report.slid and report.seconds == pytest.approx(5.0)
+    assert report.com_ahead_m == pytest.approx(0.018, abs=0.003)  # ROBOTIS's stance leans 7 deg forward
     assert {h.joint for h in report.weakest[:2]} == {"l_knee", "r_knee"}  # the knees carry the most
     assert all(h.limit_nm == pytest.approx(4.1) and h.limit_kind == "stall" for h in report.holds)  # XM430-W350
     assert 3.0 < report.weakest[0].margin < 15.0
