@@ -34,7 +34,7 @@ import numpy as np
 from sim2real.robot import RobotSpec
 from sim2real.robot.spec import GRAVITY
 from sim2real.simulation.model_builder import build_model, instability
-from sim2real.simulation.robot_model import FEET, RobotModel
+from sim2real.simulation.robot_model import RobotModel
 
 STAND_S = 5.0  # [s] simulated from home
 AVERAGE_S = 0.5  # [s] the final window the weight share and the holding torques are averaged over
@@ -170,17 +170,26 @@ def _limits(robot: RobotSpec, model: mujoco.MjModel) -> list[tuple[float, str]]:
     return out
 
 
-def _com_ahead(model: mujoco.MjModel, data: mujoco.MjData, parts: RobotModel, robot: RobotSpec) -> float:
-    """The whole robot's centre of mass ahead of the middle of its soles, along the torso's
-    forward direction flattened onto the floor [m] (needs kinematics)."""
-    com = (model.body_mass[:, None] * data.xipos).sum(axis=0) / model.body_mass.sum()
-    forward = data.xmat[parts.root].reshape(3, 3)[:, 0].copy()
+def forward_direction(model: mujoco.MjModel, data: mujoco.MjData, robot: RobotSpec) -> np.ndarray:
+    """(3,) the robot's forward direction on the floor, unit (needs kinematics): a hip pitch
+    joint's axis (+ is flexion, the thigh forward: :mod:`sim2real.robot.anatomy`) crossed into
+    world up; the root body's x axis for a robot without one."""
+    hips = [j.name for j in robot.joints if j.location == "hip" and j.axis == "pitch"]
+    if hips:
+        forward = np.cross([0.0, 0.0, 1.0], data.xaxis[model.joint(hips[0]).id])
+    else:
+        forward = data.xmat[model.body(robot.root_body).id].reshape(3, 3)[:, 0].copy()
     forward[2] = 0.0
     norm = float(np.linalg.norm(forward))
-    if norm < 1e-9:
-        return float("nan")
+    return forward / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
+
+
+def _com_ahead(model: mujoco.MjModel, data: mujoco.MjData, parts: RobotModel, robot: RobotSpec) -> float:
+    """The whole robot's centre of mass ahead of the middle of its soles, along its forward
+    direction (:func:`forward_direction`) [m] (needs kinematics)."""
+    com = (model.body_mass[:, None] * data.xipos).sum(axis=0) / model.body_mass.sum()
     middle = parts.sole_positions(data.site_xpos).mean(axis=0)
-    return float(np.dot(com[:2] - middle[:2], forward[:2] / norm))
+    return float(np.dot(com - middle, forward_direction(model, data, robot)))
 
 
 def check_stand(robot: RobotSpec, seconds: float = STAND_S, model: mujoco.MjModel | None = None) -> StandReport:
@@ -213,7 +222,8 @@ def check_stand(robot: RobotSpec, seconds: float = STAND_S, model: mujoco.MjMode
         up_z = float(parts.up(data.sensordata)[2])
         up_worst = min(up_worst, up_z)
         if parts.root_com(data.xipos)[2] < FALL_HEIGHT * start_z:
-            fell_at, fall = float(data.time), f"the root's centre of mass sank below {FALL_HEIGHT:g} of its start height"
+            fell_at = float(data.time)
+            fall = f"the root's centre of mass sank below {FALL_HEIGHT:g} of its start height"
             break
         if up_z < min_up_z:
             fell_at, fall = float(data.time), f"the torso tilted past {FALL_TILT_DEG:g} deg"

@@ -39,7 +39,7 @@ from sim2real.robot import RobotSpec
 from sim2real.robot.spec import LEG_LOCATIONS
 from sim2real.simulation.model_builder import build_model
 from sim2real.simulation.robot_model import JointAngles, RobotModel
-from sim2real.simulation.stand_check import STAND_S, StandReport, check_stand
+from sim2real.simulation.stand_check import STAND_S, StandReport, check_stand, forward_direction
 
 KNEE_BENDS_DEG = (30.0, 20.0, 40.0, 15.0, 50.0, 60.0)  # tried in this order: a slight bend first
 STRAIGHT_KNEE_DEG = 5.0  # a home knee bent less than this is straight: no stance to walk from
@@ -203,9 +203,7 @@ class _Stance:
         self.data.qpos[:] = model.qpos0  # zero pose, root as drawn
         self.root_qpos = model.qpos0.copy()
         mujoco.mj_kinematics(model, self.data)
-        axis = self.data.xaxis[model.joint(legs[0].hip).id]  # + is flexion: the thigh forward
-        forward = np.cross([0.0, 0.0, 1.0], axis)
-        self.forward = forward / np.linalg.norm(forward)
+        self.forward = forward_direction(model, self.data, robot)
         # each foot's direction that is up at the zero pose, in the foot's frame
         self.foot_up = [self.data.xmat[b].reshape(3, 3).T @ np.array([0.0, 0.0, 1.0]) for b in self.feet]
 
