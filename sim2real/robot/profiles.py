@@ -243,6 +243,11 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     protocol = root["protocol"].number()
     if protocol not in (1.0, 2.0):
         raise root.error(f"must be 1.0 or 2.0, got {protocol}", key="protocol")
+    if protocol == 1.0:  # a protocol-1.0 packet carries the address in one byte
+        for i, reg in enumerate(table.values()):
+            if reg.address + reg.size > 256:
+                raise root.error(f"{reg.name} (address {reg.address}, {reg.size} bytes) is beyond address 255, "
+                                 "which protocol 1.0 cannot reach", key=f"control_table[{i}].address")
     profile = dict(
         model=root["model"].string(),
         kind=kind,
