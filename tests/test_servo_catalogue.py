@@ -124,3 +124,45 @@ def test_robot_show_names_each_joints_model_protocol_and_profile_file(mixed_robo
     for model, file, protocol in (("MX-28", "mx28_p1.yaml", "1.0"), ("MX-64", "mx64_p1.yaml", "1.0"),
                                   ("AX-12A", "ax12a.yaml", "1.0"), ("XM430-W350", "xm430_w350.yaml", "2.0")):
         assert f"servo {model}: firmware_profiles/{file}, protocol {protocol}" in out
+
+
+# -- protocol 1.0's sign-magnitude entries on the simulated bus ---------------------------------
+def test_sign_magnitude_entries_encode_as_the_servo_sends_them():
+    from sim2real.hardware.dynamixel.chain import decode, encode
+    from sim2real.robot.profiles import load_profile
+
+    load = load_profile("MX-64").register("present_load")
+    assert encode(load, -5) == 0x405 and encode(load, 5) == 5  # bit 10: CW
+    assert [decode(load, encode(load, v)) for v in (-1023, -1, 0, 1, 1023)] == [-1023, -1, 0, 1, 1023]
+    with pytest.raises(ValueError):
+        encode(load, 1024)
+
+
+def test_the_simulated_bus_reports_a_protocol_1_servos_load_with_its_sign_bit(tmp_path):
+    """A standing robot on MX-64 (protocol 1.0): Present Load decodes to the torque each servo
+    carries, in 0.1 % of its stall torque, negative ones included."""
+    import numpy as np
+
+    from sim2real.hardware.dynamixel.chain import decode
+    from sim2real.simulation.simbus.physics import PhysicsChain
+
+    doc = yaml.safe_load((ROOT / "configs" / "robots" / "xl430_biped.yaml").read_text())
+    doc["servo_model"] = "MX-64"
+    doc["bus"]["baud"] = 1_000_000
+    path = tmp_path / "mx64_biped.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    robot = load_robot(path)
+    now = [0.0]
+    physics = PhysicsChain(robot, clock=lambda: now[0])
+    for dxl_id in physics.ids:  # hold the home pose
+        physics.devices[dxl_id].set_named("torque_enable", 1)
+    now[0] = 0.2
+    physics.advance()
+    expected = np.rint(physics.mapping.direction * physics.data.actuator_force / physics.stall * 1000.0)
+    reported = []
+    for dxl_id in physics.ids:
+        device = physics.devices[dxl_id]
+        reg = device.profile.register("present_load")
+        reported.append(decode(reg, device.get(reg.address, reg.size)))
+    assert np.any(expected < 0)  # the case that needs the sign bit
+    assert reported == [int(np.clip(v, -1023, 1023)) for v in expected]
