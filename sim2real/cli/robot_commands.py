@@ -137,6 +137,8 @@ def describe(robot: RobotSpec) -> dict:
             "range_rad": list(j.range_rad), "home_rad": j.home_rad,
             "servo_id": j.servo.id if j.servo else None,
             "servo_model": j.servo.profile.model if j.servo else None,
+            "servo_protocol": j.servo.profile.protocol if j.servo else None,
+            "servo_profile": j.servo.profile.path.name if j.servo else None,  # its file in firmware_profiles/
             "direction": j.servo.direction if j.servo else None,
             "zero_offset_rad": j.servo.zero_offset_rad if j.servo else None,
             "sign": j.sign,
@@ -204,15 +206,19 @@ def _print_description(d: dict) -> None:
     print(f"  rule: {deriv['rule']}")
     print(f"joints (torque margin: stall / holding torque, {d['torque_margin_stance']}):")
     width = max([18] + [len(j["name"]) for j in d["joints"]])
-    print(f"  {'name':<{width}} {'id':>3} {'servo':<14} {'range [deg]':>16} {'home':>6} "
+    print(f"  {'name':<{width}} {'id':>3} {'servo':<14} {'proto':>5} {'range [deg]':>16} {'home':>6} "
           f"{'hold [N m]':>10} {'margin':>7} {'step/tick':>9}")
     for j in d["joints"]:
         lo, hi = (math.degrees(a) for a in j["range_rad"])
         margin = "-" if j["torque_margin"] is None else f"{j['torque_margin']:.1f}x"
         step = f"{math.degrees(j['max_goal_step_rad']):.1f} deg" if "max_goal_step_rad" in j else "-"
+        protocol = "-" if j["servo_protocol"] is None else f"{j['servo_protocol']:.1f}"
         print(f"  {j['name']:<{width}} {j['servo_id'] if j['servo_id'] is not None else '-':>3} "
-              f"{j['servo_model'] or 'PD':<14} {f'[{lo:.1f}, {hi:.1f}]':>16} "
+              f"{j['servo_model'] or 'PD':<14} {protocol:>5} {f'[{lo:.1f}, {hi:.1f}]':>16} "
               f"{math.degrees(j['home_rad']):>6.1f} {j['holding_torque_nm']:>10.3f} {margin:>7} {step:>9}")
+    profiles = {j["servo_model"]: (j["servo_profile"], j["servo_protocol"]) for j in d["joints"] if j["servo_model"]}
+    for model, (file, protocol) in profiles.items():  # which profile each model name resolved to
+        print(f"  servo {model}: firmware_profiles/{file}, protocol {protocol:.1f}")
     weak = [j["name"] for j in d["joints"] if j["torque_margin"] is not None and j["torque_margin"] < 1.5]
     if weak:
         print(f"warning: torque margin below 1.5x at {', '.join(weak)}")
