@@ -76,11 +76,12 @@ class Judge:
 
     def __init__(self, path: Path, realities: list[str], capacity: int, episode_s: float | None = None,
                  selection: dict[str, float] | None = None, heading_deg: float | None = None,
-                 nominal: bool = False, min_speed_m_s: float | None = None, threads: int = 1):
+                 nominal: bool = False, min_speed_m_s: float | None = None, threads: int = 1,
+                 robot: str | None = None):
         self.realities = [load_reality(name) for name in realities]
 
         def setup(reality: Reality):
-            return controller_setup(path, None, episode_s, episodes=capacity, reality=reality, threads=threads)
+            return controller_setup(path, robot, episode_s, episodes=capacity, reality=reality, threads=threads)
         self.data, self.robot, self.evaluator, self.genome = setup(self.realities[0])
         # the model keeps as much actuator history as the longest latency of any ranges needs
         widest = max(self.realities, key=lambda r: latency_capacity_s(r, self.evaluator.tick_s))
@@ -186,6 +187,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
            nominal: bool = False, lr_adapt: bool = False, worst: float = 1.0,
            on_best: Callable[[Path, dict[str, Any]], bool] | None = None, resume: bool = False,
            patience: int | None = None, threads: int = 1, should_stop: Callable[[], bool] | None = None,
+           robot: str | None = None,
            log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
     ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
@@ -214,7 +216,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     ``patience``: stop once this many validations in a row kept nothing (a plateau; None:
     run every update).  ``threads``: simulation threads (0: every core); the search does
     not depend on them.  ``should_stop()``: asked after every update (a time budget); True
-    ends the search there.  ``test`` 0: no final test (the caller measures the walker itself)."""
+    ends the search there.  ``test`` 0: no final test (the caller measures the walker itself).
+    ``robot``: the walker's robot, a name or a file (None: the one the controller names)."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
     checkpoint = out / CHECKPOINT
@@ -227,7 +230,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
                                                ("selection_speed_leg_s", speed_leg_s),
                                                ("selection_walk_bonus", walk_bonus)) if value is not None}
     judge = Judge(path, realities, max(popsize * robots, validation, 1), episode_s, selection, heading_deg,
-                  nominal, min_speed_m_s, threads)
+                  nominal, min_speed_m_s, threads, robot)
     x0 = judge.start
     optimizer = CMA(mean=x0.copy(), sigma=sigma, population_size=popsize, seed=seed, lr_adapt=lr_adapt,
                     bounds=np.tile([-WEIGHT_LIMIT, WEIGHT_LIMIT], (len(x0), 1)))

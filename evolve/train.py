@@ -65,8 +65,7 @@ CONTROLLER = "controller.json"  # the trained walker
 DEFAULT_MINUTES = 60.0
 NEAT_SHARE = 0.45  # NEAT may spend this share of the budget before the polish starts anyway
 POLISH_UNTIL = 0.65  # the walk-rate polish ends by this share of the budget
-MEASURE_SHARE = 0.08  # kept for the measuring (a floor of MEASURE_MIN_S): 50 robots, 60 s walks, dry runs
-MEASURE_MIN_S = 90.0
+MEASURE_SHARE = 0.08  # kept for the measuring: 50 robots, 60 s walks, 3 dry runs in real time, a turn
 REFERENCE_LEG_M, REFERENCE_PERIOD_S = 0.245, 0.6  # the XL430 biped's leg and its tuned gait clock period
 # CMA-ES settings of the recipe that made the shipped walker (benchmarks/RESULTS.md, robust walking v2)
 POLISH = {"popsize": 16, "robots": 16, "sigma": 0.1, "validation": 30, "worst": 1.0}
@@ -75,6 +74,9 @@ SPEED_GOAL_M_S = 0.15  # the straight-walk goal's speed: the speed polish counts
 MAX_UPDATES = 100_000  # a stage's update cap; the budget ends it long before
 PATIENCE = 4  # validations (5 updates each) without a kept walker before a polish stage stops
 STAGES = ("neat", "polish", "speed", "measure")
+# the joints a walker drives, by control set name in order of preference: seed 000's table 1 "Walk"
+# set (waist yaw, hips, knees) where the robot has one, else every leg joint (what import writes)
+WALKING_SETS = ("walk", "legs")
 
 
 @dataclass(frozen=True)
@@ -107,9 +109,6 @@ class Budget:
         """Seconds left until ``share`` of the budget is spent (negative: past it)."""
         return share * self.minutes * 60.0 - self.elapsed_s
 
-    @property
-    def measure_reserve_share(self) -> float:
-        return max(MEASURE_SHARE, MEASURE_MIN_S / (self.minutes * 60.0))
 
 
 def gait_period_s(leg_length_m: float) -> float:
@@ -122,15 +121,18 @@ def gait_period_s(leg_length_m: float) -> float:
 def neat_config(robot_name: str, settings: TrainSettings) -> EvolveConfig:
     """The NEAT stage's config: ``settings.config`` for ``robot_name``, its seed and threads, and
     the gait clock's period from the robot's leg length."""
-    from evolve.cli_commands import resolve_config
+    from evolve.config import config_path
     from sim2real.robot import load_robot
 
     robot = load_robot(robot_name)
-    config = load_evolve_config(resolve_config(settings.config))
-    if config.task.control_set not in robot.control_sets:
-        raise UsageError(f"robot {robot.name} has no {config.task.control_set!r} control set (it has: "
-                         f"{', '.join(robot.control_sets)}); a walker drives its legs")
-    task = dataclasses.replace(config.task, phase_period_s=gait_period_s(robot.leg_length))
+    config = load_evolve_config(config_path(settings.config))
+    wanted = (config.task.control_set, *WALKING_SETS)
+    control_set = next((name for name in wanted if name in robot.control_sets), None)
+    if control_set is None:
+        raise UsageError(f"robot {robot.name} has none of the control sets a walker drives ({', '.join(wanted)}; "
+                         f"it has: {', '.join(robot.control_sets)}): add one listing its leg joints")
+    task = dataclasses.replace(config.task, control_set=control_set,
+                               phase_period_s=gait_period_s(robot.leg_length))
     return config.replace(robot=robot_name, seed=settings.seed, threads=settings.threads, task=task,
                           generations=1_000_000)
 
@@ -213,7 +215,7 @@ def _neat(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, 
         if best is not None and not best.harness and (best.generation, best.genome.key) not in tested:
             tested.add((best.generation, best.genome.key))
             run.controller(best).save(candidate)
-            test = robustness(candidate, threads=settings.threads)
+            test = robustness(candidate, threads=settings.threads, robot=robot_name)
             robust = is_robust(test)
             found["tests"].append({"generation": best.generation, "key": best.genome.key, **_short(test),
                                    "robust": robust})
@@ -253,9 +255,9 @@ def _polish(robot_name: str, out: Path, settings: TrainSettings, state: dict[str
     neat = state["stages"]["neat"]
     source = Path(neat["walker"])
     folder = out / "polish"
-    end = 1.0 - budget.measure_reserve_share
+    end = 1.0 - MEASURE_SHARE
     until = lambda: POLISH_UNTIL if neat["robust"] or (folder / "walker.json").exists() else end  # noqa: E731
-    return polish_stage(source, folder, settings, budget, until, log, dict(POLISH))
+    return polish_stage(source, folder, settings, budget, until, log, dict(POLISH), robot_name)
 
 
 def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
@@ -265,11 +267,11 @@ def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str,
         log("no robust walker to polish for speed")
         return {"runs": [], "walker": None, "skipped": True}
     source = Path(_latest_walker(state))
-    until = 1.0 - budget.measure_reserve_share
+    until = 1.0 - MEASURE_SHARE
     # no walk slower than the walker's own counts (the lower of its 60 s walks'), so the polish keeps
     # no slower walker; but at most the goal's speed, which no 10 s episode of a fast walker (its
     # start-up included) may reach, leaving validation nothing to keep walkers by
-    own = [sustained(source, reality, episodes, threads=settings.threads)["speed_m_s"]
+    own = [sustained(source, reality, episodes, threads=settings.threads, robot=robot_name)["speed_m_s"]
            for reality, episodes in ((None, 1), ("default", 3))]
     min_speed = min(SPEED_GOAL_M_S, *own)
     log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s; the speed polish counts walks from "
@@ -278,7 +280,7 @@ def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str,
     for restart in (0, 1):
         folder = out / ("speed" if not restart else f"speed_restart{restart}")
         stage = dict(SPEED, min_speed_m_s=min_speed)
-        record = polish_stage(source, folder, settings, budget, until, log, stage)
+        record = polish_stage(source, folder, settings, budget, until, log, stage, robot_name)
         records.append(record)
         if record["walker"] is None or budget.until(until) <= 0:
             break
@@ -294,13 +296,13 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
 
     walker = Path(_latest_walker(state))
     log(f"measuring {walker}")
-    measured = measure_walker(walker, log, threads=settings.threads)
+    measured = measure_walker(walker, log, threads=settings.threads, robot=robot_name)
     speed = state["stages"]["speed"]
     if speed["walker"] and measured["sustained"]["nominal"]["falls"]:
         before = Path(_latest_walker(state, skip_speed=True))
         log(f"the speed polish's walker falls on the nominal model at "
             f"{measured['sustained']['nominal']['upright_s']:.1f} s; measuring the walker it started from")
-        earlier = measure_walker(before, log, threads=settings.threads)
+        earlier = measure_walker(before, log, threads=settings.threads, robot=robot_name)
         if not earlier["sustained"]["nominal"]["falls"]:
             speed["undone"] = "falls on the nominal model in the 60 s walk; the walker it started from does not"
             walker, measured = before, earlier
@@ -330,7 +332,8 @@ STAGE_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
 
 
 def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Budget,
-                 until: float | Callable[[], float], log: Callable[[str], None], stage: dict[str, Any]) -> dict[str, Any]:
+                 until: float | Callable[[], float], log: Callable[[str], None], stage: dict[str, Any],
+                 robot: str | None = None) -> dict[str, Any]:
     """Polish ``source`` in ``folder`` until a plateau or ``until`` (a share of the budget, or a
     function giving it) is spent, testing each walker its validation keeps against the robustness
     bar; ``walker``: the last that passed (None: none), ``kept``: the weights validation kept.
@@ -352,7 +355,7 @@ def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Bu
     def on_best(kept: Path, entry: dict[str, Any]) -> bool:
         done = [t for t in tests["tests"] if t["update"] == entry["update"]]
         if not done:
-            test = robustness(kept, threads=settings.threads)
+            test = robustness(kept, threads=settings.threads, robot=robot)
             done = [{"update": entry["update"], **_short(test), "robust": is_robust(test)}]
             tests["tests"].append(done[0])
             write_json_atomic(tests_file, tests)
@@ -366,7 +369,7 @@ def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Bu
     options = {k: v for k, v in stage.items() if k != "popsize"}
     record = polish(source, folder, updates=MAX_UPDATES, popsize=stage["popsize"], seed=settings.seed,
                     on_best=on_best, resume=resume, patience=PATIENCE, threads=settings.threads, test=0,
-                    should_stop=lambda: budget.until(share()) <= 0, log=log, **options)
+                    should_stop=lambda: budget.until(share()) <= 0, robot=robot, log=log, **options)
     return {"source": str(source), "walker": str(walker) if walker.exists() else None,
             "kept": record["polished"] if record["kept_update"] else None,
             **{k: v for k, v in record.items() if k in ("kept_update", "history", "physics_steps", "minutes")},

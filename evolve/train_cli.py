@@ -44,22 +44,25 @@ def add_command(sub: argparse._SubParsersAction) -> None:
 
 def check_train(args: argparse.Namespace) -> None:
     """Everything that can be checked before a folder is made: the flags, the robot, the config."""
-    from evolve.cli_commands import resolve_config
+    from evolve.config import config_path
     from evolve.train import TrainSettings, neat_config
 
     if args.resume and args.out is None:
         raise UsageError("--resume needs --out DIR: the training folder to continue")
-    resolve_config(args.config)
+    config_path(args.config)
     neat_config(args.robot, TrainSettings(seed=args.seed, threads=args.threads, config=args.config))
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    stem = Path(args.robot).stem if args.robot.endswith((".yaml", ".yml")) else args.robot.replace(":", "_")
+    robot = args.robot
+    if Path(robot).suffix in (".yaml", ".yml"):  # a file: kept by its full path, so a resume from elsewhere finds it
+        robot = str(Path(robot).resolve())
+    stem = Path(robot).stem if Path(robot).suffix in (".yaml", ".yml") else robot.replace(":", "_")
     out = args.out or Path("runs") / f"train-{stem}-seed{args.seed}"
     settings = TrainSettings(minutes=args.minutes, seed=args.seed, threads=args.threads, config=args.config)
     command = "biped " + shlex.join(sys.argv[1:]) if sys.argv[1:2] == ["train"] else "biped train " + args.robot
     try:
-        state = train(args.robot, out, settings, resume=args.resume, command=command, quiet=args.quiet)
+        state = train(robot, out, settings, resume=args.resume, command=command, quiet=args.quiet)
     except KeyboardInterrupt:
         print(f"\ninterrupted: the training in {out} keeps every finished stage and the cut one's checkpoint; "
               f"continue with: biped train {shlex.quote(args.robot)} --out {shlex.quote(str(out))} --resume",
@@ -71,8 +74,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     done = ", ".join(f"{name} {state['stages'][name]['wall_minutes']:.1f}" for name in STAGES)
     print(f"trained in {state['elapsed_s'] / 60:.1f} min ({done}) -> {controller}")
     print("bar: " + ", ".join(f"{k} {'met' if v else 'MISSED'}" for k, v in bar.items()))
+    given = f" --robot {shlex.quote(robot)}" if robot != args.robot or Path(robot).suffix else ""
     print("next:")
-    print(f"  biped eval {controller} --randomize --episodes 20   # on robots unlike the model")
-    print(f"  biped dry-run {controller} --reality default         # the real runtime on the simulated bus")
-    print(f"  biped run {controller} --bus mock                    # then --port /dev/ttyUSB0 on the robot")
+    print(f"  biped eval {controller}{given} --randomize --episodes 20   # on robots unlike the model")
+    print(f"  biped dry-run {controller}{given} --reality default   # the real runtime on the simulated bus")
+    print(f"  biped run {controller}{given} --bus mock   # then --port /dev/ttyUSB0 on the robot, see the README")
     return 0

@@ -38,12 +38,13 @@ TRANSFER_RUNS, TRANSFER_KEEP = 3, 0.8  # dry runs, and the share of the simulate
 
 
 def robustness(controller: Path, draws: int = DRAWS, default_episodes: int = DEFAULT_EPISODES,
-               threads: int = 1) -> dict[str, Any]:
-    """The controller on ``draws`` unseen randomized robots and on ``default.yaml``."""
+               threads: int = 1, robot: str | None = None) -> dict[str, Any]:
+    """The controller on ``draws`` unseen randomized robots and on ``default.yaml``.  ``robot``
+    (here and below): its robot's name or file (None: the one the controller names)."""
     keep = ("walked", "distance_m", "min_distance_m", "falls", "upright_s")
-    randomized = evaluate_controller(controller, seconds=EPISODE_S, episodes=draws, randomize="randomize",
+    randomized = evaluate_controller(controller, robot, seconds=EPISODE_S, episodes=draws, randomize="randomize",
                                      seed=TEST_SEED, threads=threads)
-    default = evaluate_controller(controller, seconds=EPISODE_S, episodes=default_episodes, randomize="default",
+    default = evaluate_controller(controller, robot, seconds=EPISODE_S, episodes=default_episodes, randomize="default",
                                   seed=TEST_SEED, threads=threads)
     return {"randomized": {k: randomized[k] for k in keep}, "default": {k: default[k] for k in keep},
             "draws": draws, "default_episodes": default_episodes}
@@ -54,10 +55,11 @@ def is_robust(test: dict[str, Any], need: int = NEED) -> bool:
     return test["randomized"]["walked"] >= need and test["default"]["walked"] == test["default_episodes"]
 
 
-def sustained(controller: Path, reality: str | None, episodes: int, threads: int = 1) -> dict[str, Any]:
+def sustained(controller: Path, reality: str | None, episodes: int, threads: int = 1,
+              robot: str | None = None) -> dict[str, Any]:
     """A 60 s walk without the stagnation stop: seconds upright, distance, speed, and how fast
     it turns (the torso's net turn per minute upright, unwrapped) - means over the episodes."""
-    r = evaluate_controller(controller, seconds=SUSTAINED_S, episodes=episodes, randomize=reality,
+    r = evaluate_controller(controller, robot, seconds=SUSTAINED_S, episodes=episodes, randomize=reality,
                             seed=TEST_SEED, stagnation_stop=False, threads=threads)
     per_minute = [abs(e["turn_deg"]) / (e["upright_s"] / 60.0) for e in r["per_episode"] if e["upright_s"] > 0]
     return {"upright_s": r["upright_s"], "distance_m": r["distance_m"], "falls": r["falls"],
@@ -66,15 +68,16 @@ def sustained(controller: Path, reality: str | None, episodes: int, threads: int
             "per_episode": r["per_episode"]}
 
 
-def walk_rate(controller: Path, robots: int = RATE_ROBOTS, threads: int = 1) -> dict[str, Any]:
+def walk_rate(controller: Path, robots: int = RATE_ROBOTS, threads: int = 1,
+              robot: str | None = None) -> dict[str, Any]:
     """The share of ``robots`` more randomized robots (seeds ``[TEST_SEED + 1, e]``) it walks on:
     ten robots are few for a walker that walks on about half of them."""
-    r = evaluate_controller(controller, seconds=EPISODE_S, episodes=robots, randomize="randomize",
+    r = evaluate_controller(controller, robot, seconds=EPISODE_S, episodes=robots, randomize="randomize",
                             seed=TEST_SEED + 1, threads=threads)
     return {"robots": robots, "walked": r["walked"], "falls": r["falls"], "share": r["walked"] / robots}
 
 
-def steering(controller: Path) -> dict[str, Any] | None:
+def steering(controller: Path, robot: str | None = None) -> dict[str, Any] | None:
     """Told at 2 s to hold a heading 90 deg to the left, does it get there within 10 s without
     a fall (within 15 deg of it at the end)?  None for a controller without a heading input."""
     from sim2real.controller.file import Controller
@@ -83,20 +86,21 @@ def steering(controller: Path) -> dict[str, Any] | None:
     if not Controller.load(controller).heading_input:
         return None
     command = schedule_command([(0.0, 0.0), (STEER_AT_S, STEER_DEG)])
-    r = evaluate_controller(controller, seconds=STEER_AT_S + STEER_WITHIN_S, heading=command, stagnation_stop=False)
+    r = evaluate_controller(controller, robot, seconds=STEER_AT_S + STEER_WITHIN_S, heading=command, stagnation_stop=False)
     error = r["per_episode"][0]["heading_error_deg"]
     return {"turn_deg": STEER_DEG, "fell": r["fell"], "heading_error_deg": error,
             "reached": not r["fell"] and abs(error) <= STEER_TOLERANCE_DEG}
 
 
-def measure_walker(walker: Path, log: Callable[[str], None], threads: int = 1) -> dict[str, Any]:
+def measure_walker(walker: Path, log: Callable[[str], None], threads: int = 1,
+                   robot: str | None = None) -> dict[str, Any]:
     """What is measured of a robust walker: its walk rate on 50 more robots, the transfer check,
     the 60 s walks and (with a heading input) a commanded 90 deg turn."""
-    return {"rate": walk_rate(walker, threads=threads),
-            "transfer": transfer_check(walker, "default", TRANSFER_RUNS, TRANSFER_KEEP, log),
-            "sustained": {"nominal": sustained(walker, None, 1),
-                          "default": sustained(walker, "default", 3, threads=threads)},
-            "steering": steering(walker)}
+    return {"rate": walk_rate(walker, threads=threads, robot=robot),
+            "transfer": transfer_check(walker, "default", TRANSFER_RUNS, TRANSFER_KEEP, log, robot=robot),
+            "sustained": {"nominal": sustained(walker, None, 1, robot=robot),
+                          "default": sustained(walker, "default", 3, threads=threads, robot=robot)},
+            "steering": steering(walker, robot)}
 
 
 def kept(transfer: dict[str, Any]) -> float:
