@@ -70,8 +70,8 @@ def test_a_cut_training_resumes_without_redoing_a_finished_stage(trained):
     state = json.loads((out / "train.json").read_text())
     assert list(state["stages"]) == list(STAGES)
     assert "[neat" in first and "[neat" not in resumed  # NEAT finished before the cut: not run again
-    assert "[polish" in resumed  # the cut polish went on ...
-    assert "resumed at update" in resumed or "no budget left" in resumed  # ... from its checkpoint
+    # the cut polish goes on: from its checkpoint, or afresh when cut before its first update ended
+    assert "[polish" in resumed and ("resumed at update" in resumed or "weights," in resumed)
     for name in STAGES:
         assert state["stages"][name]["wall_minutes"] >= 0 and state["stages"][name]["cpu_minutes"] >= 0
     assert state["elapsed_s"] > 0
@@ -83,7 +83,7 @@ def test_the_trained_controller_carries_its_command_stages_and_measures(trained,
     assert provenance["made_by"].startswith("biped train")
     made = provenance["trained"]
     assert made["robot"] == str(imported.resolve()) and made["settings"]["seed"] == 3
-    assert set(made["stages"]) == set(STAGES)
+    assert set(made["stages"]) == set(STAGES) - {"measure"}  # (written by the measure stage itself)
     assert 0 <= provenance["walk_rate"]["share"] <= 1 and provenance["walk_rate"]["robots"] == 50
     assert set(provenance["sustained"]) == {"nominal", "default"}
     assert set(provenance["bar"]) == {"walk_rate", "straight", "speed", "transfer"}
