@@ -111,7 +111,7 @@ def loop(profile: str, identified: Path, folder: Path, minutes: float, quiet: bo
     import dataclasses
 
     from evolve.transfer import transfer_check
-    from evolve.cli_commands import resolve_config
+    from evolve.config import config_path
     from evolve.config import load_evolve_config
     from evolve.run import Run
 
@@ -119,7 +119,7 @@ def loop(profile: str, identified: Path, folder: Path, minutes: float, quiet: bo
     if (folder / "checkpoint.json.gz").exists():
         run = Run.resume(folder, log=log)
     else:
-        config = load_evolve_config(resolve_config("walk_robust"))
+        config = load_evolve_config(config_path("walk_robust"))
         config = config.replace(threads=threads,
                                 randomize=dataclasses.replace(config.randomize, centre=str(identified.resolve())))
         run = Run.create(config, folder, log=log)

@@ -52,7 +52,7 @@ def check_quickstart(args: argparse.Namespace) -> None:
 
 
 def cmd_quickstart(args: argparse.Namespace) -> int:
-    from evolve.cli_commands import resolve_config
+    from evolve.config import config_path
     from evolve.config import load_evolve_config
     from evolve.replay import evaluate_controller
     from evolve.run import Run
@@ -63,7 +63,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     from sim2real.simulation.dry_run import dry_run
 
     out: Path = args.out
-    config = load_evolve_config(resolve_config("walk"))
+    config = load_evolve_config(config_path("walk"))
     neat = config.neat.replace(population_size=args.population,
                                target_species=min(config.neat.target_species, max(1, args.population // 6)))
     config = config.replace(seed=args.seed, generations=args.generations, neat=neat)
