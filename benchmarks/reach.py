@@ -2,7 +2,7 @@
 reaching evolved alone.
 
     python -m benchmarks.reach --seeds 5 --json
-    python -m benchmarks.reach --hierarchy reach_op3 --baseline reach_op3_baseline --seeds 1
+    python -m benchmarks.reach --hierarchy reach_op3 --baseline benchmarks/records/configs/reach_op3_baseline.yaml
     python -m benchmarks.reach --seeds 5 --out runs/reach-bench --plot reach-bench.png
 
 For each seed the staged config (default ``configs/evolve/reach.yaml``: pose -> stand ->

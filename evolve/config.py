@@ -5,7 +5,8 @@
     generations: 400
     threads: 0                # 0: every core
     checkpoint_every: 25      # keep a numbered checkpoint this often (the latest is always kept)
-    task: {...}               # evolve.locomotion.task.TaskConfig
+    task: {...}               # evolve.locomotion.task.TaskConfig (phase_period_s: auto = from the
+                              # robot's leg length, evolve.locomotion.task.gait_period_s)
     neat: {...}               # evolve.neat.NeatConfig
     randomize:                # optional: score every genome on randomized episodes
       reality: randomize      # ranges: a name from configs/reality/, a path, or a mapping
@@ -64,7 +65,7 @@ from evolve.limits import (
     MAX_VALIDATION_DRAWS,
 )
 from evolve.locomotion.pushes import Pushes
-from evolve.locomotion.task import TaskConfig
+from evolve.locomotion.task import AUTO, TaskConfig
 from evolve.neat import NeatConfig
 from evolve.stages import Stage, check_stage_joints, parse_stages, with_task
 from sim2real.errors import ConfigError
@@ -287,7 +288,11 @@ def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
         robot = load_robot(values.get("robot", DEFAULT_ROBOT))
     except (FileNotFoundError, ConfigError) as exc:
         raise ConfigError(source, "robot", str(exc)) from None
-    values["task"] = TaskConfig.from_mapping(doc.get("task"), source, "task.")
+    # ``phase_period_s: auto``: the gait clock's period from this robot's leg length (measured
+    # on the compiled model for a robot from a model file: only when asked for)
+    task = doc.get("task")
+    auto = isinstance(task, dict) and task.get("phase_period_s") == AUTO
+    values["task"] = TaskConfig.from_mapping(task, source, "task.", leg_length_m=robot.leg_length if auto else None)
     for key, (lo, hi) in TASK_RANGES.items():
         value = getattr(values["task"], key)
         if not lo <= value <= hi:
@@ -357,7 +362,8 @@ def load_evolve_config(path: Path | str, overrides: dict[str, Any] | None = None
 
 def config_path(name: str) -> Path:
     """A config's file: ``name`` as a path if it exists, else ``configs/evolve/<name>.yaml``;
-    FileNotFoundError listing the known names."""
+    FileNotFoundError listing the known names (and, for an experiment config of the records,
+    its path: those are given by path, they are not a user's)."""
     import os
 
     from sim2real.input_files import check_regular_file
@@ -372,6 +378,12 @@ def config_path(name: str) -> Path:
     if "/" not in name and os.path.exists(candidate):  # not Path.exists: a name too long for the system raises there
         return candidate
     known = ", ".join(sorted(p.stem for p in folder.glob("*.yaml")))
+    record = data_root() / "benchmarks" / "records" / "configs" / f"{name}.yaml"  # in a clone only: not installed
+    if "/" not in name and os.path.exists(record):
+        here = Path(os.path.abspath("."))
+        shown = record.relative_to(here) if record.is_relative_to(here) else record
+        raise FileNotFoundError(f"{show_name(name)} is an experiment config of the benchmark records: give its "
+                                f"path, {shown} (user configs: {known})")
     raise FileNotFoundError(f"unknown evolution config {show_name(name)} (known: {known}; or give a path)")
 
 

@@ -133,7 +133,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     print(f"""
 done.  In {out}/:
 {listing}
-next: a longer run (biped evolve walk_robust --out runs/robust; see the README for how long),
-then biped dry-run runs/robust/controller.json --reality default, then on the robot:
+next: a robust walker (biped train xl430_biped --out runs/train; see the README for how long),
+then biped dry-run runs/train/controller.json --reality default, then on the robot:
       biped run {controller} --port /dev/ttyUSB0 --trace real.csv && biped compare real.csv --plot real.png""")
     return 0
