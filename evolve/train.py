@@ -7,7 +7,7 @@ The recipe, in stages that share one budget of ``minutes`` (wall time, every sta
 measuring counted):
 
 1. **neat** - NEAT (population 512 in 30 species, ``configs/evolve/train.yaml``) with the gait
-   clock's period set from the robot's leg length, until a champion passes the robustness bar
+   clock's period from the robot's leg length (``phase_period_s: auto``), until a champion passes the robustness bar
    (:func:`evolve.walk_measures.robustness`: 8 of 10 unseen randomized robots and 3 of 3
    ``default.yaml`` robots) or until ``NEAT_SHARE`` of the budget is spent;
 2. **polish** - CMA-ES on the walker's weights (:func:`evolve.polish.polish`), ranked on the
@@ -36,7 +36,6 @@ are recorded, so the stopping points of a run can be read back from its ``train.
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 import shutil
 import sys
@@ -45,7 +44,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from evolve.config import EvolveConfig, load_evolve_config
+from evolve.config import EvolveConfig, config_path, load_evolve_config
 from evolve.run_lock import RunLock
 from evolve.walk_measures import (
     DRAWS,
@@ -66,7 +65,6 @@ DEFAULT_MINUTES = 60.0
 NEAT_SHARE = 0.45  # NEAT may spend this share of the budget before the polish starts anyway
 POLISH_UNTIL = 0.65  # the walk-rate polish ends by this share of the budget
 MEASURE_SHARE = 0.08  # kept for the measuring: 50 robots, 60 s walks, 3 dry runs in real time, a turn
-REFERENCE_LEG_M, REFERENCE_PERIOD_S = 0.245, 0.6  # the XL430 biped's leg and its tuned gait clock period
 # CMA-ES settings of the recipe that made the shipped walker (benchmarks/RESULTS.md, robust walking v2)
 POLISH = {"popsize": 16, "robots": 16, "sigma": 0.1, "validation": 30, "worst": 1.0}
 SPEED = {"popsize": 16, "robots": 32, "sigma": 0.05, "validation": 100, "worst": 0.25, "speed_leg_s": 0.8}
@@ -111,30 +109,21 @@ class Budget:
 
 
 
-def gait_period_s(leg_length_m: float) -> float:
-    """The gait clock's period for a leg of ``leg_length_m``: the XL430 biped's tuned 0.6 s scaled
-    by the square root of the leg length (a pendulum's period; the OP3 recipe's 0.64 s for its
-    0.279 m leg came from the same rule)."""
-    return round(REFERENCE_PERIOD_S * math.sqrt(leg_length_m / REFERENCE_LEG_M), 3)
-
-
 def neat_config(robot_name: str, settings: TrainSettings) -> EvolveConfig:
-    """The NEAT stage's config: ``settings.config`` for ``robot_name``, its seed and threads, and
-    the gait clock's period from the robot's leg length."""
-    from evolve.config import config_path
+    """The NEAT stage's config: ``settings.config`` for ``robot_name`` (its ``phase_period_s: auto``
+    sets the gait clock from the robot's leg length), the training's seed and threads, the
+    robot's walking control set, and no generation count of its own: the budget ends it."""
     from sim2real.robot import load_robot
 
     robot = load_robot(robot_name)
-    config = load_evolve_config(config_path(settings.config))
-    wanted = (config.task.control_set, *WALKING_SETS)
+    probe = load_evolve_config(config_path(settings.config))
+    wanted = (probe.task.control_set, *WALKING_SETS)
     control_set = next((name for name in wanted if name in robot.control_sets), None)
     if control_set is None:
         raise UsageError(f"robot {robot.name} has none of the control sets a walker drives ({', '.join(wanted)}; "
                          f"it has: {', '.join(robot.control_sets)}): add one listing its leg joints")
-    task = dataclasses.replace(config.task, control_set=control_set,
-                               phase_period_s=gait_period_s(robot.leg_length))
-    return config.replace(robot=robot_name, seed=settings.seed, threads=settings.threads, task=task,
-                          generations=1_000_000)
+    config = load_evolve_config(config_path(settings.config), {"robot": robot_name, "task.control_set": control_set})
+    return config.replace(seed=settings.seed, threads=settings.threads, generations=1_000_000)
 
 
 class Progress:

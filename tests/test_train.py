@@ -17,7 +17,8 @@ from pathlib import Path
 
 import pytest
 
-from evolve.train import STAGES, gait_period_s
+from evolve.locomotion.task import gait_period_s
+from evolve.train import STAGES
 from robots.urdf_humanoid import write_humanoid
 
 ROOT = Path(__file__).resolve().parent.parent
