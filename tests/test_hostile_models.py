@@ -143,6 +143,7 @@ ROLES = {  # role -> (MJCF head, MJCF body) naming the file "part"
                 '<geom type="sphere" size="0.01" material="mat"/>'),
     "skin": ('<asset><skin name="s" file="part"/></asset>', ""),
     "hfield": ('<asset><hfield name="h" file="part" size="1 1 0.1 0.1"/></asset>', ""),
+    "model": ('<asset><model name="arm" file="part"/></asset>', ""),  # an MJCF to attach
 }
 
 
@@ -338,6 +339,7 @@ URDF_NUMBERS = {
     "joint limit": ('lower="-1"', 'lower="-inf"', "<limit> in <joint name='r_hip_pitch'>"),
     "body position": ('<origin xyz="0 0 -0.1" rpy="0 0 0"/>', '<origin xyz="0 0 -0.1" rpy="0 NaN 0"/>',
                       "<origin> in <link name='r_thigh'>"),
+    "body mass": ('<mass value="0.2"/>', '<mass value="nan"/>', "<mass> in <link name='r_thigh'>"),
 }
 
 

@@ -61,9 +61,9 @@ _WORD_ATTRIBUTES = frozenset({
     "name", "class", "childclass", "prefix", "suffix", "content_type", "mesh", "material", "texture",
     "hfield", "skin", "joint", "joint1", "joint2", "jointinparent", "body", "body1", "body2", "site",
     "site1", "site2", "geom", "geom1", "geom2", "tendon", "tendon1", "tendon2", "actuator", "target",
-    "objname", "refname", "cranksite", "slidersite", "key", "value", "plugin", "instance", "model",
+    "objname", "refname", "cranksite", "slidersite", "plugin", "instance", "model",
     "namespace", "link", "reference", "filename", "modelname"})
-_WORD_ELEMENTS = frozenset({"text"})  # <custom><text data="..."> holds words
+_WORD_ELEMENTS = frozenset({"text", "config"})  # <custom><text data>, a plugin's <config key value>: words
 _ASSET_DIR = {"texture": "texturedir"}  # other MJCF assets (mesh, skin, hfield, flexcomp) use meshdir
 _EXPANDING = {"replicate": "count", "composite": "count", "flexcomp": "count"}
 
