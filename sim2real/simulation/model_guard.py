@@ -146,7 +146,7 @@ def near_match(path: Path) -> Path | None:
     best = None
     try:
         with os.scandir(folder) as entries:
-            for i, entry in zip(range(10_000), entries):
+            for _, entry in zip(range(10_000), entries):
                 lower = entry.name.lower()
                 if lower == name and entry.name != path.name:
                     return folder / entry.name
@@ -280,6 +280,7 @@ class _Walk:
         real = Path(os.path.realpath(path))
         inner = _Walk(sub, self.package_dirs)
         inner.total_bytes, inner.includes, inner.roots = self.total_bytes, self.includes, self.roots
+        inner.top, inner.model_dir = self.top, self.model_dir  # refusals name the user's file
         inner.mjcf(sub, (*place.chain, real), real.parent)
         self.total_bytes, self.includes = inner.total_bytes, inner.includes
         # attached once per <attach>, or not at all: counted once, the common case
