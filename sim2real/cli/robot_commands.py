@@ -295,7 +295,7 @@ def _add_import(rsub: argparse._SubParsersAction) -> None:
                      "the servos of legs, arms, neck, waist or one joint (e.g. --servo neck=AX-12A)")
     imp.add_argument("--forward", choices=("+x", "-x", "+y", "-y"), default=None,
                      help="the way the robot faces in the model file (default: inferred from its feet, "
-                     "knees and toes)")
+                     "knees and toes); write a minus with '=': --forward=-y")
     imp.add_argument("--package-dir", action="append", default=[], type=Path, metavar="DIR",
                      help="a folder holding the packages of a URDF's package://PKG/PATH meshes (tried as "
                      "DIR/PKG/PATH and DIR/PATH); repeatable")

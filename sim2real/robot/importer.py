@@ -52,6 +52,7 @@ from sim2real.robot.roles import (  # noqa: F401 - JointGuess, number_text and G
     assign_roles,
     bends_backwards,
     number_text,
+    with_note,
 )
 from sim2real.robot.spec import ARM_LOCATIONS, LEG_LOCATIONS
 from sim2real.robot.structure import Body, Hinge
@@ -251,6 +252,9 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     if not any(j.location == "knee" for j in joints):
         result.notes.append("no knee was found on the legs: check the leg chains in the report")
     result.contradictions += _contradictions(joints, facing)
+    wrong = {text.split(":")[0] for text in result.contradictions}
+    result.joints = [with_note(j, f"LIMIT AGAINST THE GEOMETRY: {GUESSED} (see the header)") if j.name in wrong else j
+                     for j in result.joints]
     for pair in mirror.pairs:
         left, right = (next((j for j in joints if j.name == n), None) for n in (pair.left, pair.right))
         if left is not None and right is not None and (left.location, left.axis) != (right.location, right.axis):
@@ -274,20 +278,19 @@ def _with_servo(j: JointGuess, where: dict[str, str], default: str) -> JointGues
 
 
 def _contradictions(joints: Sequence[JointGuess], facing: Facing) -> list[str]:
-    """A knee or an elbow whose limits let it bend only the wrong way: named as the limit
-    against the geometry (the facing and its other cues), with the fix."""
+    """A knee or an elbow whose limits let it bend only the wrong way: named as a limit
+    against the geometry (the facing and the cues it rests on), with the fix."""
     out = []
     for j in joints:
         if bends_backwards(j):
             lo, hi = (number_text(a) for a in j.range_deg)
             way = "forward" if j.location == "knee" else "backward"
-            others = [c.what for c in facing.cues if c.joint != j.name and c in facing.against] == []
             cues = ", ".join(c.what for c in facing.cues if c.joint != j.name and c not in facing.against)
-            out.append(f"{j.name}: its model limits, [{lo}, {hi}] deg anatomical, let this {j.side} {j.location} "
-                       f"bend only {way}, against the geometry (facing {facing.forward}"
-                       + (f" from {cues}" if cues and others else "") + "): the limits in the model file are "
-                       f"wrong for this joint; set its range_deg (e.g. [{number_text(max(0.0, -float(hi)))}, "
-                       f"{number_text(-float(lo))}]) and check its sign")
+            basis = f"from {cues}" if cues else f"{facing.decided_by}"
+            out.append(f"{j.name}: its limits in the model, [{lo}, {hi}] deg anatomical, let this {j.side} {j.location} "
+                       f"bend only {way}, against the geometry (facing {facing.forward}, {basis}): the model's limits "
+                       f"are wrong for this joint (fix: range_deg [{number_text(max(0.0, -float(hi)))}, "
+                       f"{number_text(-float(lo))}], the flexion side, as its twin's)")
     return out
 
 
