@@ -33,7 +33,7 @@ VARIANTS = [
     dict(names="darwin", forward="-x", spine=3, leg=6, gripper="hinge", wrist=False),
     dict(names="numbered", forward="-y", spine=0, leg=6, gripper="slide", wrist=True),
     dict(names="darwin", forward="+y", spine=5, leg=6, gripper="slide", wrist=True, mixed_servos=True),
-    dict(names="words", forward="-y", spine=3, leg=5, gripper="hinge", wrist=False),
+    dict(names="words", forward="-y", spine=3, leg=5, gripper="hinge", wrist=True),
     dict(names="numbered", forward="+x", spine=3, leg=6, gripper="hinge", wrist=False, mixed_servos=True),
     dict(names="darwin", forward="+x", spine=0, leg=5, gripper="slide", wrist=False),
 ]

@@ -175,7 +175,8 @@ def _humanoid(spine: int = 0, leg: int = 6, gripper: str = "slide",
             j("elbow_joint", "revolute", f"{p}_upper_arm_link", f"{p}_forearm_link", (0.0, 0.0, -0.08),
               (0, 1, 0) if right else (0, -1, 0), "pitch", "elbow", -1 if right else 1, (0, 120)),
             # a wrist turning about the forearm (a yaw with the arm hanging), or the palm fixed
-            j("gripper_joint", "revolute" if wrist else "fixed", f"{p}_forearm_link", f"{p}_gripper_palm_link",
+            j("wrist_joint" if wrist else "gripper_joint", "revolute" if wrist else "fixed", f"{p}_forearm_link",
+              f"{p}_gripper_palm_link",
               (0.0, 0.0, -0.07), (0, 0, 1), "yaw", "wrist", -1 if right else 1, (-90, 90)),
         ]
         if gripper == "slide":
@@ -233,7 +234,7 @@ def _fmt(values) -> str:
 DARWIN = {"hip_yaw_joint": "j_pelvis", "hip_roll_joint": "j_thigh1", "hip_pitch_joint": "j_thigh2",
           "knee_joint": "j_tibia", "ankle_pitch_joint": "j_ankle1", "ankle_roll_joint": "j_ankle2",
           "shoulder_pitch_joint": "j_shoulder", "shoulder_roll_joint": "j_high_arm", "elbow_joint": "j_low_arm",
-          "gripper_joint": "j_wrist", "gripper_finger1_joint": "j_gripper1", "gripper_finger2_joint": "j_gripper2",
+          "wrist_joint": "j_wrist", "gripper_finger1_joint": "j_gripper1", "gripper_finger2_joint": "j_gripper2",
           "head_pan": "j_pan", "head_tilt": "j_tilt"}
 MIXED_SERVOS = {"legs": "MX-28(2.0)", "neck": "AX-12A"}  # and XM430-W350 elsewhere: --servo WHERE=MODEL
 FACING_YAW_DEG = {"+x": 0.0, "+y": 90.0, "-x": 180.0, "-y": -90.0}
