@@ -43,7 +43,7 @@ import numpy as np
 from sim2real.robot import structure
 from sim2real.robot.anatomy import DEFAULT_FORWARD, to_anatomical
 from sim2real.robot.facing import Facing, infer_facing
-from sim2real.robot.roles import (  # noqa: F401 - JointGuess, number_text and GUESSED are this module's API
+from sim2real.robot.roles import (  # noqa: F401 - the constants, JointGuess and number_text: this module's API
     GUESSED,
     MAX_AXIS_OFF_DEG,
     UNLIMITED_RANGE_DEG,
@@ -54,7 +54,6 @@ from sim2real.robot.roles import (  # noqa: F401 - JointGuess, number_text and G
     number_text,
     with_note,
 )
-from sim2real.robot.spec import ARM_LOCATIONS, LEG_LOCATIONS
 from sim2real.robot.structure import Body, Hinge
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -142,15 +141,6 @@ class ImportResult:
         return lines
 
 
-def servo_groups(joints: Sequence[JointGuess]) -> dict[str, list[str]]:
-    """The names ``--servo WHERE=MODEL`` takes: legs, arms, neck, waist, and each joint."""
-    groups: dict[str, list[str]] = {"legs": [], "arms": [], "neck": [], "waist": []}
-    for j in joints:
-        kind = "legs" if j.location in LEG_LOCATIONS else "arms" if j.location in ARM_LOCATIONS else j.location
-        groups[kind].append(j.name)
-    return groups
-
-
 # -- from a model file ---------------------------------------------------------------------------
 GROUPS = {"leg": "legs", "arm": "arms", "neck": "neck", "spine": "waist"}  # chain word -> --servo WHERE
 
@@ -212,7 +202,7 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     placed: list[Placed] = []
     for leg, left in zip(legs.chains, (facing.first_is_left, not facing.first_is_left)):
         placed += _placed(tree, leg, f"{'left' if left else 'right'} leg", "left" if left else "right", places)
-    feet = {("left" if left else "right"): leg.end
+    feet = {("left" if left else "right"): _foot(tree, leg, places)
             for leg, left in zip(legs.chains, (facing.first_is_left, not facing.first_is_left))}
     hands = {}
     for arm in upper.arms:
@@ -262,6 +252,15 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
                                 f"{right.name} ({right.location} {right.axis})")
     # s48-stand: a standing check of the imported robot and its home pose go here, on ``result``
     return result
+
+
+def _foot(tree: structure.Tree, leg: structure.Chain, places: dict[str, structure.Place]) -> str:
+    """A leg's foot: its end, or, where the toes are flat on the floor with it and so reach as
+    low, the body the toe joint hangs from (the sole that carries the heel)."""
+    toes = [h for h in leg.hinges if places.get(h) and places[h].location == "toe"]
+    if toes and tree.hinges[toes[0]].body == leg.end:
+        return tree.bodies[leg.end].parent or leg.end
+    return leg.end
 
 
 def _placed(tree: structure.Tree, chain: structure.Chain, name: str, side: str,

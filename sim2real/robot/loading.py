@@ -22,7 +22,6 @@ from sim2real.robot.paths import robots_dir
 from sim2real.robot.profiles import DeviceProfile, load_profile
 from sim2real.robot.spec import (
     AXES,
-    BOX_LOCATIONS,
     CENTER_LOCATIONS,
     CONTROL_TICK_S,
     DEFAULT_CONTACT_SHARE,
@@ -50,6 +49,7 @@ from sim2real.robot.spec import (
     ServoMap,
     common_baud_rates,
 )
+from sim2real.robot.joint_map import box_location_problems, id_problems, joint_map_problems, raise_all
 from sim2real.robot.validation import Node, load_yaml, show, show_name
 
 SIZE = dict(lo=SEGMENT_SIZE_M[0], hi=SEGMENT_SIZE_M[1], unit="m",
@@ -144,15 +144,15 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         if joint is not None:
             joints_list.append(joint)
     joints = tuple(joints_list)
-    problems += _joint_map_problems(root, joints, complete=len(joints) == len(root["joints"].value))
+    problems += joint_map_problems(root, joints, complete=len(joints) == len(root["joints"].value))
     if model is None:
-        problems += _box_location_problems(root, joints)
+        problems += box_location_problems(root, joints)
     board = _read_sensor_board(root["sensor_board"]) if root.has("sensor_board") else None
     if actuation == "servo":
         for key in ("bus", "sensor_board"):
             if not root.has(key):
                 problems.append(root.error(f"missing required key {key!r} for a servo robot", key=key))
-        problems += _id_problems(root, joints, board)
+        problems += id_problems(root, joints, board)
     raise_all(root.source, problems)
     bus = _read_bus(root["bus"]) if root.has("bus") else None
     if bus is not None:
@@ -188,18 +188,6 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
         anthropometry={k: v for k, v in measures.items() if k != "preset"},
         model=model,
     )
-
-
-def raise_all(source: str, problems: list[ConfigError]) -> None:
-    """Raise the one problem, or every problem in one error keyed ``joints`` (a line each,
-    with its key and fix), so that a config is mended in one round, not one per problem."""
-    unique = {(p.key, p.problem): p for p in problems}  # the robot's servo_model refused once, not per joint
-    problems = list(unique.values())
-    if len(problems) == 1:
-        raise problems[0]
-    if problems:
-        raise ConfigError(source, "joints", f"{len(problems)} problems, each with its fix:\n" + "\n".join(
-            f"  {p.key}: {p.problem}" for p in problems))
 
 
 def _read_model(node: Node, config: Path) -> ModelSource:
@@ -442,63 +430,3 @@ def _read_bus(node: Node) -> BusSettings:
     node.mapping(required=("port", "baud"))
     baud = node["baud"].integer(9600, 10_500_000)
     return BusSettings(port=node["port"].string(), baud=baud)
-
-
-def _joint_map_problems(root: Node, joints: tuple[Joint, ...], complete: bool = True) -> list[ConfigError]:
-    """Repeated names, two joints in one (side, location, axis, index) slot, indexes that skip,
-    and (when every joint was read: ``complete``) sided joints without their twin."""
-    problems: list[ConfigError] = []
-    seen: dict[str, int] = {}
-    slots: dict[tuple[str, str, str, int], str] = {}
-    for i, joint in enumerate(joints):
-        key = f"joints[{i}].name"
-        if joint.name in seen:
-            problems.append(ConfigError(root.source, key, f"duplicate joint name {show(joint.name)} (fix: rename one)"))
-            continue
-        seen[joint.name] = i
-        slot = (joint.side, joint.location, joint.axis, joint.index)
-        if slot in slots:
-            fix = (f"index: {max(s[3] for s in slots if s[:3] == slot[:3]) + 1} if it is the next {joint.axis} joint "
-                   f"along the chain (a model robot's), or another axis")
-            problems.append(ConfigError(root.source, key, f"{show(joint.name)} repeats the {' '.join(slot[:3])} axis "
-                                        f"of {show(slots[slot])}" + (f" (index {joint.index})" if joint.index else "")
-                                        + f" (fix: {fix})"))
-            continue
-        slots[slot] = joint.name
-    for (side, location, axis, index), name in slots.items():
-        if index and (side, location, axis, index - 1) not in slots:
-            problems.append(ConfigError(root.source, "joints", f"{show(name)} has index {index} but no {side} "
-                                        f"{location} {axis} has index {index - 1} (fix: count 0, 1, ... along the "
-                                        "chain)"))
-    if complete:
-        for joint in joints:
-            if joint.side != "center":
-                other = "left" if joint.side == "right" else "right"
-                if (other, *joint.slot) not in slots:
-                    problems.append(ConfigError(root.source, "joints", f"{show(joint.name)} has no {other} twin "
-                                                f"(bipeds are symmetric; fix: map its {other} twin, or leave it out "
-                                                "and it is held at home)"))
-    return problems
-
-
-def _box_location_problems(root: Node, joints: tuple[Joint, ...]) -> list[ConfigError]:
-    return [ConfigError(root.source, f"joints[{i}].location", f"the box tree has joints at the "
-                        f"{', '.join(BOX_LOCATIONS)} only; {show(joint.name)} is a {joint.location} "
-                        "joint: a body with arms, a neck or toes comes as a model file (model:)")
-            for i, joint in enumerate(joints) if joint.location not in BOX_LOCATIONS]
-
-
-def _id_problems(root: Node, joints: tuple[Joint, ...], board: SensorBoard | None) -> list[ConfigError]:
-    owners: dict[int, str] = {}
-    problems = []
-    devices = [(j.servo.id, f"joint {show(j.name)}") for j in joints if j.servo is not None]
-    if board is not None:
-        devices.append((board.id, "the sensor board"))
-    for i, (dxl_id, owner) in enumerate(devices):
-        if dxl_id in owners:
-            key = f"joints[{i}].servo.id" if i < len(joints) else "sensor_board.id"
-            problems.append(ConfigError(root.source, key, f"duplicate ID {dxl_id}: used by {owners[dxl_id]} and "
-                                        f"{owner} (fix: each device its own ID)"))
-            continue
-        owners[dxl_id] = owner
-    return problems

@@ -32,7 +32,7 @@ import numpy as np
 
 from sim2real.robot.anatomy import ANATOMICAL_AXES, anatomical_axis, to_anatomical
 from sim2real.robot.joint_names import axis_of, location_of
-from sim2real.robot.structure import Hinge, Place, Tree
+from sim2real.robot.structure import Hinge, Place
 
 MAX_AXIS_OFF_DEG = 30.0  # a hinge farther than this from every principal axis has no role
 UNLIMITED_RANGE_DEG = 90.0  # the range guessed for a joint the model leaves unlimited
