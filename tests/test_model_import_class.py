@@ -225,3 +225,36 @@ def test_every_joint_problem_comes_at_once_with_its_fix(poppy_like):
     assert any(".home_deg: 80" in line for line in lines) and any("repeats the center neck yaw" in line
                                                                   for line in lines)
     assert any("duplicate ID" in line for line in lines)
+
+
+def _without_facing_cues(files) -> None:
+    """Feet centred under the ankles and knees without limits: no geometric cue to the facing."""
+    text = re.sub(r'(<origin xyz=")0\.01 (-?0\.005 -0\.03")', r"\g<1>0 \2", files.urdf.read_text())
+    text = re.sub(r'(<joint name="[^"]*(?:knee|tibia|j\d+)[^"]*" type=")revolute(".*?)<limit lower="[^"]*" '
+                  r'upper="[^"]*"', lambda m: m[1] + "continuous" + m[2] + "<limit", text, flags=re.S)
+    files.urdf.write_text(text)
+
+
+@pytest.mark.parametrize("names, decided", [("darwin", "the geometry ties; the names' l_/r_ decide"),
+                                            ("numbered", "NO CUE decided: taken as drawn; give --forward")])
+def test_the_names_break_a_tie_of_the_geometry(tmp_path, names, decided):
+    files = write_humanoid(tmp_path, names=names, forward="-x")
+    _without_facing_cues(files)
+    result = import_robot(files.urdf, tmp_path / "t.yaml")
+    assert not result.facing.cues and f"({decided})" in result.facing.report()[0]
+    # the names say the robot faces -x; with no names it is taken as drawn, +x (and the legs swap)
+    assert result.forward == ("-x" if names == "darwin" else "+x")
+    left_leg = {j.name for j in result.joints if j.side == "left" and j.location == "hip"}
+    assert (left_leg == {n for n, r in files.expected.items() if r.side == "left" and r.location == "hip"}) == \
+        (names == "darwin")
+
+
+def test_a_joint_without_its_twin_is_held(tmp_path, capsys):
+    files = write_humanoid(tmp_path)
+    files.urdf.write_text(files.urdf.read_text().replace('<joint name="l_ankle_roll_joint" type="revolute">',
+                                                         '<joint name="l_ankle_roll_joint" type="fixed">'))
+    assert main(["robot", "import", str(files.urdf), "-o", str(tmp_path / "t.yaml")]) == 0
+    assert "held (not mapped): r_ankle_roll_joint: " in capsys.readouterr().out
+    assert "no left twin of this right ankle roll" in (tmp_path / "t.yaml").read_text()
+    robot = load_robot(tmp_path / "t.yaml")  # loads: the right ankle roll is welded
+    assert "r_ankle_roll_joint" not in robot.joint_names and len(robot.joints) == 18
