@@ -113,7 +113,7 @@ def infer_facing(tree: Tree, legs: Legs, places: dict[str, Place], forward: str 
             flex = 1 if hi > -lo else -1
             if max(abs(lo), abs(hi)) >= ASYMMETRY * min(abs(lo), abs(hi)) + 1e-9:
                 cues.append(Cue(f"knee limits {knee_h}", -_sign(flex * along),
-                                f"limits [{math.degrees(lo):.0f}, {math.degrees(hi):.0f}] deg: it flexes "
+                                f"limits [{math.degrees(lo) + 0.0:.0f}, {math.degrees(hi) + 0.0:.0f}] deg: it flexes "
                                 f"{'positive' if flex > 0 else 'negative'}, and flexion moves the foot back", knee_h))
         if abs(math.degrees(knee.home_rad)) > HOME_BEND_DEG:
             cues.append(Cue(f"knee home {knee_h}", -_sign(_sign(knee.home_rad) * along),

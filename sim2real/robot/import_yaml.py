@@ -52,8 +52,9 @@ def robot_yaml(result: ImportResult) -> str:
     out = [f"# Imported by `biped robot import` from {r.model_file.name} ({r.kind.upper()}).",
            f"# Lines marked \"{GUESSED}\" are guesses from the model's structure and geometry: check each",
            "# against the real robot before evolving a controller, and before powering a servo.",
-           "# Angles are anatomical: anatomical angle = sign * model angle, the sign from each joint's",
-           "# world axis at the model's zero pose (right side: hip/ankle/shoulder/wrist yaw -z, roll -x,",
+           "# Angles are anatomical: anatomical angle = sign * model angle, the sign from each joint's axis",
+           "# at the model's zero pose in the robot's frame, x forward (model.forward), y left, z up",
+           "# (right side: hip/ankle/shoulder/wrist yaw -z, roll -x,",
            "# pitch -y; knee pitch +y; waist/neck yaw +z, roll +x, pitch +y; the left mirrors roll and yaw).",
            f"# Mirror pairs found from the geometry ({len(r.mirror.pairs)}; +1: equal model angles make "
            "mirror-image poses, -1: opposite motions):"]
@@ -98,7 +99,7 @@ def robot_yaml(result: ImportResult) -> str:
             "  feet:"]
     for side in ("left", "right"):
         if side in r.feet:
-            out.append(f"    {side}: {{body: {_scalar(r.feet[side])}}}  # {GUESSED} the lowest body of the "
+            out.append(f"    {side}: {{body: {_scalar(r.feet[side])}}}  # {GUESSED} the end of the "
                        f"{side} leg; its collision geoms are the sole")
         else:
             out.append(f"    # {side}: {{body: ...}}  NOT FOUND: no {side} leg joint was recognised; "

@@ -230,6 +230,10 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
 
     joints, refused = assign_roles(placed, facing.forward, reach_deg, [h.name for h in hinges])
     held += refused
+    unnamed = {model.joint(k).name or f"joint{k}" for k in range(model.njnt) if not model.joint(k).name}
+    held += [(j.name, f"unnamed in the model, so the YAML cannot name it (it would be a {j.side} {j.location} "
+             f"{j.axis}): give it a name in the file") for j in joints if j.name in unnamed]
+    joints = [replace(j, servo_id=i + 1) for i, j in enumerate(j for j in joints if j.name not in unnamed)]
     joints = [_with_servo(j, where_servo, servo_model) for j in joints]
     if not joints:
         raise ConfigError(str(model_file), "", "no hinge could be given a role: " + "; ".join(
@@ -327,7 +331,7 @@ def _model_facts(model) -> tuple[list[Hinge], dict[str, Body], list[tuple[str, s
     kinds = {int(mujoco.mjtJoint.mjJNT_SLIDE): "a slide (prismatic) joint, e.g. a gripper's: not a servo's hinge",
              int(mujoco.mjtJoint.mjJNT_BALL): "a ball joint: not a servo's hinge"}
     for j in range(model.njnt):
-        name = model.joint(j).name
+        name = model.joint(j).name or f"joint{j}"  # as model_mirror names it; held below, the map needs a name
         if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
             limited = bool(model.jnt_limited[j])
             hinges.append(Hinge(name, tuple(float(v) for v in data.xanchor[j]),
