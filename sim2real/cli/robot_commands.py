@@ -133,7 +133,7 @@ def describe(robot: RobotSpec) -> dict:
     joints = []
     for j in robot.joints:
         entry = {
-            "name": j.name, "side": j.side, "location": j.location, "axis": j.axis,
+            "name": j.name, "side": j.side, "location": j.location, "axis": j.axis, "index": j.index,
             "range_rad": list(j.range_rad), "home_rad": j.home_rad,
             "servo_id": j.servo.id if j.servo else None,
             "servo_model": j.servo.profile.model if j.servo else None,
@@ -172,7 +172,7 @@ def describe(robot: RobotSpec) -> dict:
         "model": None if robot.model is None else {
             "file": str(robot.model.path), "root": robot.model.root, "imu_body": robot.model.imu_body,
             "imu_pos_m": list(robot.model.imu_pos), "feet": {s: f.body for s, f in robot.model.feet.items()},
-            "hands": dict(robot.model.hands), "inertias": robot.model.inertias},
+            "hands": dict(robot.model.hands), "inertias": robot.model.inertias, "forward": robot.model.forward},
         "sensor_board": (
             {"id": robot.sensor_board.id, "model": robot.sensor_board.profile.model}
             if robot.sensor_board else None
@@ -284,24 +284,33 @@ def cmd_robot_mjcf(args: argparse.Namespace) -> int:
 # -- robot import -------------------------------------------------------------------------------
 IMPORT_EPILOG = """\
 what it infers (at the model's zero pose; every guess is commented "guessed: check"):
-  sides and mirror pairs   from the geometry: a hinge's partner sits at its mirror image across
-                           the x-z plane with a mirrored axis; names (l_/r_, _left, LHip...) are
-                           checked against it and disagreements reported
-  location                 from the joint's name: hip, knee/kn, ankle/ank, shoulder/sho,
-                           elbow/el, wrist, head/neck, waist/torso
-  axis and sign            the principal axis nearest the joint's (yaw z, roll x, pitch y), and
-                           anatomical angle = sign * model angle
-  range, home              the model's range made anatomical (+-90 deg if unlimited); a keyframe
-                           'home' or 0
+  chains                   from the body tree: the legs (the two branches reaching the floor,
+                           down to the feet), the arms (the mirrored pair of branches above),
+                           the neck (the central chain going up) and the spine between them
+  location                 from the place along the chain: hip (before the knee), knee (the
+                           hinge across the leg splitting thigh and shank), ankle, toe;
+                           shoulder, elbow, wrist; grippers and fingers are held
+  facing                   from the feet (the sole reaches ahead of the ankle), the knees'
+                           bend and limits and the toes; --forward overrides it
+  sides and mirror pairs   side from the chain; a hinge's partner sits at its mirror image
+                           across the sagittal plane with a mirrored axis; names (l_/r_...)
+                           only break ties and are checked against it
+  axis, index and sign     the principal axis nearest the joint's in the facing's frame (yaw,
+                           roll, pitch), index 1, 2... for more joints of one role along a chain
+                           (a spine), and anatomical angle = sign * model angle
+  range, home              the model's range made anatomical and cut to the servo's reach
+                           (+-90 deg if unlimited); a keyframe 'home' or 0
   servo ids                1, 2, ... in model order: set them to your servos' IDs
-  root, imu, feet, hands   the floating body (a URDF's base), the IMU at its origin, the lowest
-                           body of each leg, the distal body of each arm
-joints it cannot place (no location in the name, an axis far from x, y and z, slide and ball
-joints such as a gripper's) are left out, so the model builder holds them at their home pose.
+  root, imu, feet, hands   the floating body (a URDF's base), the IMU at its origin, the end
+                           of each leg, the end of each arm
+joints on no chain (grippers, fingers), with an axis far from x, y and z, without a twin on
+the other side, and slide and ball joints are left out, so the model builder holds them at
+their home pose; a knee or elbow whose limits let it bend only the wrong way is named.
 
 examples:
   biped robot import op3.xml --servo XM430-W350 -o configs/robots/op3.yaml
   biped robot import robot.urdf --package-dir ~/ws/src -o robot.yaml
+  biped robot import poppy.urdf --forward +y --servo MX-28 --servo neck=AX-12A -o poppy.yaml
 """
 
 
@@ -321,9 +330,13 @@ def _add_import(rsub: argparse._SubParsersAction) -> None:
                      ".xacro first: `xacro robot.urdf.xacro > robot.urdf`, or `pip install xacrodoc`)")
     imp.add_argument("-o", "--output", type=output_file(".yaml", ".yml"), required=True,
                      help="the robot YAML to write (its name is the file's stem; paths in it are relative to it)")
-    imp.add_argument("--servo", type=_servo_model, default=DEFAULT_SERVO, metavar="MODEL",
+    imp.add_argument("--servo", type=_servo_choice, action="append", default=[], metavar="[WHERE=]MODEL",
                      help=f"the Dynamixel model of the servos (default {DEFAULT_SERVO}; any model in "
-                     "firmware_profiles/, e.g. XM430-W350, XL330-M288-T)")
+                     "firmware_profiles/, e.g. XM430-W350, XL330-M288-T); repeat with WHERE=MODEL for "
+                     "the servos of legs, arms, neck, waist or one joint (e.g. --servo neck=AX-12A)")
+    imp.add_argument("--forward", choices=("+x", "-x", "+y", "-y"), default=None,
+                     help="the way the robot faces in the model file (default: inferred from its feet, "
+                     "knees and toes); write a minus with '=': --forward=-y")
     imp.add_argument("--package-dir", action="append", default=[], type=Path, metavar="DIR",
                      help="a folder holding the packages of a URDF's package://PKG/PATH meshes (tried as "
                      "DIR/PKG/PATH and DIR/PATH); repeatable")
@@ -343,12 +356,26 @@ def _servo_model(text: str) -> str:
         raise argparse.ArgumentTypeError(exc.args[0]) from None
 
 
+def _servo_choice(text: str) -> tuple[str | None, str]:
+    """``MODEL`` or ``WHERE=MODEL``: (where or None, the model's canonical name)."""
+    where, _, model = text.rpartition("=")
+    return (where or None, _servo_model(model))
+
+
 def cmd_robot_import(args: argparse.Namespace) -> int:
     from sim2real.robot.import_yaml import write_robot_yaml
     from sim2real.robot.importer import import_robot
 
-    result = import_robot(args.model, args.output, servo=args.servo, package_dirs=args.package_dir,
-                          recompute_inertias=args.recompute_inertias)
+    from sim2real.robot.importer import DEFAULT_SERVO
+
+    defaults = [model for where, model in args.servo if where is None]
+    if len(defaults) > 1:
+        raise UsageError(f"--servo: give one model for all servos, and WHERE=MODEL for the others (got "
+                         f"{', '.join(defaults)})")
+    result = import_robot(args.model, args.output, servo=defaults[0] if defaults else DEFAULT_SERVO,
+                          servos={where: model for where, model in args.servo if where is not None},
+                          package_dirs=args.package_dir, recompute_inertias=args.recompute_inertias,
+                          forward=args.forward)
     print("\n".join(result.report()))
     write_robot_yaml(result)
     print(f"wrote {args.output}: check every line marked 'guessed: check' (servo ids, signs, feet, IMU) "
