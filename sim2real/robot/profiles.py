@@ -46,6 +46,13 @@ UNIT_MAX = 100.0  # a unit's size (velocity_unit_rpm, load_unit_percent, voltage
 TICK_LIMIT = 2**31  # position ticks are within (-2^31, 2^31)
 RESOLUTION = (2, 2**20)  # encoder ticks a revolution
 BAUD_RANGE = (9600, 10_500_000)  # [bit/s], as a robot's bus.baud
+# The instructions for several devices at once that a profile may list (``instructions``), and
+# what a profile that lists none has, by protocol.  Protocol 2.0 defines all four for every
+# device (ROBOTIS e-manual, "Protocol 2.0", Instruction table); protocol 1.0 defines Sync Write
+# for all, and Bulk Read only on MX firmware ("Protocol 1.0", Bulk Read; DynamixelSDK
+# protocol1_packet_handler.bulkReadTx: "Available only on Dynamixel MX / X series").
+GROUP_INSTRUCTIONS = ("sync_read", "sync_write", "bulk_read", "bulk_write")
+DEFAULT_INSTRUCTIONS = {2.0: GROUP_INSTRUCTIONS, 1.0: ("sync_write",)}
 
 
 @dataclass(frozen=True)
@@ -135,6 +142,11 @@ class DeviceProfile:
     variants: tuple[str, ...] = ()
     sensors: dict[str, Any] = field(default_factory=dict)
     baud_rates: tuple[int, ...] = ()  # [bit/s] the rates it can be set to (empty: not listed)
+    instructions: tuple[str, ...] = ()  # of GROUP_INSTRUCTIONS, those its firmware has
+
+    def has(self, instruction: str) -> bool:
+        """Whether the firmware takes ``instruction`` (one of :data:`GROUP_INSTRUCTIONS`)."""
+        return instruction in self.instructions
 
     def register(self, name: str) -> Register:
         try:
@@ -204,9 +216,9 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     kind = root["kind"].string(("servo", "sensor_board"))
     common = ("model", "kind", "model_number", "protocol", "mass_kg", "source", "control_table")
     if kind == "servo":
-        root.mapping(required=common + _SERVO_KEYS, optional=_UNIT_KEYS + ("variants", "baud_rates"))
+        root.mapping(required=common + _SERVO_KEYS, optional=_UNIT_KEYS + ("variants", "baud_rates", "instructions"))
     else:
-        root.mapping(required=common + ("sensors",), optional=("variants", "baud_rates"))
+        root.mapping(required=common + ("sensors",), optional=("variants", "baud_rates", "instructions"))
 
     table: dict[str, Register] = {}
     for entry in root["control_table"].list(min_len=1):
@@ -221,6 +233,10 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     protocol = root["protocol"].number()
     if protocol not in (1.0, 2.0):
         raise root.error(f"must be 1.0 or 2.0, got {protocol}", key="protocol")
+    if root.has("instructions") and protocol == 1.0:
+        for item in root["instructions"].list():
+            if item.value in ("sync_read", "bulk_write"):  # not in protocol 1.0's instruction set
+                raise item.error(f"protocol 1.0 has no {item.value} instruction (it has sync_write; bulk_read on MX)")
     profile = dict(
         model=root["model"].string(),
         kind=kind,
@@ -232,6 +248,8 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
         control_table=table,
         variants=tuple(v.string() for v in root.get("variants", []).list()),
         baud_rates=tuple(sorted({b.integer(*BAUD_RANGE) for b in root.get("baud_rates", []).list()})),
+        instructions=(tuple(dict.fromkeys(i.string(GROUP_INSTRUCTIONS) for i in root["instructions"].list()))
+                      if root.has("instructions") else DEFAULT_INSTRUCTIONS[protocol]),
     )
     if kind == "sensor_board":
         sensors = root["sensors"]
