@@ -520,12 +520,12 @@ def bus_problems(robot: RobotSpec, tick_s: float, *, baud: int | None = None, mo
     extra reads) that take longer than the tick, or a bus that no tick the Bus Watchdog
     allows can serve.  Empty when it can; checked by ``biped robot show`` and before a run
     opens its port."""
-    from sim2real.robot.bus_plan import baud_problem, bus_time, tick_problem
+    from sim2real.robot.bus_plan import baud_problem, bus_devices, bus_time, tick_problem
 
     if robot.bus is None:
         return []
     baud = baud or robot.bus.baud
-    problems = [p for p in (baud_problem(robot, baud),) if p]
+    problems = [p for p in (baud_problem(bus_devices(robot), baud),) if p]
     time = bus_time(robot, baud, motion)
     _, high, why = tick_bounds(robot)
     if time.total_s > high + 1e-12:

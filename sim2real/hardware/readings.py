@@ -4,8 +4,9 @@ source asks for them (an excitation program, for system identification).
 
 Values are converted to the joint's frame and SI-like units: velocity [rad/s]; load as a
 share of the servo's maximum torque [1] (Present Load, 0.1 % a unit); current [A].  A
-register is read only if every servo has it at one address (one sync read); a mixed chain
-without one records what it can and says what it left out.  No MuJoCo here.
+register is read only if every servo has it (at whatever address: the chain groups the read
+by protocol and layout); a mixed chain without one records what it can and says what it left
+out.  No MuJoCo here.
 """
 
 from __future__ import annotations
@@ -33,9 +34,7 @@ class MotionReadings:
         self.spanned = True  # read in one sync read of their span, while that works
 
         def common(reg: Reg) -> bool:
-            places = {(p.control_table[reg].address, p.control_table[reg].size) if reg in p.control_table else None
-                      for p in profiles}
-            return len(places) == 1 and None not in places
+            return all(reg in p.control_table for p in profiles)
 
         def add(reg: Reg, factor: np.ndarray, suffix: str, unit: str) -> None:
             self.reads.append((reg, direction * factor))

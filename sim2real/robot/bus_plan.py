@@ -90,7 +90,7 @@ class Exchange:
         where = (f"{self.items[0][2]} bytes at {self.items[0][1]}" if len(sizes) == 1
                  else "each its own address")
         who = "servo" + ("s " if len(self.items) > 1 else " ") + id_list(self.ids)
-        return f"{self.kind.replace('_', ' ')} (protocol {self.protocol:g}) of {who}, {where}"
+        return f"{self.kind.replace('_', ' ')} (protocol {self.protocol:.1f}) of {who}, {where}"
 
 
 def id_list(ids: Iterable[int]) -> str:
@@ -186,12 +186,12 @@ def check_group(kind: str, devices: Mapping[int, DeviceProfile], items: Sequence
     if len(protocols) > 1:
         by = _by_protocol(devices, known)
         raise ValueError(f"one {name} cannot reach servos of protocols " + " and ".join(
-            f"{p:g} ({id_list(by[p])})" for p in protocols) + ": one instruction per protocol")
+            f"{p:.1f} ({id_list(by[p])})" for p in protocols) + ": one instruction per protocol")
     lacking = [i for i in known if not devices[i].has(kind)]
     if lacking:
         models = sorted({devices[i].model for i in lacking})
         raise ValueError(f"servo{'s' if len(lacking) > 1 else ''} {id_list(lacking)} ({', '.join(models)}, protocol "
-                         f"{devices[lacking[0]].protocol:g}) {'have' if len(lacking) > 1 else 'has'} no {name} "
+                         f"{devices[lacking[0]].protocol:.1f}) {'have' if len(lacking) > 1 else 'has'} no {name} "
                          "instruction")
     if kind != BULK_READ and len(_by_layout(items)) > 1:
         raise ValueError(f"one {name} needs one address and size on every servo; servos {id_list(known)} differ")
@@ -250,6 +250,14 @@ def servo_profiles(robot: RobotSpec) -> tuple[dict[int, DeviceProfile], list[int
     return {j.servo.id: j.servo.profile for j in robot.joints if j.servo is not None}, ids
 
 
+def bus_devices(robot: RobotSpec) -> dict[int, DeviceProfile]:
+    """Every device on the robot's bus by ID: its servos and its sensor board."""
+    devices, _ = servo_profiles(robot)
+    if robot.sensor_board is not None:
+        devices[robot.sensor_board.id] = robot.sensor_board.profile
+    return devices
+
+
 def tick_exchanges(robot: RobotSpec, motion: Sequence[str] = ()) -> tuple[Exchange, ...]:
     """One control tick's exchanges: read every present position, read the sensor board, write
     every goal - and, with ``motion`` (entries next to each other, e.g. present load and
@@ -291,12 +299,9 @@ def tick_problem(robot: RobotSpec, tick_s: float, baud: int | None = None, motio
             "with sync or bulk read, or a longer tick")
 
 
-def baud_problem(robot: RobotSpec, baud: int) -> str | None:
-    """Why some device of ``robot`` cannot be set to ``baud`` [bit/s], naming those devices
+def baud_problem(devices: Mapping[int, DeviceProfile], baud: int) -> str | None:
+    """Why some of ``devices`` (by ID) cannot be set to ``baud`` [bit/s], naming those devices
     by model and protocol and the rates each model can take; None if all can."""
-    devices = {j.servo.id: j.servo.profile for j in robot.joints if j.servo is not None}
-    if robot.sensor_board is not None:
-        devices[robot.sensor_board.id] = robot.sensor_board.profile
     wrong = [i for i, p in devices.items() if p.baud_rates and baud not in p.baud_rates]
     if not wrong:
         return None
@@ -305,7 +310,7 @@ def baud_problem(robot: RobotSpec, baud: int) -> str | None:
         models.setdefault(devices[i].model, []).append(i)
     listed = [set(p.baud_rates) for p in devices.values() if p.baud_rates]
     common = sorted(set.intersection(*listed))
-    return ("; ".join(f"{model} (protocol {devices[ids[0]].protocol:g}, IDs {id_list(ids)}) cannot be set to {baud} "
+    return ("; ".join(f"{model} (protocol {devices[ids[0]].protocol:.1f}, IDs {id_list(ids)}) cannot be set to {baud} "
                       f"baud, only to {', '.join(map(str, devices[ids[0]].baud_rates))}" for model, ids in models.items())
             + (f"; every device on the bus can take {', '.join(map(str, common))}" if common else
                "; no baud rate suits every device on the bus: put them on two ports, or replace some"))
