@@ -319,3 +319,27 @@ def test_biped_run_on_a_mixed_bus_stops_on_sigint_with_torque_off_read_back_on_e
     finally:
         simbus.stdin.close()
         simbus.wait(timeout=30)
+
+
+def test_the_simulated_bus_answers_each_protocol_only_from_its_own_servos(robot):
+    """Below our bus's checks: the SDK's own packets of each protocol on one port."""
+    import dynamixel_sdk as sdk
+
+    devices = MockBus(robot).devices
+    with PtyServer(EmulatedChain(devices)) as server:
+        bus = DynamixelBus(server.port, 1_000_000, robot, return_delay_us=REPLY_ALLOWANCE_US)
+        bus.open()
+        one, two = bus.handlers[1.0], bus.handlers[2.0]
+        # an AX-12A does not parse a protocol-2.0 sync read that names it; the XL430 named with it answers
+        group = sdk.GroupSyncRead(bus.port, two, 132, 4)
+        for dxl_id in (1, 5):
+            group.addParam(dxl_id)
+        assert group.txPacket() == sdk.COMM_SUCCESS
+        assert two.readRx(bus.port, 1, 4)[1] == sdk.COMM_SUCCESS
+        assert two.readRx(bus.port, 5, 4)[1] == sdk.COMM_RX_TIMEOUT
+        # nor an XL430 a protocol-1.0 read, or a 1.0 sync write at its ID
+        assert one.readTxRx(bus.port, 1, 36, 2)[1] == sdk.COMM_RX_TIMEOUT
+        assert one.syncWriteTxOnly(bus.port, 30, 2, [1, 0x58, 0x02, 5, 0x58, 0x02], 6) == sdk.COMM_SUCCESS
+        assert one.readTxRx(bus.port, 5, 30, 2)[0] == [0x58, 0x02]  # the AX-12A took its goal, 600
+        assert two.read4ByteTxRx(bus.port, 1, 116)[0] == 2048  # the XL430 kept its own
+        bus.close()
