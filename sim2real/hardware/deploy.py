@@ -53,7 +53,7 @@ from sim2real.hardware.realtime import (
     release_realtime,
     request_realtime,
 )
-from sim2real.hardware.readings import MotionReadings
+from sim2real.hardware.readings import MotionReadings, traced_registers
 from sim2real.hardware.trace import GYRO_CHANNELS, HEADING_CHANNEL, Channel, TraceWriter
 from sim2real.robot import RobotSpec
 
@@ -418,8 +418,7 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
     log = _SafeLog(log)
     chain = ServoChain(bus, robot)
     mapping = ServoMapping(robot)
-    traced = tuple(reg for reg, _ in MotionReadings(chain, robot).reads) \
-        if trace_path is not None and getattr(policy, "trace_motion", False) else ()
+    traced = traced_registers(robot) if trace_path is not None and getattr(policy, "trace_motion", False) else ()
     problems = bus_problems(robot, policy.tick_s, baud=bus.baud, motion=traced)
     if problems:  # before any port is opened: this bus cannot serve this tick
         raise ConfigError(robot.source, "bus", "; ".join(problems))

@@ -24,8 +24,8 @@ from sim2real.robot import RobotSpec
 class MotionReadings:
     """The extra registers to read, with each joint's factor into its channel's unit."""
 
-    def __init__(self, chain: ServoChain, robot: RobotSpec):
-        self.chain = chain
+    def __init__(self, chain: ServoChain | None, robot: RobotSpec):
+        self.chain = chain  # None: only to ask what it would read (:func:`traced_registers`)
         profiles = [j.servo.profile for j in robot.joints]
         direction = np.array([float(j.servo.direction) for j in robot.joints])
         self.reads: list[tuple[Reg, np.ndarray]] = []
@@ -68,3 +68,9 @@ class MotionReadings:
         if not self.spanned:
             values = {reg: self.chain.sync_read(reg, attempts=attempts) for reg in names}
         return np.concatenate([values[reg] * factor for reg, factor in self.reads])
+
+
+def traced_registers(robot: RobotSpec) -> tuple[Reg, ...]:
+    """The registers :class:`MotionReadings` reads every tick on ``robot``: what a traced
+    excitation adds to the tick's bus time (:func:`sim2real.robot.bus_plan.bus_time`)."""
+    return tuple(reg for reg, _ in MotionReadings(None, robot).reads)
