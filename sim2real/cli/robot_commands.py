@@ -65,13 +65,14 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
     controller file (keys "view", "render"); without it those refuse one."""
     robot = sub.add_parser("robot", help="describe a robot or export its MuJoCo model",
                            description="Describe a robot config or export its MuJoCo model.")
-    rsub = robot.add_subparsers(dest="robot_command", required=True, metavar="{show,mjcf,import}")
+    rsub = robot.add_subparsers(dest="robot_command", required=True, metavar="{show,stand,mjcf,import}")
     show = rsub.add_parser("show", help="joints, servos, masses, control tick and torque margins",
                            description="Print the robot's joints, servos, masses, height, the control "
                            "tick with its derivation, and each joint's torque margin in a half crouch.")
     show.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
     show.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     show.set_defaults(func=cmd_robot_show)
+    _add_stand(rsub)
 
     mjcf = rsub.add_parser("mjcf", help="write the robot as self-contained MJCF",
                            description="Write self-contained MJCF: one position actuator per servo, "
@@ -141,6 +142,8 @@ def describe(robot: RobotSpec) -> dict:
             "range_rad": list(j.range_rad), "home_rad": j.home_rad,
             "servo_id": j.servo.id if j.servo else None,
             "servo_model": j.servo.profile.model if j.servo else None,
+            "servo_protocol": j.servo.profile.protocol if j.servo else None,
+            "servo_profile": j.servo.profile.path.name if j.servo else None,  # its file in firmware_profiles/
             "direction": j.servo.direction if j.servo else None,
             "zero_offset_rad": j.servo.zero_offset_rad if j.servo else None,
             "sign": j.sign,
@@ -221,15 +224,19 @@ def _print_description(d: dict) -> None:
                   f"IDs {id_list(e['ids'])}")
     print(f"joints (torque margin: stall / holding torque, {d['torque_margin_stance']}):")
     width = max([18] + [len(j["name"]) for j in d["joints"]])
-    print(f"  {'name':<{width}} {'id':>3} {'servo':<14} {'range [deg]':>16} {'home':>6} "
+    print(f"  {'name':<{width}} {'id':>3} {'servo':<14} {'proto':>5} {'range [deg]':>16} {'home':>6} "
           f"{'hold [N m]':>10} {'margin':>7} {'step/tick':>9}")
     for j in d["joints"]:
         lo, hi = (math.degrees(a) for a in j["range_rad"])
         margin = "-" if j["torque_margin"] is None else f"{j['torque_margin']:.1f}x"
         step = f"{math.degrees(j['max_goal_step_rad']):.1f} deg" if "max_goal_step_rad" in j else "-"
+        protocol = "-" if j["servo_protocol"] is None else f"{j['servo_protocol']:.1f}"
         print(f"  {j['name']:<{width}} {j['servo_id'] if j['servo_id'] is not None else '-':>3} "
-              f"{j['servo_model'] or 'PD':<14} {f'[{lo:.1f}, {hi:.1f}]':>16} "
+              f"{j['servo_model'] or 'PD':<14} {protocol:>5} {f'[{lo:.1f}, {hi:.1f}]':>16} "
               f"{math.degrees(j['home_rad']):>6.1f} {j['holding_torque_nm']:>10.3f} {margin:>7} {step:>9}")
+    profiles = {j["servo_model"]: (j["servo_profile"], j["servo_protocol"]) for j in d["joints"] if j["servo_model"]}
+    for model, (file, protocol) in profiles.items():  # which profile each model name resolved to
+        print(f"  servo {model}: firmware_profiles/{file}, protocol {protocol:.1f}")
     weak = [j["name"] for j in d["joints"] if j["torque_margin"] is not None and j["torque_margin"] < 1.5]
     if weak:
         print(f"warning: torque margin below 1.5x at {', '.join(weak)}")
@@ -245,6 +252,40 @@ def cmd_robot_show(args: argparse.Namespace) -> int:
     if d["bus_problems"]:  # shown above, and refused: `biped run` would refuse it before opening the port
         raise ConfigError(robot.source, "bus", "; ".join(d["bus_problems"]))
     return 0
+
+
+def _add_stand(rsub: argparse._SubParsersAction) -> None:
+    stand = rsub.add_parser("stand", help="does it stand? 5 s from home, the servos holding home",
+                            description="Simulate the robot 5 s from its home pose with every servo holding "
+                            "home; print the torso's up-vector, the sag, the share of its weight on the feet, "
+                            "the joints' torque margins, whether it fell or slid, and a verdict (stands, "
+                            "stands with a warning, falls). Exit status 1 when it falls. "
+                            "See docs/robot-stand.md.")
+    stand.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    stand.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    stand.add_argument("--propose-home", action="store_true",
+                       help="also propose a home that stands (knees bent, feet flat, the centre of mass over "
+                       "the soles) and leg ranges centred on it, checked the same way (the exit status is "
+                       "still the given home's)")
+    stand.set_defaults(func=cmd_robot_stand)
+
+
+def cmd_robot_stand(args: argparse.Namespace) -> int:
+    from sim2real.simulation.stand_check import check_stand
+
+    robot = _robot(args.robot)
+    report = check_stand(robot)
+    proposal = None
+    if args.propose_home:
+        from sim2real.simulation.stand_home import propose_home
+
+        proposal = propose_home(robot)
+    if args.json:
+        print(json.dumps(report.to_json() | ({"proposed_home": proposal.to_json()} if proposal else {}), indent=2))
+    else:
+        print("\n".join(report.lines() + (proposal.report() + ["in the robot YAML:"] + proposal.yaml_lines()
+                                          if proposal else [])))
+    return 0 if report.stands else 1
 
 
 def cmd_robot_mjcf(args: argparse.Namespace) -> int:

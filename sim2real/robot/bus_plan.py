@@ -21,7 +21,7 @@ The same plan drives the bus (:class:`~sim2real.hardware.dynamixel.chain.ServoCh
 prices a control tick (:func:`tick_exchanges`, :func:`bus_time`), so what a tick is checked
 against is the packets the loop sends.  Packet sizes: ROBOTIS e-manual, "Protocol 1.0" and
 "Protocol 2.0" (2.0's byte stuffing, rare, left out).  Which instructions a model has is its
-profile's ``instructions`` (:data:`sim2real.robot.profiles.DEFAULT_INSTRUCTIONS`).
+profile's ``instructions`` (:meth:`sim2real.robot.profiles.DeviceProfile.has`).
 """
 
 from __future__ import annotations

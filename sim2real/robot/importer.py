@@ -304,7 +304,7 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     kind = mf.model_format(model_file)
     spec = mf.load_model_spec(model_file, dirs, drop_visuals=True)  # visuals play no part here
     root = mf.root_body(spec)
-    problems = model_inertias.implausible_inertias(spec)
+    problems = model_inertias.implausible_inertias(spec, source=str(model_file))
     inertias, why = "as_given", ""
     if recompute_inertias:
         inertias, why = "from_geometry", "from --recompute-inertias"

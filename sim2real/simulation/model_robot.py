@@ -97,7 +97,7 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
     if missing:
         raise ConfigError(where, "joints", f"{', '.join(missing)}: no such joint in {source.path.name}")
     if source.inertias == "from_geometry":
-        recompute_inertias(spec)
+        recompute_inertias(spec, source=where)
     dt = physics_dt(robot)
     for robot_joint in robot.joints:
         joint = spec.joint(robot_joint.name)
