@@ -78,10 +78,11 @@ MAX_STRIP_FRAMES = 50
 # -- checks of more than one flag ---------------------------------------------------------------
 def check_baud(robot: RobotSpec, baud: int, flag: str = "--baud") -> None:
     """Refuse a baud rate that not every device on ``robot``'s bus can be set to."""
-    rates = robot.baud_rates
-    if rates is not None and baud not in rates:
-        raise UsageError(f"{flag} {baud}: not a rate every device of {robot.name} supports "
-                         f"({', '.join(map(str, rates))})")
+    from sim2real.robot.bus_plan import baud_problem, bus_devices
+
+    problem = baud_problem(bus_devices(robot), baud)  # names the devices that cannot take it, by model and protocol
+    if problem:
+        raise UsageError(f"{flag} {baud}: not a rate every device of {robot.name} supports: {problem}")
 
 
 def check_duration(seconds: float | None, tick_s: float, flag: str = "--duration") -> None:

@@ -50,9 +50,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ex.add_argument("--joints", nargs="+", metavar="NAME",
                     help="joints or pairs to excite (e.g. knee hip_pitch waist_yaw; default: all)")
     ex.add_argument("--pose", choices=POSES, default="suspended", help="how the robot is held (default: %(default)s)")
-    ex.add_argument("--tick-ms", type=positive_finite_float, default=EXCITE_TICK_MS,
-                    help="the program's tick (default %(default)g ms: as fast as the bus allows, not the "
-                    "controller's tick)")
+    ex.add_argument("--tick-ms", type=positive_finite_float,
+                    help=f"the program's tick (default {EXCITE_TICK_MS:g} ms, or the robot's bus time a tick if "
+                    "longer: as fast as the bus allows, not the controller's tick)")
     ex.add_argument("--chirp-s", type=positive_finite_float, metavar="S",
                     help="seconds of each chirp (default 12; longer resolves low frequencies better)")
     ex.add_argument("--steps", type=positive_finite_float, nargs="+", metavar="DEG",
@@ -90,12 +90,25 @@ def _program(args: argparse.Namespace):
     if robot.bus is None:
         raise UsageError(f"robot {robot.name} has no Dynamixel bus (a simulation-only character): "
                          "it cannot be excited through servos")
-    settings = ExcitationSettings.for_pose(args.pose, args.tick_ms / 1e3)
+    settings = ExcitationSettings.for_pose(args.pose, (args.tick_ms or excite_tick_ms(robot)) / 1e3)
     if args.chirp_s is not None:
         settings = dataclasses.replace(settings, chirp_s=args.chirp_s)
     if args.steps:
         settings = dataclasses.replace(settings, step_deg=tuple(args.steps))
     return robot, build_program(robot, args.pose, args.joints, settings)
+
+
+def excite_tick_ms(robot) -> float:
+    """The default excitation tick [ms]: :data:`EXCITE_TICK_MS`, or the whole ms above the
+    robot's bus time a tick - positions, board, goals and the traced velocity and load - where
+    that is longer (a chain with servos read one by one, say)."""
+    import math
+
+    from sim2real.hardware.readings import traced_registers
+    from sim2real.robot.bus_plan import bus_time
+
+    needed = bus_time(robot, motion=traced_registers(robot)).total_s * 1e3
+    return max(EXCITE_TICK_MS, float(math.ceil(needed)))
 
 
 def check_excite(args: argparse.Namespace) -> None:
