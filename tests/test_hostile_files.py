@@ -39,7 +39,7 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, NeatConfig, Population
-from evolve.run_lock import RunFolderBusy, RunLock
+from sim2real.run_lock import RunFolderBusy, RunLock
 from sim2real.controller.checks import tick_bounds
 from sim2real.controller.file import Controller
 from sim2real.controller.symmetry import symmetric_layout
@@ -586,7 +586,7 @@ def test_the_lock_in_one_process_and_its_lock_file(tmp_path):
 
 
 def test_a_lock_holder_killed_with_sigkill_frees_the_folder(tmp_path):
-    holder = subprocess.Popen([sys.executable, "-c", "import sys, time; from evolve.run_lock import RunLock; "
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time; from sim2real.run_lock import RunLock; "
                                f"lock = RunLock.acquire({str(tmp_path)!r}); print('held', flush=True); time.sleep(60)"],
                               stdout=subprocess.PIPE, text=True)
     try:
