@@ -22,7 +22,7 @@ from sim2real.cli.args import (
     robot_name,
     seed,
 )
-from sim2real.arg_types import HEADING_HELP, heading_schedule
+from sim2real.arg_types import HEADING_HELP, cluster_address, heading_schedule
 from sim2real.errors import UsageError
 
 DEFAULT_CONFIG = "walk"
@@ -49,7 +49,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     ev.add_argument("--backend", choices=("local", "ray"), default="local",
                     help="where simulations run: this machine, or a Ray cluster (pip install '.[cluster]')")
-    ev.add_argument("--address", help="Ray cluster address, e.g. 10.0.0.1:6379 (default: start a local Ray)")
+    ev.add_argument("--address", type=cluster_address, help="Ray cluster address, HOST:PORT, e.g. 10.0.0.1:6379, "
+                    "or auto (default: start a local Ray); checked to answer within a few seconds before the run")
     ev.add_argument("--quiet", action="store_true", help="no progress lines")
     ev.set_defaults(func=cmd_evolve, check=check_evolve)
 
@@ -256,6 +257,10 @@ def check_evolve(args: argparse.Namespace) -> None:
         raise UsageError("--address is the Ray cluster's: it needs --backend ray")
     if args.backend == "ray":
         require_module("ray", "--backend ray", extra="cluster")
+        if args.address is not None:
+            from evolve.ray_backend import check_reachable
+
+            check_reachable(args.address)  # before anything runs: Ray's own connect waits a minute or more
 
 
 def cmd_evolve(args: argparse.Namespace) -> int:

@@ -16,8 +16,10 @@ same flags the same way.  No MuJoCo here (:func:`reality_name` imports it when c
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import math
 import os
+import re
 from typing import Any, Callable
 
 from sim2real.errors import BipedError
@@ -208,6 +210,44 @@ def reality_name(text: str) -> str:
     from sim2real.simulation.reality import load_reality
 
     return _loads(load_reality, text)
+
+
+# -- a cluster's address -------------------------------------------------------------------
+def cluster_address(text: str) -> str:
+    """A Ray cluster's address: ``HOST:PORT`` (or ``ray://HOST:PORT``, Ray's client) with a
+    port in 1-65535 and a host name or IP address (IPv6 in brackets), or ``auto`` (the
+    cluster this machine runs, found by Ray).  Only the form is checked here; that something
+    answers there is checked before connecting (:func:`evolve.ray_backend.check_reachable`)."""
+    if text == "auto":
+        return text
+    try:
+        host_port(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
+_HOST_LABEL = re.compile(r"(?!-)[A-Za-z0-9-]{1,63}(?<!-)")
+
+
+def host_port(address: str) -> tuple[str, int]:
+    """(host, port) of ``[ray://]HOST:PORT``; ``ValueError`` saying what is wrong."""
+    rest = address.removeprefix("ray://")
+    host, sep, port = rest.rpartition(":")
+    if not sep or not host:
+        raise ValueError(f"{show(address)} is not HOST:PORT (e.g. 10.0.0.1:6379)")
+    if not port.isascii() or not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise ValueError(f"{show(address)}: the port must be a whole number within [1, 65535], got {show(port)}")
+    if host.startswith("[") and host.endswith("]"):  # [IPv6]
+        try:
+            ipaddress.IPv6Address(host[1:-1])
+        except ValueError:
+            raise ValueError(f"{show(address)}: {show(host)} is not an IPv6 address") from None
+        return host[1:-1], int(port)
+    labels = host.removesuffix(".").split(".")
+    if len(host) > 253 or not all(_HOST_LABEL.fullmatch(label) for label in labels):
+        raise ValueError(f"{show(address)}: {show(host)} is not a host name or IPv4 address")
+    return host, int(port)
 
 
 HEADING_HELP = ("steer a controller with a heading input: hold the start's heading turned by DEG (left "
