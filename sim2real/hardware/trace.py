@@ -25,12 +25,13 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
 from sim2real.atomic_json import write_text_atomic
 from sim2real.errors import ConfigError
+from sim2real.hardware.trace_rows import Rows, read_rows
 from sim2real.input_files import read_regular_bytes
 
 FLUSH_EVERY_S = 1.0
@@ -197,7 +198,7 @@ class Trace:
         return np.stack([self["foot_left"], self["foot_right"]], axis=1) > 0.5
 
     @classmethod
-    def read(cls, path: Path | str) -> "Trace":
+    def read(cls, path: Path | str, reader: Callable[..., Rows] | None = None) -> "Trace":
         """A trace CSV and its sidecar.
 
         Refused with :class:`ConfigError` naming the file: a file that is not a regular
@@ -210,55 +211,35 @@ class Trace:
         a missing sidecar (metadata ``{}``), and so are gaps of more than ``GAP_TICKS``
         ticks without a row (the tick: the sidecar's ``tick_s``, else the median step).
         Channels the loop writes get their units from :func:`loop_channels`; others have the
-        unit "".  Joint angles against a robot's ranges: :func:`check_joint_angles`.
+        unit "".  Joint angles against a robot's ranges: :func:`check_joint_angles`.  The rows
+        are read in chunks (:mod:`sim2real.hardware.trace_rows`: a file past its
+        ``MAX_TRACE_BYTES`` is refused); ``reader``: another reader of them, e.g. its
+        reference ``read_rows_plain``.
         """
         path = Path(path)
         source = str(path)
         if path.suffix.lower() == ".json":
             raise ConfigError(source, "", "a trace is the CSV file; a .json beside it is its sidecar")
-        raw = read_regular_bytes(path, source)  # a FIFO or a device refused unopened
-        try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError:
-            text = "\0"
-        if "\0" in text:
-            raise ConfigError(source, "", "not a trace: a binary file, not CSV text")
-        if not text.strip():
-            raise ConfigError(source, "", "the trace is empty (no header row)")
         notes: list[str] = []
-        meta = _read_sidecar(path, notes)
-        lines = text.splitlines(keepends=True)
-        rows = list(csv.reader(lines))
-        while len(rows) > 1 and not rows[-1]:  # blank lines at the end
-            rows.pop()
-            lines.pop()
-        header, rows = rows[0], rows[1:]
-        if len(set(header)) != len(header) or not all(header):
-            raise ConfigError(source, "header", "column names must be unique and non-empty")
-        columns = meta.pop("columns", None)
-        if isinstance(columns, list) and columns != header:
-            missing = [c for c in columns if c not in header]
-            extra = [c for c in header if c not in columns]
-            raise ConfigError(source, "header", f"does not match the columns of its sidecar {sidecar_path(path).name}"
-                              f" (missing {missing[:3]}, unexpected {extra[:3]})")
-        if TIME not in header:
-            raise ConfigError(source, "header", f"has no {TIME} column")
-        if rows and (not lines[-1].endswith(("\n", "\r")) or len(rows[-1]) < len(header)):
-            rows.pop()
+        meta: dict[str, Any] = {}
+
+        def check_header(header: list[str]) -> None:  # before any row is read
+            meta.update(_read_sidecar(path, notes))
+            columns = meta.pop("columns", None)
+            if isinstance(columns, list) and columns != header:
+                missing = [c for c in columns if c not in header]
+                extra = [c for c in header if c not in columns]
+                raise ConfigError(source, "header", f"does not match the columns of its sidecar "
+                                  f"{sidecar_path(path).name} (missing {missing[:3]}, unexpected {extra[:3]})")
+            if TIME not in header:
+                raise ConfigError(source, "header", f"has no {TIME} column")
+
+        # in chunks, in bounded memory, a file past MAX_TRACE_BYTES refused (a FIFO or a device unopened)
+        header, values, cut = (reader or read_rows)(path, source, check_header)
+        if cut:
             notes.append(f"{source}: the last row is cut short (a run killed mid-write?): dropped")
-        if not rows:
+        if not len(values):
             raise ConfigError(source, "", "the trace has no rows")
-        values = np.empty((len(rows), len(header)))
-        for k, row in enumerate(rows):
-            if len(row) != len(header):
-                raise ConfigError(source, f"row {k + 2}", f"has {len(row)} fields, the header {len(header)}")
-            for j, cell in enumerate(row):
-                try:
-                    values[k, j] = float(cell)
-                except ValueError:
-                    values[k, j] = math.nan
-                if not math.isfinite(values[k, j]):
-                    raise ConfigError(source, f"row {k + 2}", f"{header[j]}: {cell!r} is not a finite number")
         t = header.index(TIME)
         _check_times(values[:, t], meta, source, notes)
         joints = [name.removesuffix(GOAL) for name in header if name.endswith(GOAL)]
@@ -272,8 +253,9 @@ class Trace:
                 raise ConfigError(source, f"row {k + 2}", f"{name}: {values[k, j]:.6g} rad is more than a full turn "
                                   f"(|angle| <= 2 pi): not an angle in radians (degrees?)")
         others = [j for j in range(len(header)) if j != t]
-        return cls(values[:, t], values[:, others], tuple(Channel(header[j], units.get(header[j], "")) for j in others),
-                   meta, tuple(notes))
+        times, data = values[:, t].copy(), values[:, others]
+        del values  # the rows as read go before the trace copies its own: two arrays at most, not three
+        return cls(times, data, tuple(Channel(header[j], units.get(header[j], "")) for j in others), meta, tuple(notes))
 
 
 def _check_times(times: np.ndarray, meta: Mapping[str, Any], source: str, notes: list[str]) -> None:
