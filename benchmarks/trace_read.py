@@ -8,7 +8,8 @@ Writes a valid trace of ``--minutes`` of the robot (every joint, through
 :class:`~sim2real.hardware.trace.TraceWriter`, as a run writes it: goals swinging around home,
 the present angles a tick behind, the feet taking turns), then measures in fresh processes
 (with the code in ``--code`` first on the path) ``Trace.read`` alone and ``biped compare --json``:
-wall seconds and peak resident memory (``ru_maxrss`` of that process) [MB].
+wall seconds, CPU seconds (steadier on a shared machine) and peak resident memory
+(``ru_maxrss`` of that process) [MB].
 """
 
 from __future__ import annotations
@@ -33,8 +34,9 @@ CHILD = """
 import json, resource, sys, time
 t = time.perf_counter()
 {body}
-print(json.dumps({{"seconds": time.perf_counter() - t,
-                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}}), file=sys.stderr)
+usage = resource.getrusage(resource.RUSAGE_SELF)
+print(json.dumps({{"seconds": time.perf_counter() - t, "cpu_s": usage.ru_utime + usage.ru_stime,
+                  "peak_rss_mb": usage.ru_maxrss / 1024}}), file=sys.stderr)
 """
 READ = "from sim2real.hardware.trace import Trace\ntrace = Trace.read(sys.argv[1])"
 COMPARE = "from evolve.cli import main\ncode = main(['compare', sys.argv[1], '--json'])\nassert code == 0, code"
