@@ -45,7 +45,9 @@ def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = 
     """Adapt the walker in ``controller`` to the robot of the reality file ``identified`` (fixed
     values: what ``biped sysid`` writes); the run folder is ``out`` (``out/controller.json`` the
     adapted walker, ``out/adapt.json`` the result, also returned).  ``episode_s``: episodes of
-    this length [s] (default the walker's task's); ``transfer_runs``: dry runs of the check."""
+    this length [s] (default the walker's task's); ``transfer_runs``: dry runs of the check.
+    ``out`` is locked from start to end (a second adapt into it is refused, naming this
+    process); ``lock``: that lock, handed down by :func:`~sim2real.run_lock.holds_folder`."""
     controller = Path(controller)
     data, robot = Controller.load_for_robot(controller)
     centre = load_reality(identified)
