@@ -46,7 +46,7 @@ from typing import Any, Callable
 
 from typing import TYPE_CHECKING
 
-from evolve.run_lock import RunLock
+from sim2real.run_lock import RunLock
 from sim2real.atomic_json import read_json, write_json_atomic
 from sim2real.errors import UsageError
 
@@ -145,7 +145,7 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
     out = Path(out)
     _check_folder(out, resume)
     out.mkdir(parents=True, exist_ok=True)
-    with RunLock.acquire(out):
+    with RunLock.acquire(out, what="biped train"):
         state = _load_state(out, robot_name, settings) if resume else _new_state(robot_name, settings, command)
         budget = Budget(settings.minutes, spent_s=state.get("elapsed_s", 0.0))
         progress = Progress(budget, quiet) if log is None else log

@@ -124,7 +124,7 @@ def test_bad_flags_are_refused_before_anything_runs(tmp_path, args, problem):
 
 
 def test_a_folder_in_use_or_full_is_refused_and_left_as_it_was(tmp_path):
-    from evolve.run_lock import RunLock
+    from sim2real.run_lock import RunLock
 
     busy = tmp_path / "busy"
     busy.mkdir()

@@ -21,11 +21,12 @@ from sim2real.cli.args import (
     MAX_VIDEO_S,
     check_input_file,
     check_output_file,
+    MAX_RENDER_PX,
+    MAX_SETTLE_S,
+    float_within,
     int_within,
-    non_negative_finite_float,
     output_file,
     positive_float_at_most,
-    positive_int,
     require_module,
 )
 from sim2real.errors import ConfigError, UsageError
@@ -104,11 +105,12 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
                         "same distance so that sizes compare (default output strip.png)")
     render.add_argument("--frames", type=int_within(1, MAX_STRIP_FRAMES),
                         help=f"moments of a --strip (default {STRIP_FRAMES}, at most {MAX_STRIP_FRAMES})")
-    render.add_argument("--width", type=positive_int, default=None,
+    render.add_argument("--width", type=int_within(1, MAX_RENDER_PX[0], "the offscreen framebuffer's"), default=None,
                         help="pixels (default 960, a --strip frame 320; at most 1280)")
-    render.add_argument("--height", type=positive_int, default=None,
+    render.add_argument("--height", type=int_within(1, MAX_RENDER_PX[1], "the offscreen framebuffer's"), default=None,
                         help="pixels (default 720, a --strip frame 400; at most 720)")
-    render.add_argument("--settle", type=non_negative_finite_float, default=None,
+    render.add_argument("--settle", type=float_within(0.0, MAX_SETTLE_S, "a robot stands still within seconds"),
+                        default=None,
                         help="simulated seconds to stand before the picture of a robot (default 1)")
     render.set_defaults(func=cmd_render, check=check_render, replay=replay or {})
 
