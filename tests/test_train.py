@@ -130,8 +130,8 @@ def test_a_folder_in_use_or_full_is_refused_and_left_as_it_was(tmp_path):
     busy.mkdir()
     with RunLock.acquire(busy):
         out = biped("train", "xl430_biped", "--out", str(busy))
-    assert out.returncode == 2 and "another run is working in this folder" in out.stderr
-    assert sorted(p.name for p in busy.iterdir()) == [".lock"]
+        assert out.returncode == 2 and "another biped train is working in this folder" in out.stderr
+        assert sorted(p.name for p in busy.iterdir()) == [".lock"]  # nothing of its own written
     full = tmp_path / "full"
     full.mkdir()
     (full / "mine.txt").write_text("keep me")
