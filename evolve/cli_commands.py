@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 from evolve.limits import MAX_EPISODE_S, MAX_EVAL_EPISODES, MAX_GENERATIONS, MAX_POPULATION, MAX_THREADS
+from evolve.train import POLISH
 from sim2real.cli.args import (
     int_within,
     float_within,
@@ -103,13 +104,17 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     po.add_argument("controller", type=Path)
     po.add_argument("--out", type=output_dir, required=True, help="folder for polished.json and result.json")
     po.add_argument("--updates", type=int_within(1, 100_000), default=60, help="CMA-ES updates (default 60)")
-    po.add_argument("--popsize", type=int_within(2, 1024), default=16, help="candidates an update (default 16)")
-    po.add_argument("--robots", type=int_within(1, 1024), default=8, help="robots each candidate meets in an "
-                    "update, the same for all (default 8)")
-    po.add_argument("--sigma", type=positive_float_at_most(20.0, "weights are bounded by 20"), default=0.1,
-                    help="CMA-ES's first step size in weight units (default 0.1)")
-    po.add_argument("--every", type=int_within(1, 100_000), default=5, help="validate every this many updates")
-    po.add_argument("--validation", type=int_within(1, 10_000), default=30, help="validation robots (default 30)")
+    # the defaults are biped train's walk-rate polish (evolve.train.POLISH)
+    po.add_argument("--popsize", type=int_within(2, 1024), default=POLISH["popsize"],
+                    help="candidates an update (default %(default)s)")
+    po.add_argument("--robots", type=int_within(1, 1024), default=POLISH["robots"], help="robots each candidate "
+                    "meets in an update, the same for all (default %(default)s)")
+    po.add_argument("--sigma", type=positive_float_at_most(20.0, "weights are bounded by 20"), default=POLISH["sigma"],
+                    help="CMA-ES's first step size in weight units (default %(default)s)")
+    po.add_argument("--every", type=int_within(1, 100_000), default=5,
+                    help="validate every this many updates (default 5)")
+    po.add_argument("--validation", type=int_within(1, 10_000), default=POLISH["validation"],
+                    help="validation robots (default %(default)s)")
     po.add_argument("--test", type=int_within(1, 10_000), default=100, help="fresh test robots (default 100)")
     po.add_argument("--randomize", type=reality_name, action="append", metavar="RANGES",
                     help="ranges the robots are drawn from (default configs/reality/randomize.yaml); given "
