@@ -45,7 +45,7 @@ def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = 
     adapted walker, ``out/adapt.json`` the result, also returned).  ``episode_s``: episodes of
     this length [s] (default the walker's task's); ``transfer_runs``: dry runs of the check."""
     controller = Path(controller)
-    data, robot = Controller.load_for_robot(controller)
+    data, robot = Controller.load_for_robot(controller, robot_flag=None)
     centre = load_reality(identified)
     around = centred(load_reality(ranges), centre)  # refused here, with the file named, unless fixed values
     task = controller_task(data, str(controller))
@@ -53,7 +53,7 @@ def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = 
                                episode_s=episode_s or task.episode_s)
     randomize = RandomizeConfig(reality=ranges, episodes=episodes, centre=str(identified),
                                 validation=ValidationConfig(draws=validation, every=5, candidates=8, consistency=0.8))
-    config = EvolveConfig(robot=robot.name if robot.model is None else robot.source, seed=seed,
+    config = EvolveConfig(robot=data.robot_name, seed=seed,  # a project robot's name (load_for_robot)
                           generations=generations, threads=threads, task=task,
                           neat=NeatConfig(population_size=population, sigmoid_steepness=data.sigmoid_steepness),
                           randomize=randomize)

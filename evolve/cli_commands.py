@@ -178,7 +178,7 @@ def cmd_view_controller(args: argparse.Namespace) -> int:
     from evolve.replay import controller_setup
 
     data, _, evaluator, genome = controller_setup(Path(args.robot), None, None, keep_going=True,
-                                        disabled_modules=tuple(args.disable_module))
+                                        disabled_modules=tuple(args.disable_module), robot_flag=None)
     shown = mujoco.MjData(evaluator.model)
     with mujoco.viewer.launch_passive(evaluator.model, shown) as viewer:
         while viewer.is_running():

@@ -62,6 +62,7 @@ from evolve.neat import NeatConfig
 from evolve.stages import Stage, check_stage_joints, parse_stages, with_task
 from sim2real.errors import ConfigError
 from sim2real.robot import DEFAULT_ROBOT, RobotSpec, load_robot
+from sim2real.robot.names import load_named_robot
 from sim2real.robot.spec import JOINT_ANGLE_DEG
 from sim2real.robot.timing import control_timing
 from sim2real.robot.validation import Node, load_yaml, show, show_key
@@ -276,8 +277,10 @@ def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
     if "robot" in doc:
         values["robot"] = root["robot"].string()
     try:
-        robot = load_robot(values.get("robot", DEFAULT_ROBOT))
-    except (FileNotFoundError, ConfigError) as exc:
+        # a config may come from anyone: its robot is a project robot's name, never a path
+        robot = load_named_robot(values["robot"], source, "robot", flag=None) if "robot" in values \
+            else load_robot(DEFAULT_ROBOT)
+    except FileNotFoundError as exc:
         raise ConfigError(source, "robot", str(exc)) from None
     values["task"] = TaskConfig.from_mapping(doc.get("task"), source, "task.")
     for key, (lo, hi) in TASK_RANGES.items():

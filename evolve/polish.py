@@ -80,7 +80,7 @@ class Judge:
         self.realities = [load_reality(name) for name in realities]
 
         def setup(reality: Reality):
-            return controller_setup(path, None, episode_s, episodes=capacity, reality=reality)
+            return controller_setup(path, None, episode_s, episodes=capacity, reality=reality, robot_flag=None)
         self.data, self.robot, self.evaluator, self.genome = setup(self.realities[0])
         # the model keeps as much actuator history as the longest latency of any ranges needs
         widest = max(self.realities, key=lambda r: latency_capacity_s(r, self.evaluator.tick_s))

@@ -154,7 +154,8 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
     """Check a decoded controller whole (see the module docstring); returns it unchanged."""
     c = _Checker(source)
     if not isinstance(data, dict):
-        raise c.error("", f"a controller file must hold a JSON object, got {show(data)}")
+        # its type only: a file that is not a controller at all is not echoed
+        raise c.error("", f"a controller file must hold a JSON object, got {type(data).__name__}")
     if data.get("format") != FORMAT:
         problem = "missing" if "format" not in data else f"{show(data['format'])}"
         raise c.error("format", f"not a controller file (format {problem}, expected {FORMAT!r})")

@@ -43,6 +43,7 @@ from sim2real.controller.mapping import ServoMapping
 from sim2real.errors import ConfigError
 from sim2real.hardware.trace import Trace, check_joint_angles, sidecar_path
 from sim2real.robot import RobotSpec
+from sim2real.robot.validation import show
 from sim2real.simulation.model_builder import finished_spec
 from sim2real.simulation.robot_model import JointAngles, joint_sensor
 from sim2real.simulation.reality import NOMINAL, Perturbation, apply_to_model, sample
@@ -97,7 +98,7 @@ def check_traces(paths: Sequence[Path | str], robot: RobotSpec, warn: Callable[[
         source = str(path)
         made_for = trace.metadata.get("robot")
         if made_for is not None and made_for != robot.name:
-            raise ConfigError(source, "robot", f"a trace of robot {made_for!r}, not {robot.name!r} (use --robot)")
+            raise ConfigError(source, "robot", f"a trace of robot {show(made_for)}, not {robot.name!r} (use --robot)")
         missing = trace.missing([f"{j}_{kind}_rad" for j in robot.joint_names for kind in ("goal", "present")])
         if missing:
             raise ConfigError(source, "header", f"lacks {len(missing)} channel(s) of robot {robot.name}, "
