@@ -429,7 +429,7 @@ def joint_map_hash(robot: RobotSpec) -> str:
 def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
     want = joint_map_hash(robot)
     if data["robot"]["joint_map_hash"] != want:
-        raise c.error("robot.joint_map_hash", f"made for robot {data['robot']['name']!r} with joint map "
+        raise c.error("robot.joint_map_hash", f"made for robot {show(data['robot']['name'])} with joint map "
                       f"{data['robot']['joint_map_hash']}, but {robot.name} has {want}")
     driven = data["joints"]["driven"]
     control_set = data["task"].get("control_set")
