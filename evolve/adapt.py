@@ -31,6 +31,7 @@ from evolve.run import Run
 from evolve.transfer import transfer_check
 from sim2real.atomic_json import write_json_atomic
 from sim2real.controller.file import Controller
+from sim2real.controller.purpose import require_walker
 from sim2real.simulation.reality import centred, load_reality
 
 TEST_SEED = 271_828  # the judging robots' episode seeds [TEST_SEED, e]: no training or validation key
@@ -46,6 +47,8 @@ def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = 
     this length [s] (default the walker's task's); ``transfer_runs``: dry runs of the check."""
     controller = Path(controller)
     data, robot = Controller.load_for_robot(controller, robot_flag=None)
+    require_walker(data, str(controller), "biped adapt", "it evolves a walk on robots around the identified one "
+                   "and judges it by their walk rate and the transfer check's distance")
     centre = load_reality(identified)
     around = centred(load_reality(ranges), centre)  # refused here, with the file named, unless fixed values
     task = controller_task(data, str(controller))

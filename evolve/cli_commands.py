@@ -332,6 +332,13 @@ def check_eval(args: argparse.Namespace) -> None:
         raise UsageError("eval: --by-perturbation or --ablate, not both")
     if args.heading is not None and args.ablate:
         raise UsageError("eval: --heading or --ablate, not both")
+    if args.ablate or args.by_perturbation:  # walk rates and distances: a walker's measures
+        from sim2real.controller.file import Controller
+        from sim2real.controller.purpose import require_walker
+
+        flag = "--ablate" if args.ablate else "--by-perturbation"
+        require_walker(Controller.load(args.controller), str(args.controller), f"biped eval {flag}",
+                       "it sorts the robots that walk, and how far, by what was perturbed")
 
 
 def cmd_adapt(args: argparse.Namespace) -> int:

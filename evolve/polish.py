@@ -41,6 +41,8 @@ from evolve.locomotion.export import controller_from_genome
 from evolve.neat import Genome, NeatConfig
 from evolve.replay import controller_setup
 from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.controller.file import Controller
+from sim2real.controller.purpose import require_walker
 from sim2real.errors import ConfigError
 from sim2real.simulation.reality import Perturbation, Reality, latency_capacity_s, load_reality, sample
 
@@ -205,6 +207,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     may grow); without it a folder holding a checkpoint is refused, so no polish is lost."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
+    require_walker(Controller.load(path), str(path), "biped polish",
+                   "it tunes the weights for the share of randomized robots that walk")
     checkpoint = out / CHECKPOINT
     if checkpoint.exists() and not resume:
         raise FileExistsError(f"{out} holds a polish ({checkpoint}); resume it, or polish into another folder")
