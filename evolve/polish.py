@@ -207,8 +207,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     may grow); without it a folder holding a checkpoint is refused, so no polish is lost."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
-    require_walker(Controller.load(path), str(path), "biped polish",
-                   "it tunes the weights for the share of randomized robots that walk")
+    data, _ = Controller.load_for_robot(path, robot_flag=None)  # refused before the folder is made
+    require_walker(data, str(path), "biped polish", "it tunes the weights for the share of randomized robots that walk")
     checkpoint = out / CHECKPOINT
     if checkpoint.exists() and not resume:
         raise FileExistsError(f"{out} holds a polish ({checkpoint}); resume it, or polish into another folder")
