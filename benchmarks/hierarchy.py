@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from benchmarks.common import parser, progress, report
-from evolve.cli_commands import resolve_config
+from evolve.config import config_path
 from evolve.config import load_evolve_config
 from evolve.run import Run
 from sim2real.atomic_json import read_json
@@ -27,7 +27,7 @@ from sim2real.errors import UsageError
 def staged_run(config_name: str, seed: int, out: Path, threads: int | None, quiet: bool) -> dict:
     """One staged run to its end, in ``out``: continued from its checkpoint if one is there,
     read back if it has ended (benchmarks of hours survive a stop)."""
-    config = load_evolve_config(resolve_config(config_name)).replace(seed=seed)
+    config = load_evolve_config(config_path(config_name)).replace(seed=seed)
     if threads is not None:
         config = config.replace(threads=threads)
     log = lambda line: progress(line, quiet)  # noqa: E731

@@ -23,7 +23,7 @@ import numpy as np
 import yaml
 
 from benchmarks.common import parser, progress, report
-from evolve.cli_commands import resolve_config
+from evolve.config import config_path
 from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.run import Run, read_stats
@@ -59,7 +59,7 @@ def main(argv=None) -> None:
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args(argv)
     work = Path(tempfile.mkdtemp(prefix="human-generation-"))
-    base = load_evolve_config(resolve_config("walk_human"))
+    base = load_evolve_config(config_path("walk_human"))
     steps, genomes, reference = [], None, {}
     for dt in args.dts:
         robot = robot_with_step(work, dt, args.preset)

@@ -31,7 +31,7 @@ from pathlib import Path
 import mujoco
 
 from benchmarks.common import command_line, parser, progress, report, ship_controller
-from evolve.cli_commands import resolve_config
+from evolve.config import config_path
 from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.replay import evaluate_controller
@@ -68,7 +68,7 @@ def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, rob
     if (run_dir / "checkpoint.json.gz").exists():
         run = Run.resume(run_dir, threads=threads, log=log)
     else:
-        config = load_evolve_config(resolve_config(config_name)).replace(
+        config = load_evolve_config(config_path(config_name)).replace(
             robot=f"{robot}:{preset}", seed=seed, generations=generations, threads=threads)
         run = Run.create(config, run_dir, log=log)
     task = run.config.task

@@ -2,7 +2,7 @@
 reaching evolved alone.
 
     python -m benchmarks.reach --seeds 5 --json
-    python -m benchmarks.reach --hierarchy reach_op3 --baseline reach_op3_baseline --seeds 1
+    python -m benchmarks.reach --hierarchy reach_op3 --baseline benchmarks/records/configs/reach_op3_baseline.yaml
     python -m benchmarks.reach --seeds 5 --out runs/reach-bench --plot reach-bench.png
 
 For each seed the staged config (default ``configs/evolve/reach.yaml``: pose -> stand ->
@@ -22,7 +22,7 @@ from pathlib import Path
 
 from benchmarks.common import report
 from benchmarks.hierarchy import pair_parser, run_pairs
-from evolve.cli_commands import resolve_config
+from evolve.config import config_path
 from evolve.config import load_evolve_config
 from evolve.run import read_stats
 from sim2real.figures import pyplot, save_figure
@@ -91,7 +91,7 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     root, results = run_pairs(args, "reach-bench-")
     if args.plot:
-        threshold = load_evolve_config(resolve_config(args.hierarchy)).stages[-1].threshold
+        threshold = load_evolve_config(config_path(args.hierarchy)).stages[-1].threshold
         plot(root, results, threshold, args.plot)
     hierarchy, baseline = summary(results["hierarchy"]), summary(results["baseline"])
     ratio = baseline["median_total_generations"] / hierarchy["median_total_generations"]

@@ -11,7 +11,7 @@ a real robot on a real port:
 
 With ``--loop-minutes M``, then the whole loop once, on the last profile (a ``rich_*`` one by
 default: a robot with effects the model cannot express): evolve with the robust-walk recipe
-(``configs/evolve/walk_robust.yaml``) around the identified robot (``randomize.centre``) for M
+(``benchmarks/records/configs/walk_robust.yaml``) around the identified robot (``randomize.centre``) for M
 minutes (resumable: run it again), and run the transfer check of its champion: its distance
 simulated on the identified robot against three dry runs under the profile's true robot.
 
@@ -37,6 +37,7 @@ from sim2real.simulation.dry_run import SimulatedBusProcess
 from sim2real.simulation.reality import load_reality
 
 PROFILES = Path(__file__).with_name("sysid_profiles")
+LOOP_CONFIG = Path(__file__).with_name("records") / "configs" / "walk_robust.yaml"  # the loop's evolution
 SCALES = ("kp_scale", "torque_scale", "damping_scale", "friction_scale")  # the goal: within 10 %
 REL_TOL, BACKLASH_TOL_DEG, LATENCY_TOL_MS = 0.10, 0.1, 2.0
 
@@ -111,7 +112,6 @@ def loop(profile: str, identified: Path, folder: Path, minutes: float, quiet: bo
     import dataclasses
 
     from evolve.transfer import transfer_check
-    from evolve.cli_commands import resolve_config
     from evolve.config import load_evolve_config
     from evolve.run import Run
 
@@ -119,7 +119,7 @@ def loop(profile: str, identified: Path, folder: Path, minutes: float, quiet: bo
     if (folder / "checkpoint.json.gz").exists():
         run = Run.resume(folder, log=log)
     else:
-        config = load_evolve_config(resolve_config("walk_robust"))
+        config = load_evolve_config(LOOP_CONFIG)
         config = config.replace(threads=threads,
                                 randomize=dataclasses.replace(config.randomize, centre=str(identified.resolve())))
         run = Run.create(config, folder, log=log)

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from benchmarks.common import parser, progress, report
-from evolve.cli_commands import resolve_config
+from evolve.config import config_path
 from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.objectives import WALK_LEG_LENGTHS
@@ -28,7 +28,7 @@ def walk_once(config_name: str, seed: int, minutes: float, out: Path, threads: i
               quiet: bool = False, generations: int | None = None) -> dict:
     """One evolution until its first walker or the budget (wall minutes, and generations if
     given: on a shared machine a generation budget is the fair one); the result as below."""
-    config = load_evolve_config(resolve_config(config_name)).replace(seed=seed, generations=10**6)
+    config = load_evolve_config(config_path(config_name)).replace(seed=seed, generations=10**6)
     if threads is not None:
         config = config.replace(threads=threads)
     run = Run.create(config, out, log=lambda line: progress(line, quiet))

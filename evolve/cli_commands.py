@@ -35,6 +35,11 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("config", nargs="?", default=None,
                     help="evolution config: a name from configs/evolve/ or a YAML path (default: walk)")
     ev.add_argument("--out", type=output_dir, help="run folder (default: runs/<config>-seed<S>)")
+    ev.add_argument("--robot", type=robot_name, help="robot to evolve for: a name from configs/robots/ or a robot "
+                    "YAML path (overrides the config's; with --resume, the run's robot file given again)")
+    ev.add_argument("--set", type=config_override, action="append", default=[], metavar="KEY=VALUE",
+                    help="change one config value, a dotted key and a YAML value, e.g. --set task.episode_s=20 "
+                    "--set neat.population_size=256 (repeatable)")
     ev.add_argument("--seed", type=seed, help="random seed (overrides the config)")
     ev.add_argument("--generations", type=int_within(1, MAX_GENERATIONS),
                     help=f"generations to run, at most {MAX_GENERATIONS:,} (overrides the config)")
@@ -224,19 +229,14 @@ REPLAY = {"view": cmd_view_controller, "render": cmd_render_controller, "strip":
           "gait": replay_gait, "reach": replay_reach}
 
 
-def resolve_config(name: str) -> Path:
-    from sim2real.input_files import check_regular_file
-    from sim2real.robot.paths import data_root
-    from sim2real.robot.validation import show_name
+def config_override(text: str) -> tuple[str, object]:
+    """``--set KEY=VALUE``, checked as a config key and a YAML value."""
+    from evolve.config import parse_override
 
-    path = Path(name)
-    if os.path.lexists(path):
-        return check_regular_file(path)  # a FIFO would block the read, a device never end
-    candidate = data_root() / "configs" / "evolve" / f"{name}.yaml"
-    if os.path.exists(candidate):  # not Path.exists: a name too long for the system raises there
-        return candidate
-    known = ", ".join(sorted(p.stem for p in (data_root() / "configs" / "evolve").glob("*.yaml")))
-    raise FileNotFoundError(f"unknown evolution config {show_name(name)} (known: {known}; or give a path)")
+    try:
+        return parse_override(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def check_evolve(args: argparse.Namespace) -> None:
@@ -245,9 +245,10 @@ def check_evolve(args: argparse.Namespace) -> None:
             raise UsageError("--resume needs --out RUN_DIR")
         if args.seed is not None or args.population is not None:
             raise UsageError("--seed and --population cannot change when resuming")
-        if args.config is not None:
+        if args.config is not None or args.set:  # --robot FILE: the run's robot file, given again
+            given = args.config or "--set"
             raise UsageError(f"--resume continues the run in --out with its own config.yaml; do not give a "
-                             f"config ({args.config})")
+                             f"config or --set ({given})")
     if args.address is not None and args.backend != "ray":
         raise UsageError("--address is the Ray cluster's: it needs --backend ray")
     if args.backend == "ray":
@@ -255,17 +256,20 @@ def check_evolve(args: argparse.Namespace) -> None:
 
 
 def cmd_evolve(args: argparse.Namespace) -> int:
-    from evolve.config import load_evolve_config
+    from evolve.config import config_path, load_evolve_config
     from evolve.run import Run
 
     log = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
     if args.resume:
-        run = Run.resume(args.out, generations=args.generations, threads=args.threads, log=log,
+        run = Run.resume(args.out, generations=args.generations, threads=args.threads, log=log, robot=args.robot,
                          backend=args.backend, address=args.address)
         log(f"resuming {args.out} at generation {run.population.generation}")
     else:
-        path = resolve_config(args.config or DEFAULT_CONFIG)
-        config = load_evolve_config(path)
+        path = config_path(args.config or DEFAULT_CONFIG)
+        overrides = dict(args.set)
+        if args.robot is not None:
+            overrides["robot"] = args.robot
+        config = load_evolve_config(path, overrides)
         if args.generations is not None and config.stages:
             raise UsageError(f"--generations: {path} is a staged config; each stage has its own budget "
                              "(stages[].generations)")
@@ -288,11 +292,14 @@ def cmd_evolve(args: argparse.Namespace) -> int:
         run = Run.create(config, out, log=log, backend=args.backend, address=args.address)
         log(f"evolving {config.robot} ({config.task.control_set} joints), population "
             f"{config.neat.population_size}, {config.generations} generations -> {out}")
+    from evolve.config import robot_is_a_file
+
+    again = f" --robot {run.config.robot}" if robot_is_a_file(run.config) else ""
     try:
         best = run.evolve()
     except KeyboardInterrupt:
         print(f"\ninterrupted: checkpoint of generation {run.checkpoint_generation} is in {run.out}; "
-              f"continue with: biped evolve --resume --out {run.out}", file=sys.stderr)
+              f"continue with: biped evolve --resume --out {run.out}{again}", file=sys.stderr)
         return 130
     if best is not None:
         v = best.validation

@@ -5,7 +5,8 @@
     generations: 400
     threads: 0                # 0: every core
     checkpoint_every: 25      # keep a numbered checkpoint this often (the latest is always kept)
-    task: {...}               # evolve.locomotion.task.TaskConfig
+    task: {...}               # evolve.locomotion.task.TaskConfig (phase_period_s: auto = from the
+                              # robot's leg length, evolve.locomotion.task.gait_period_s)
     neat: {...}               # evolve.neat.NeatConfig
     randomize:                # optional: score every genome on randomized episodes
       reality: randomize      # ranges: a name from configs/reality/, a path, or a mapping
@@ -27,6 +28,13 @@
         speed_m_s: 0.15       # the largest whole-body speed change of a push (times the ramp)
         every_s: 2.0          # between pushes
     stages: [...]             # optional: a developmental hierarchy (evolve.stages)
+    extends: train            # optional: another config (a name in configs/evolve/ or a path beside
+                              # this file) that this one changes: mappings merge key by key, this
+                              # file's values win; ``extends`` chains up to MAX_EXTENDS deep
+
+On the command line ``biped evolve CONFIG --robot R --set task.episode_s=20 --set neat.population_size=256``
+changes a config the same way (:func:`load_evolve_config`'s ``overrides``): ``--set`` takes a dotted
+key and a YAML scalar or flow value.
 
 Sizes that allocate are bounded (:mod:`evolve.limits`): population_size <= 10,000,
 generations (and a stage's) <= 1,000,000, threads <= 256, episodes <= 64, validation draws
@@ -39,6 +47,7 @@ draws x ticks) <= 10 million.  The harness's physical settings have plausible ra
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -57,7 +66,7 @@ from evolve.limits import (
     MAX_VALIDATION_DRAWS,
 )
 from evolve.locomotion.pushes import Pushes
-from evolve.locomotion.task import TaskConfig
+from evolve.locomotion.task import AUTO, TaskConfig
 from evolve.neat import NeatConfig
 from evolve.stages import Stage, check_stage_joints, parse_stages, with_task
 from sim2real.errors import ConfigError
@@ -69,6 +78,7 @@ from sim2real.robot.validation import Node, load_yaml, show, show_key
 from sim2real.simulation.reality import load_reality
 
 TOP_KEYS = ("robot", "seed", "generations", "threads", "checkpoint_every", "task", "neat", "randomize", "stages")
+MAX_EXTENDS = 8  # configs a chain of ``extends`` may hold: a few layers are plenty, a loop is refused
 INTEGER_KEYS = {"seed": (0, 2**32 - 1), "generations": (1, MAX_GENERATIONS), "threads": (0, MAX_THREADS),
                 "checkpoint_every": (0, MAX_GENERATIONS)}
 # The support harness's physical settings (task.*): key -> (low, high), both included.
@@ -261,7 +271,10 @@ class EvolveConfig:
         return dataclasses.replace(self, **changes)
 
 
-def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
+def parse_evolve_config(doc: Any, source: str, robot_file: str | None = None) -> EvolveConfig:
+    """A config document checked whole.  Its ``robot`` is a project robot's name - a config may
+    come from anyone, and a name in it is never opened as a path - unless it is ``robot_file``,
+    the robot (a name or a file) the user gave on the command line (``--robot``)."""
     if doc is None:
         doc = {}
     if not isinstance(doc, dict):
@@ -277,12 +290,14 @@ def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
     if "robot" in doc:
         values["robot"] = root["robot"].string()
     try:
-        # a config may come from anyone: its robot is a project robot's name, never a path
-        robot = load_named_robot(values["robot"], source, "robot", flag=None) if "robot" in values \
-            else load_robot(DEFAULT_ROBOT)
+        robot = _config_robot(values.get("robot"), source, robot_file)
     except FileNotFoundError as exc:
         raise ConfigError(source, "robot", str(exc)) from None
-    values["task"] = TaskConfig.from_mapping(doc.get("task"), source, "task.")
+    # ``phase_period_s: auto``: the gait clock's period from this robot's leg length (measured
+    # on the compiled model for a robot from a model file: only when asked for)
+    task = doc.get("task")
+    auto = isinstance(task, dict) and task.get("phase_period_s") == AUTO
+    values["task"] = TaskConfig.from_mapping(task, source, "task.", leg_length_m=robot.leg_length if auto else None)
     for key, (lo, hi) in TASK_RANGES.items():
         value = getattr(values["task"], key)
         if not lo <= value <= hi:
@@ -320,6 +335,24 @@ def _check_stages(stages: tuple[Stage, ...], source: str) -> None:
                                   f"must be within [{lo:g}, {hi:g}] deg, got {angle:g}")
 
 
+def _config_robot(named: str | None, source: str, robot_file: str | None) -> RobotSpec:
+    """The robot a config names: the command line's ``robot_file`` if it names that (the same
+    text or the same real path), else a project robot by name only."""
+    if named is None:
+        return load_robot(DEFAULT_ROBOT)
+    if robot_file is not None and (named == robot_file or os.path.realpath(named) == os.path.realpath(robot_file)):
+        return load_robot(robot_file)  # chosen by the user, on the command line
+    return load_named_robot(named, source, "robot")
+
+
+def robot_is_a_file(config: EvolveConfig) -> bool:
+    """Whether the config's robot is a file given on the command line (not a project robot's
+    name): resuming its run needs ``--robot FILE`` again."""
+    from sim2real.robot import available_robots
+
+    return config.robot.split(":", 1)[0] not in available_robots()
+
+
 def check_sizes(config: EvolveConfig, robot: RobotSpec, source: str) -> None:
     """Refuse a generation that would simulate more than ``MAX_GENERATION_TICKS`` control
     ticks (population x episodes, or validation's candidates x draws, times an episode's
@@ -339,5 +372,103 @@ def check_sizes(config: EvolveConfig, robot: RobotSpec, source: str) -> None:
                               f"{MAX_GENERATION_TICKS:,} (memory and time grow with it)")
 
 
-def load_evolve_config(path: Path | str) -> EvolveConfig:
-    return parse_evolve_config(load_yaml(Path(path)), str(path))
+def load_evolve_config(path: Path | str, overrides: dict[str, Any] | None = None) -> EvolveConfig:
+    """The config in ``path``, its ``extends`` chain merged under it, then ``overrides`` (dotted
+    keys, as :func:`parse_override` gives them) set on top."""
+    doc = _extended(Path(path), [])
+    source = str(path)
+    for key, value in (overrides or {}).items():
+        doc = _set(doc, key.split("."), value, source, key)
+        source = f"{path} with --set"
+    given = (overrides or {}).get("robot")  # from the command line: may be a robot file
+    return parse_evolve_config(doc, source, robot_file=given if isinstance(given, str) else None)
+
+
+def config_path(name: str) -> Path:
+    """A config's file: ``name`` as a path if it exists, else ``configs/evolve/<name>.yaml``;
+    FileNotFoundError listing the known names (and, for an experiment config of the records,
+    its path: those are given by path, they are not a user's)."""
+    import os
+
+    from sim2real.input_files import check_regular_file
+    from sim2real.robot.paths import data_root
+    from sim2real.robot.validation import show_name
+
+    path = Path(name)
+    if os.path.lexists(path):
+        return check_regular_file(path)  # a FIFO would block the read, a device never end
+    folder = data_root() / "configs" / "evolve"
+    candidate = folder / f"{name}.yaml"
+    if "/" not in name and os.path.exists(candidate):  # not Path.exists: a name too long for the system raises there
+        return candidate
+    known = ", ".join(sorted(p.stem for p in folder.glob("*.yaml")))
+    record = data_root() / "benchmarks" / "records" / "configs" / f"{name}.yaml"  # in a clone only: not installed
+    if "/" not in name and os.path.exists(record):
+        here = Path(os.path.abspath("."))
+        shown = record.relative_to(here) if record.is_relative_to(here) else record
+        raise FileNotFoundError(f"{show_name(name)} is an experiment config of the benchmark records: give its "
+                                f"path, {shown} (user configs: {known})")
+    raise FileNotFoundError(f"unknown evolution config {show_name(name)} (known: {known}; or give a path)")
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` of ``--set``: a dotted key of known words and a YAML value; ValueError saying why."""
+    from sim2real.robot.validation import parse_yaml
+
+    key, sep, value = text.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise ValueError(f"{text!r}: expected KEY=VALUE, e.g. task.episode_s=20")
+    parts = key.split(".")
+    if parts[0] not in TOP_KEYS or any(not p.replace("_", "").isalnum() for p in parts) or len(parts) > 4:
+        raise ValueError(f"{key!r}: not a config key (top-level keys: {', '.join(TOP_KEYS)}; nested ones "
+                         "with dots, e.g. task.phase_period_s)")
+    try:
+        parsed = parse_yaml(value, f"--set {key}") if value.strip() else ""
+    except ConfigError as exc:
+        raise ValueError(f"{key}: {exc.problem}") from None
+    return key, parsed
+
+
+def _extended(path: Path, chain: list[Path]) -> Any:
+    """``path``'s document with the configs it ``extends`` merged under it."""
+    doc = load_yaml(path)
+    if not isinstance(doc, dict) or "extends" not in doc:
+        return doc
+    here = Path(path).resolve()
+    if here in chain:
+        raise ConfigError(str(path), "extends", "a loop: " + " -> ".join(str(p) for p in (*chain, here)))
+    if len(chain) + 1 >= MAX_EXTENDS:
+        raise ConfigError(str(path), "extends", f"more than {MAX_EXTENDS} configs in one chain of extends")
+    parent_name = doc.pop("extends")
+    if not isinstance(parent_name, str) or not parent_name:
+        raise ConfigError(str(path), "extends", f"must name a config, got {type(parent_name).__name__}")
+    beside = Path(path).parent / parent_name
+    try:
+        parent = beside if beside.suffix in (".yaml", ".yml") and beside.exists() else config_path(parent_name)
+    except FileNotFoundError as exc:
+        raise ConfigError(str(path), "extends", str(exc)) from None
+    return _merged(_extended(parent, [*chain, here]), doc)
+
+
+def _merged(base: Any, top: Any) -> Any:
+    """``top`` over ``base``: mappings merge key by key; anything else, ``top`` wins."""
+    if not isinstance(base, dict) or not isinstance(top, dict):
+        return top
+    out = dict(base)
+    for key, value in top.items():
+        out[key] = _merged(base.get(key), value)
+    return out
+
+
+def _set(doc: Any, parts: list[str], value: Any, source: str, key: str) -> dict[str, Any]:
+    """``doc`` with ``value`` at the dotted key ``parts`` (mappings made where missing)."""
+    doc = dict(doc) if isinstance(doc, dict) else {}
+    if len(parts) == 1:
+        doc[parts[0]] = value
+        return doc
+    inner = doc.get(parts[0])
+    if inner is not None and not isinstance(inner, dict):
+        raise ConfigError(source, key, f"{parts[0]} is not a mapping in this config; cannot set {key}")
+    doc[parts[0]] = _set(inner or {}, parts[1:], value, source, key)
+    return doc

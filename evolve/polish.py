@@ -78,11 +78,13 @@ class Judge:
 
     def __init__(self, path: Path, realities: list[str], capacity: int, episode_s: float | None = None,
                  selection: dict[str, float] | None = None, heading_deg: float | None = None,
-                 nominal: bool = False, min_speed_m_s: float | None = None):
+                 nominal: bool = False, min_speed_m_s: float | None = None, threads: int = 1,
+                 robot: str | None = None):
         self.realities = [load_reality(name) for name in realities]
 
         def setup(reality: Reality):
-            return controller_setup(path, None, episode_s, episodes=capacity, reality=reality, robot_flag=None)
+            return controller_setup(path, robot, episode_s, episodes=capacity, reality=reality, threads=threads,
+                                    robot_flag=None)
         self.data, self.robot, self.evaluator, self.genome = setup(self.realities[0])
         # the model keeps as much actuator history as the longest latency of any ranges needs
         widest = max(self.realities, key=lambda r: latency_capacity_s(r, self.evaluator.tick_s))
@@ -152,6 +154,13 @@ def ranked_by(score: np.ndarray, worst: float) -> np.ndarray:
     return np.sort(score, axis=1)[:, :k].mean(axis=1)
 
 
+def plateaued(history: list[dict[str, Any]], kept_update: int, patience: int) -> bool:
+    """Whether the last ``patience`` validations of ``history`` came after the kept update and
+    kept nothing (the search's mean judged no better since)."""
+    since = [entry for entry in history if entry["update"] > kept_update]
+    return len(since) >= patience
+
+
 def _digest(candidates: list[np.ndarray]) -> str:
     """A short fingerprint of one update's candidates (a replayed search must ask the same)."""
     return hashlib.sha256(np.stack(candidates).tobytes()).hexdigest()[:16]
@@ -180,6 +189,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
            speed_leg_s: float | None = None, min_speed_m_s: float | None = None, walk_bonus: float | None = None,
            nominal: bool = False, lr_adapt: bool = False, worst: float = 1.0,
            on_best: Callable[[Path, dict[str, Any]], bool] | None = None, resume: bool = False,
+           patience: int | None = None, threads: int = 1, should_stop: Callable[[], bool] | None = None,
+           robot: str | None = None,
            log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
     ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
@@ -204,10 +215,15 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     to ``path`` (``out/kept.json``) and the history ``entry`` (its ``elapsed_s``: the
     polish's seconds so far); True stops the search there (the test still follows).
     ``resume``: continue from ``out/checkpoint.json`` (the same walker and settings; ``updates``
-    may grow); without it a folder holding a checkpoint is refused, so no polish is lost."""
+    may grow); without it a folder holding a checkpoint is refused, so no polish is lost.
+    ``patience``: stop once this many validations in a row kept nothing (a plateau; None:
+    run every update).  ``threads``: simulation threads (0: every core); the search does
+    not depend on them.  ``should_stop()``: asked after every update (a time budget); True
+    ends the search there.  ``test`` 0: no final test (the caller measures the walker itself).
+    ``robot``: the walker's robot, a name or a file (None: the one the controller names)."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
-    data, _ = Controller.load_for_robot(path, robot_flag=None)  # refused before the folder is made
+    data, _ = Controller.load_for_robot(path, robot, robot_flag=None)  # refused before the folder is made
     require_walker(data, str(path), "biped polish", "it tunes the weights for the share of randomized robots that walk")
     checkpoint = out / CHECKPOINT
     if checkpoint.exists() and not resume:
@@ -219,7 +235,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
                                                ("selection_speed_leg_s", speed_leg_s),
                                                ("selection_walk_bonus", walk_bonus)) if value is not None}
     judge = Judge(path, realities, max(popsize * robots, validation, 1), episode_s, selection, heading_deg,
-                  nominal, min_speed_m_s)
+                  nominal, min_speed_m_s, threads, robot)
     x0 = judge.start
     optimizer = CMA(mean=x0.copy(), sigma=sigma, population_size=popsize, seed=seed, lr_adapt=lr_adapt,
                     bounds=np.tile([-WEIGHT_LIMIT, WEIGHT_LIMIT], (len(x0), 1)))
@@ -298,30 +314,43 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
             if improved and on_best is not None:
                 save(best["weights"], out / "kept.json", {"kept_update": update, "validation_walk_rate": best["walk_rate"]})
                 told["stopped"] = on_best(out / "kept.json", entry)
+            if patience is not None and plateaued(history, best["update"], patience):
+                log(f"validation kept nothing in the last {patience} validations: a plateau")
+                told["stopped"] = True
+        if should_stop is not None and not told["stopped"] and should_stop():
+            log(f"out of time at update {update}")
+            told["stopped"] = True
         save_checkpoint()  # after on_best: a polish cut during its test does this update again
         if told["stopped"]:
             log(f"stopped at update {update}")
             break
     search_s = time.monotonic() - started
-    fresh = _keys(seed, TEST_STREAM, 0, test)
-    _, walked, walked_any = judge.run([x0, best["weights"]], fresh)
-    walked, walked_any = walked[:, :test], walked_any[:, :test]  # drawn robots only
-    test_rates = {"original": float(walked[0].mean()), "polished": float(walked[1].mean())}
-    # the gates' own walk rate, and the plain one: a faster walker may walk on fewer robots
-    judged = {name: {"walk_rate": test_rates[name], "walk_rate_any": float(walked_any[i].mean())}
-              for i, name in enumerate(("original", "polished"))}
+    if test:
+        fresh = _keys(seed, TEST_STREAM, 0, test)
+        _, walked, walked_any = judge.run([x0, best["weights"]], fresh)
+        walked, walked_any = walked[:, :test], walked_any[:, :test]  # drawn robots only
+        test_rates = {"original": float(walked[0].mean()), "polished": float(walked[1].mean())}
+        # the gates' own walk rate, and the plain one: a faster walker may walk on fewer robots
+        judged = {name: {"walk_rate": test_rates[name], "walk_rate_any": float(walked_any[i].mean())}
+                  for i, name in enumerate(("original", "polished"))}
+    else:
+        test_rates = {"original": None, "polished": None}
+        judged = {name: {"walk_rate": None, "walk_rate_any": None} for name in ("original", "polished")}
     save(best["weights"], out / "polished.json", {"kept_update": best["update"],
                                                   "validation_walk_rate": best["walk_rate"],
                                                   "test_walk_rate": test_rates})
     result = {"controller": str(path), "polished": str(out / "polished.json"), "weights": len(x0), **settings,
               "kept_update": best["update"], "history": history,
               "test": {"robots": test, **judged},
-              "lifted": test_rates["polished"] > test_rates["original"],
+              "lifted": test_rates["polished"] > test_rates["original"] if test else None,
               "physics_steps": judge.steps, "search_minutes": search_s / 60,
               "minutes": (time.monotonic() - started) / 60}
     write_json_atomic(out / "result.json", result)
     gates = "" if heading_deg is None and min_speed_m_s is None else \
         f", any heading and speed {judged['original']['walk_rate_any']:.2f} -> {judged['polished']['walk_rate_any']:.2f}"
+    if not test:
+        log(f"kept the weights of update {best['update']}; wrote {out / 'polished.json'}")
+        return result
     log(f"test on {test} fresh robots: walk rate {test_rates['original']:.2f} -> {test_rates['polished']:.2f}{gates}"
         f" ({'lifted' if result['lifted'] else 'not lifted: keep the original'}); wrote {out / 'polished.json'}")
     return result

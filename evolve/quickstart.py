@@ -52,7 +52,7 @@ def check_quickstart(args: argparse.Namespace) -> None:
 
 
 def cmd_quickstart(args: argparse.Namespace) -> int:
-    from evolve.cli_commands import resolve_config
+    from evolve.config import config_path
     from evolve.config import load_evolve_config
     from evolve.replay import evaluate_controller
     from evolve.run import Run
@@ -63,7 +63,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     from sim2real.simulation.dry_run import dry_run
 
     out: Path = args.out
-    config = load_evolve_config(resolve_config("walk"))
+    config = load_evolve_config(config_path("walk"))
     neat = config.neat.replace(population_size=args.population,
                                target_species=min(config.neat.target_species, max(1, args.population // 6)))
     config = config.replace(seed=args.seed, generations=args.generations, neat=neat)
@@ -133,7 +133,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     print(f"""
 done.  In {out}/:
 {listing}
-next: a longer run (biped evolve walk_robust --out runs/robust; see the README for how long),
-then biped dry-run runs/robust/controller.json --reality default, then on the robot:
+next: a robust walker (biped train xl430_biped --out runs/train; see the README for how long),
+then biped dry-run runs/train/controller.json --reality default, then on the robot:
       biped run {controller} --port /dev/ttyUSB0 --trace real.csv && biped compare real.csv --plot real.png""")
     return 0

@@ -38,12 +38,13 @@ def controller_task(data: Controller, source: str) -> TaskConfig:
 
 def controller_setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
                      keep_going: bool = False, reality: Reality = NOMINAL, disabled_modules: tuple[str, ...] = (),
-                     stagnation_stop: bool = True, robot_flag: str | None = ROBOT_FLAG):
+                     stagnation_stop: bool = True, threads: int = 1, robot_flag: str | None = ROBOT_FLAG):
     """A controller file and its robot, an evaluator of ``episodes`` simulations on its task
     (the file's inputs whatever its task block says; ``seconds`` long, default the task's) and
-    the genome it expresses: (controller, robot, evaluator, genome).  ``robot_flag``: how the
-    command takes a robot file (None: it does not), for the error on a robot the file names
-    that is not the project's (:meth:`Controller.load_for_robot`)."""
+    the genome it expresses: (controller, robot, evaluator, genome).  ``threads``: simulation
+    threads (0: every core); results do not depend on them.  ``robot_flag``: how the command
+    takes a robot file (None: it does not), for the error on a robot the file names that is
+    not the project's (:meth:`Controller.load_for_robot`)."""
     data, spec = Controller.load_for_robot(path, robot, robot_flag=robot_flag)
     check_disabled_modules(data, disabled_modules)
     task = controller_task(data, str(path))
@@ -53,7 +54,7 @@ def controller_setup(path: Path | str, robot: str | None, seconds: float | None,
     if keep_going or not stagnation_stop:
         changes.update(stagnation_s=1e9)
     task = dataclasses.replace(task, **changes)
-    evaluator = LocomotionEvaluator(spec, task, max(1, episodes), threads=1, reality=reality)
+    evaluator = LocomotionEvaluator(spec, task, max(1, episodes), threads=threads, reality=reality)
     if evaluator.n_ticks < 1:
         what = f"--seconds {seconds:g}" if seconds is not None else f"{path}: task.episode_s {task.episode_s:g}"
         raise UsageError(f"{what}: shorter than one control tick ({evaluator.tick_s:g} s)")
@@ -85,17 +86,19 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
                         episodes: int = 1, disabled_modules: tuple[str, ...] = (),
                         randomize: str | Reality | None = None, seed: int = 0,
                         stagnation_stop: bool = True, by_perturbation: bool = False,
-                        heading: Callable[[float], float] | None = None) -> dict[str, Any]:
+                        heading: Callable[[float], float] | None = None, threads: int = 1) -> dict[str, Any]:
     """Measure a controller on ``episodes`` episodes, each drawn from ``randomize`` (a reality
     file's ranges or fixed profile; None: the nominal robot) with seed ``seed``; without
     ``stagnation_stop`` only a fall (or the clock) ends an episode.  ``by_perturbation`` adds
     where it fails: the walk rate by third of each drawn perturbation (:func:`walk_rate_by_draw`).
     ``heading``: steer a controller with a heading input - the heading to hold [rad, from the
     start's] at a time [s] (:mod:`sim2real.controller.steering`); each episode then reports how
-    far its torso ends from the heading it was told to hold (``heading_error_deg``)."""
+    far its torso ends from the heading it was told to hold (``heading_error_deg``).
+    ``threads``: simulation threads (0: every core); the numbers do not depend on them."""
     reality = load_reality(randomize)
     data, spec, evaluator, genome = controller_setup(path, robot, seconds, episodes, reality=reality,
-                                           disabled_modules=disabled_modules, stagnation_stop=stagnation_stop)
+                                           disabled_modules=disabled_modules, stagnation_stop=stagnation_stop,
+                                           threads=threads)
     keys = np.array([[seed, e] for e in range(episodes)])
     perturbation = None if reality.is_nominal else evaluator.sample(keys)
     turn = TurnTracker(episodes)

@@ -154,6 +154,7 @@ class Run:
         self.checkpoint_generation: int | None = None  # the population's generation on disk
         self._checkpoint_at = -math.inf  # [s, time.monotonic] when it was written
         self.lock: RunLock | None = None  # the folder's, while this run works in it
+        self.open_ended = False  # True: the caller's stop ends the run (no generation total or ETA shown)
 
     def _silent_inputs(self, stage_index: int) -> frozenset[int]:
         """The inputs stage ``stage_index``'s networks read as 0 - the reach inputs below a
@@ -208,12 +209,14 @@ class Run:
 
     @classmethod
     def resume(cls, out: Path, generations: int | None = None, threads: int | None = None,
-               log: Callable[[str], None] = print, **backend) -> "Run":
-        """The run in ``out``, from its checkpoint, locked for this process."""
+               log: Callable[[str], None] = print, robot: str | None = None, **backend) -> "Run":
+        """The run in ``out``, from its checkpoint, locked for this process.  ``robot``: the
+        robot file the run evolves for, given again on the command line (its config.yaml may
+        name a project robot only: a path read from a file is never opened on its own)."""
         out = Path(out)
         if not (out / "checkpoint.json.gz").exists():
             raise FileNotFoundError(f"{out} has no checkpoint.json.gz to resume")
-        return cls._locked(out, lambda: cls._resume(out, generations, threads, log, **backend))
+        return cls._locked(out, lambda: cls._resume(out, generations, threads, log, robot, **backend))
 
     @staticmethod
     def _locked(out: Path, build: Callable[[], "Run"]) -> "Run":
@@ -229,8 +232,9 @@ class Run:
 
     @classmethod
     def _resume(cls, out: Path, generations: int | None, threads: int | None, log: Callable[[str], None],
-                **backend) -> "Run":
-        config = parse_evolve_config(load_yaml(check_regular_file(out / "config.yaml")), str(out / "config.yaml"))
+                robot: str | None = None, **backend) -> "Run":
+        config = parse_evolve_config(load_yaml(check_regular_file(out / "config.yaml")), str(out / "config.yaml"),
+                                     robot_file=robot)
         population = Population.load(out / "checkpoint.json.gz")
         if generations is not None and config.stages:
             raise UsageError(f"--generations: {out} is a staged run; each stage has its own budget "
@@ -332,8 +336,9 @@ class Run:
                        steps_per_s=e.steps / eval_s, wall_s=self.wall_s, harness=harness,
                        threshold=stats.threshold, **terms, **self._validation_row(validated))
             self._append_stats(row)
-            eta = (budget - pop.generation) * float(np.mean(recent))
-            self.log(_progress_line(row, pop.generation, budget, eta, stage, intensity))
+            # a run that its caller stops (biped train's budget) has no generation count to reach
+            eta = math.nan if self.open_ended else (budget - pop.generation) * float(np.mean(recent))
+            self.log(_progress_line(row, pop.generation, None if self.open_ended else budget, eta, stage, intensity))
             if pop.generation % 10 == 0 or pop.generation >= budget:
                 self.plot()
             # with validation draws the stage is solved by its champion there (the module that is
@@ -501,17 +506,18 @@ def read_stats(path: Path) -> list[dict]:
         return list(csv.DictReader(f))
 
 
-def _progress_line(row: dict, done: int, generations: int, eta_s: float, stage: Stage | None = None,
+def _progress_line(row: dict, done: int, generations: int | None, eta_s: float, stage: Stage | None = None,
                    intensity: float = 0.0) -> str:
-    eta = time.strftime("%H:%M:%S", time.gmtime(eta_s)) if math.isfinite(eta_s) else "?"
+    eta = f" | ETA {time.strftime('%H:%M:%S', time.gmtime(eta_s))}" if math.isfinite(eta_s) else ""
+    total = f"/{generations}" if generations is not None else ""
     harness = f"harness {row['harness']:.2f} | " if row["harness"] else ""
     if 0.0 < intensity < 1.0:  # narrower ranges: a ramp under way, or one stopped at randomize.strength
         harness += f"randomize x{intensity:.2f} | "
     where = f"{stage.name} " if stage else ""
-    return (f"{where}gen {done:>4}/{generations} | best {row['best_fitness']:.3f} "
+    return (f"{where}gen {done:>4}{total} | best {row['best_fitness']:.3f} "
             f"({row['best_distance_m']:+.3f} m) | mean {row['mean_fitness']:.3f} | species {row['species']:>3} "
             f"| conns {row['mean_connections']:.1f} | {row['evaluations_per_s']:.0f} eval/s "
-            f"| {row['steps_per_s'] / 1e3:.0f}k steps/s | {harness}ETA {eta}")
+            f"| {row['steps_per_s'] / 1e3:.0f}k steps/s | {harness}{eta}").rstrip(" |")
 
 
 def plot_stats(stats_csv: Path, png: Path) -> bool:

@@ -20,15 +20,17 @@ from sim2real.simulation.dry_run import dry_run
 
 
 def transfer_check(controller: Path, reality: str = "default", runs: int = 3, keep: float = 0.8,
-                   log: Callable[[str], None] = print, simulated: str | None = None) -> dict[str, Any]:
+                   log: Callable[[str], None] = print, simulated: str | None = None,
+                   robot: str | None = None) -> dict[str, Any]:
     """The controller's simulated distance (on the nominal robot, or on the fixed profile
     ``simulated``: the robot it was evolved for) against ``runs`` dry runs of the same length on
-    the simulated bus under ``reality`` (noise seeds 0..runs-1); see the module docstring."""
-    sim = evaluate_controller(controller, randomize=simulated)
+    the simulated bus under ``reality`` (noise seeds 0..runs-1); see the module docstring.
+    ``robot``: its robot's name or file (None: the one the controller names)."""
+    sim = evaluate_controller(controller, robot, randomize=simulated)
     log(f"simulation: {sim['distance_m']:.3f} m in {sim['seconds']:.1f} s, fell={sim['fell']}")
     dry = []
     for seed in range(runs):
-        r = dry_run(controller, duration_s=sim["seconds"], reality=reality, seed=seed, log=lambda line: None)
+        r = dry_run(controller, robot, duration_s=sim["seconds"], reality=reality, seed=seed, log=lambda line: None)
         if r["unstable"]:  # no distance to average
             raise RuntimeError(f"dry run {seed} ({reality}): the simulated robot went {r['unstable']}")
         log(f"dry run {seed} ({reality}): {r['distance_m']:.3f} m, facing {r['heading_deg']:+.0f} deg, "

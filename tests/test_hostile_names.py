@@ -132,7 +132,7 @@ COMMANDS = {
     "compare": (_trace, ["compare", "{f}"], "t.json", "robot", True),
     "plot gait --trace": (_trace, ["plot", "gait", "--trace", "{f}", "-o", "{d}/g.png"], "t.json", "robot", True),
     "sysid": (_trace, ["sysid", "{f}", "--max-iters", "1"], "t.json", "robot", True),
-    "evolve": (_evolve_config, ["evolve", "{f}", "--out", "{d}/run"], "cfg.yaml", "robot", False),
+    "evolve": (_evolve_config, ["evolve", "{f}", "--out", "{d}/run"], "cfg.yaml", "robot", True),
 }
 
 
@@ -191,6 +191,36 @@ def test_a_robot_file_given_on_the_command_line_still_drives_the_controller(targ
     path = _controller(tmp_path, "/etc/hostname")
     result = biped(["run", path, "--robot", targets["robot"], "--bus", "mock", "--duration", "0.2", "--json"], capsys)
     assert result.code == 0, result.err
+
+
+def test_a_run_for_a_robot_file_resumes_only_with_that_file_given_again(targets, tmp_path, capsys):
+    """``biped evolve --robot FILE`` writes FILE into the run's config.yaml; resuming reads that
+    file's path only when the command line names it again."""
+    from evolve.config import parse_evolve_config
+    from evolve.locomotion.evaluator import neat_layout
+    from evolve.neat import NeatConfig, Population
+    from evolve.run import Run
+    from sim2real.controller.symmetry import symmetric_layout
+
+    robot_file = str(targets["robot"])
+    doc = {"robot": robot_file, "generations": 5, "threads": 1, "task": {"episode_s": 1.0},
+           "neat": {"population_size": 4, "target_species": 1}}
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.yaml").write_text(parse_evolve_config(doc, "cfg", robot_file=robot_file).to_yaml())
+    layout = symmetric_layout(ROBOT, ROBOT.control_sets["walk"])
+    Population(NeatConfig(population_size=4, target_species=1), neat_layout(layout), seed=1).save(
+        run / "checkpoint.json.gz")
+    (run / "stats.csv").write_text("generation\n")
+    result = biped(["evolve", "--resume", "--out", run], capsys)
+    assert_usage_error(result, "config.yaml", "robot:", "is a path", "--robot FILE")
+    other = tmp_path / "other.yaml"
+    other.write_text(targets["robot"].read_text())
+    with pytest.raises(ConfigError, match="config.yaml: robot: .*is a path"):
+        Run.resume(run, robot=str(other), log=lambda _: None)
+    resumed = Run.resume(run, robot=robot_file, log=lambda _: None)
+    resumed.close()
+    assert resumed.robot.source == robot_file
 
 
 def test_a_project_robots_name_on_the_command_line_wins_over_a_folder_of_that_name(tmp_path, monkeypatch, capsys):

@@ -524,7 +524,7 @@ def test_a_size_flag_beyond_its_bound_is_refused_naming_the_flag(argv, flag, cap
 def test_population_times_the_configs_episodes_is_bounded_too(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(Run, "create", _no_evolution)  # were the check to miss, no evolution starts here
     path = tmp_path / "c.yaml"
-    text = _text("configs/evolve/walk_robust.yaml")
+    text = _text("benchmarks/records/configs/walk_robust.yaml")
     assert "  episodes: 3\n" in text
     path.write_text(text.replace("  episodes: 3\n", "  episodes: 8\n"))  # 10,000 x 8 x 294 ticks: 23.5 million
     code, _, err = _biped(["evolve", path, "--population", "10000", "--out", tmp_path / "run"], capsys)

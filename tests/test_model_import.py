@@ -316,12 +316,17 @@ def test_robot_import_of_an_mjcf_reads_its_home_keyframe(tmp_path, humanoid, cap
     assert "package_dirs" not in doc["model"]
 
 
-def test_robot_import_of_a_model_facing_backwards_says_so(tmp_path, humanoid, capsys):
+def test_robot_import_of_a_model_facing_backwards_turns_it(tmp_path, humanoid, capsys):
     path = humanoid_mjcf(humanoid, tmp_path, quat=(0.0, 0.0, 0.0, 1.0))  # turned 180 deg about z
     assert main(["robot", "import", str(path), "-o", str(tmp_path / "b.yaml")]) == 0
     report = capsys.readouterr().out
-    assert "r_knee_joint: its name says right, its anchor is on the left" in report
-    assert "a knee bending backwards: does the model face -x" in report
+    assert "facing -x (from the geometry)" in report and "AGAINST" not in report
+    doc = load_yaml(tmp_path / "b.yaml")
+    assert doc["model"]["forward"] == "-x"
+    joints = {j["name"]: j for j in doc["joints"]}
+    for name, role in humanoid.expected.items():  # the roles of the model as drawn facing +x
+        assert (joints[name]["side"], joints[name]["location"], joints[name]["axis"], joints[name]["sign"]) == \
+            (role.side, role.location, role.axis, role.sign), name
 
 
 @pytest.mark.parametrize("kind", ["fifo", "directory", "missing", "empty", "binary"])

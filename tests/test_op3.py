@@ -84,7 +84,7 @@ def test_evolution_and_the_runtime_run_on_op3(tmp_path, capsys):
 
 def test_biped_evolve_runs_on_op3(tmp_path):
     out = tmp_path / "run"
-    config = Path(__file__).resolve().parents[1] / "configs" / "evolve" / "walk_op3.yaml"
+    config = Path(__file__).resolve().parents[1] / "benchmarks" / "records" / "configs" / "walk_op3.yaml"
     assert main(["evolve", str(config), "--out", str(out), "--generations", "1",
                  "--population", "8", "--threads", "1", "--quiet"]) == 0
     controller = json.loads((out / "controller.json").read_text())

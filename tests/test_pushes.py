@@ -83,7 +83,7 @@ def test_pushes_wait_for_the_randomization_and_reach_selection_only():
 
 
 def _config_with(tmp_path, randomize):
-    doc = yaml.safe_load(open("configs/evolve/walk_robust.yaml"))
+    doc = yaml.safe_load(open("benchmarks/records/configs/walk_robust.yaml"))
     doc["randomize"] = randomize
     path = tmp_path / "c.yaml"
     path.write_text(yaml.safe_dump(doc))

@@ -454,7 +454,7 @@ def test_the_reach_benchmark_runs_pairs_and_continues_from_its_folder(tmp_path, 
 
     from benchmarks import reach as bench
 
-    doc = yaml.safe_load(Path("configs/evolve/reach_op3.yaml").read_text())
+    doc = load_evolve_config("configs/evolve/reach_op3.yaml").to_dict()  # resolved: it extends reach.yaml
     doc["task"]["episode_s"] = 1.0
     doc["neat"] = {"population_size": 4, "target_species": 2}
     doc["stages"] = [dict(s, generations=1) for s in doc["stages"]]

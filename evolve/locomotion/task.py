@@ -18,6 +18,10 @@ When a foot touches is the robot's (its sensor board's ``contact_share``), not t
 evolution, the simulated bus and ``compare`` read it there alike.  Configs and controller
 files written before carry ``contact_threshold: 0.05``, the value all of them shared; that
 key is still read, and refused with any other value.
+
+``phase_period_s: auto`` in a config is the gait clock's period from the robot's leg length
+(:func:`gait_period_s`), so that one config serves every robot: the parsed task holds the
+number, as a run's ``config.yaml`` and a controller file do.
 """
 
 from __future__ import annotations
@@ -42,6 +46,15 @@ LEGACY_CONTACT_THRESHOLD = "contact_threshold"  # the task's key for it until th
 
 
 SIGNED = ("reach_forward", "reach_left", "reach_up")  # offsets: either sign
+AUTO = "auto"  # phase_period_s: from the robot's leg length
+REFERENCE_LEG_M, REFERENCE_PERIOD_S = 0.245, 0.6  # the XL430 biped's leg and its tuned gait clock period
+
+
+def gait_period_s(leg_length_m: float) -> float:
+    """The gait clock's period [s] for a leg of ``leg_length_m`` [m]: the XL430 biped's tuned
+    0.6 s scaled by the square root of the leg length (a pendulum's period, dynamic similarity;
+    the OP3 recipe's hand-scaled 0.64 s for its 0.279 m leg follows the same rule), to 1 ms."""
+    return round(REFERENCE_PERIOD_S * math.sqrt(leg_length_m / REFERENCE_LEG_M), 3)
 
 
 @dataclass(frozen=True)
@@ -96,7 +109,14 @@ class TaskConfig:
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any] | None, source: str = "<config>",
-                     prefix: str = "task.") -> "TaskConfig":
+                     prefix: str = "task.", leg_length_m: float | None = None) -> "TaskConfig":
+        """The task in ``values``; ``leg_length_m`` [m], the robot's, resolves ``phase_period_s: auto``
+        (refused without it: a controller file's task always holds the number)."""
+        if isinstance(values, Mapping) and values.get("phase_period_s") == AUTO:
+            if leg_length_m is None:
+                raise ConfigError(source, prefix + "phase_period_s", f"{AUTO!r} needs a robot (its leg length); "
+                                  "give the period in seconds")
+            values = {**values, "phase_period_s": gait_period_s(leg_length_m)}
         if isinstance(values, Mapping) and LEGACY_CONTACT_THRESHOLD in values:
             values = dict(values)
             legacy = values.pop(LEGACY_CONTACT_THRESHOLD)

@@ -64,13 +64,14 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
     controller file (keys "view", "render"); without it those refuse one."""
     robot = sub.add_parser("robot", help="describe a robot or export its MuJoCo model",
                            description="Describe a robot config or export its MuJoCo model.")
-    rsub = robot.add_subparsers(dest="robot_command", required=True, metavar="{show,mjcf,import}")
+    rsub = robot.add_subparsers(dest="robot_command", required=True, metavar="{show,stand,mjcf,import}")
     show = rsub.add_parser("show", help="joints, servos, masses, control tick and torque margins",
                            description="Print the robot's joints, servos, masses, height, the control "
                            "tick with its derivation, and each joint's torque margin in a half crouch.")
     show.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
     show.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     show.set_defaults(func=cmd_robot_show)
+    _add_stand(rsub)
 
     mjcf = rsub.add_parser("mjcf", help="write the robot as self-contained MJCF",
                            description="Write self-contained MJCF: one position actuator per servo, "
@@ -133,10 +134,12 @@ def describe(robot: RobotSpec) -> dict:
     joints = []
     for j in robot.joints:
         entry = {
-            "name": j.name, "side": j.side, "location": j.location, "axis": j.axis,
+            "name": j.name, "side": j.side, "location": j.location, "axis": j.axis, "index": j.index,
             "range_rad": list(j.range_rad), "home_rad": j.home_rad,
             "servo_id": j.servo.id if j.servo else None,
             "servo_model": j.servo.profile.model if j.servo else None,
+            "servo_protocol": j.servo.profile.protocol if j.servo else None,
+            "servo_profile": j.servo.profile.path.name if j.servo else None,  # its file in firmware_profiles/
             "direction": j.servo.direction if j.servo else None,
             "zero_offset_rad": j.servo.zero_offset_rad if j.servo else None,
             "sign": j.sign,
@@ -170,7 +173,7 @@ def describe(robot: RobotSpec) -> dict:
         "model": None if robot.model is None else {
             "file": str(robot.model.path), "root": robot.model.root, "imu_body": robot.model.imu_body,
             "imu_pos_m": list(robot.model.imu_pos), "feet": {s: f.body for s, f in robot.model.feet.items()},
-            "hands": dict(robot.model.hands), "inertias": robot.model.inertias},
+            "hands": dict(robot.model.hands), "inertias": robot.model.inertias, "forward": robot.model.forward},
         "sensor_board": (
             {"id": robot.sensor_board.id, "model": robot.sensor_board.profile.model}
             if robot.sensor_board else None
@@ -204,15 +207,19 @@ def _print_description(d: dict) -> None:
     print(f"  rule: {deriv['rule']}")
     print(f"joints (torque margin: stall / holding torque, {d['torque_margin_stance']}):")
     width = max([18] + [len(j["name"]) for j in d["joints"]])
-    print(f"  {'name':<{width}} {'id':>3} {'servo':<14} {'range [deg]':>16} {'home':>6} "
+    print(f"  {'name':<{width}} {'id':>3} {'servo':<14} {'proto':>5} {'range [deg]':>16} {'home':>6} "
           f"{'hold [N m]':>10} {'margin':>7} {'step/tick':>9}")
     for j in d["joints"]:
         lo, hi = (math.degrees(a) for a in j["range_rad"])
         margin = "-" if j["torque_margin"] is None else f"{j['torque_margin']:.1f}x"
         step = f"{math.degrees(j['max_goal_step_rad']):.1f} deg" if "max_goal_step_rad" in j else "-"
+        protocol = "-" if j["servo_protocol"] is None else f"{j['servo_protocol']:.1f}"
         print(f"  {j['name']:<{width}} {j['servo_id'] if j['servo_id'] is not None else '-':>3} "
-              f"{j['servo_model'] or 'PD':<14} {f'[{lo:.1f}, {hi:.1f}]':>16} "
+              f"{j['servo_model'] or 'PD':<14} {protocol:>5} {f'[{lo:.1f}, {hi:.1f}]':>16} "
               f"{math.degrees(j['home_rad']):>6.1f} {j['holding_torque_nm']:>10.3f} {margin:>7} {step:>9}")
+    profiles = {j["servo_model"]: (j["servo_profile"], j["servo_protocol"]) for j in d["joints"] if j["servo_model"]}
+    for model, (file, protocol) in profiles.items():  # which profile each model name resolved to
+        print(f"  servo {model}: firmware_profiles/{file}, protocol {protocol:.1f}")
     weak = [j["name"] for j in d["joints"] if j["torque_margin"] is not None and j["torque_margin"] < 1.5]
     if weak:
         print(f"warning: torque margin below 1.5x at {', '.join(weak)}")
@@ -225,6 +232,40 @@ def cmd_robot_show(args: argparse.Namespace) -> int:
     else:
         _print_description(d)
     return 0
+
+
+def _add_stand(rsub: argparse._SubParsersAction) -> None:
+    stand = rsub.add_parser("stand", help="does it stand? 5 s from home, the servos holding home",
+                            description="Simulate the robot 5 s from its home pose with every servo holding "
+                            "home; print the torso's up-vector, the sag, the share of its weight on the feet, "
+                            "the joints' torque margins, whether it fell or slid, and a verdict (stands, "
+                            "stands with a warning, falls). Exit status 1 when it falls. "
+                            "See docs/robot-stand.md.")
+    stand.add_argument("robot", nargs="?", default=DEFAULT_ROBOT, help=ROBOT_HELP)
+    stand.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    stand.add_argument("--propose-home", action="store_true",
+                       help="also propose a home that stands (knees bent, feet flat, the centre of mass over "
+                       "the soles) and leg ranges centred on it, checked the same way (the exit status is "
+                       "still the given home's)")
+    stand.set_defaults(func=cmd_robot_stand)
+
+
+def cmd_robot_stand(args: argparse.Namespace) -> int:
+    from sim2real.simulation.stand_check import check_stand
+
+    robot = _robot(args.robot)
+    report = check_stand(robot)
+    proposal = None
+    if args.propose_home:
+        from sim2real.simulation.stand_home import propose_home
+
+        proposal = propose_home(robot)
+    if args.json:
+        print(json.dumps(report.to_json() | ({"proposed_home": proposal.to_json()} if proposal else {}), indent=2))
+    else:
+        print("\n".join(report.lines() + (proposal.report() + ["in the robot YAML:"] + proposal.yaml_lines()
+                                          if proposal else [])))
+    return 0 if report.stands else 1
 
 
 def cmd_robot_mjcf(args: argparse.Namespace) -> int:
@@ -244,24 +285,33 @@ def cmd_robot_mjcf(args: argparse.Namespace) -> int:
 # -- robot import -------------------------------------------------------------------------------
 IMPORT_EPILOG = """\
 what it infers (at the model's zero pose; every guess is commented "guessed: check"):
-  sides and mirror pairs   from the geometry: a hinge's partner sits at its mirror image across
-                           the x-z plane with a mirrored axis; names (l_/r_, _left, LHip...) are
-                           checked against it and disagreements reported
-  location                 from the joint's name: hip, knee/kn, ankle/ank, shoulder/sho,
-                           elbow/el, wrist, head/neck, waist/torso
-  axis and sign            the principal axis nearest the joint's (yaw z, roll x, pitch y), and
-                           anatomical angle = sign * model angle
-  range, home              the model's range made anatomical (+-90 deg if unlimited); a keyframe
-                           'home' or 0
+  chains                   from the body tree: the legs (the two branches reaching the floor,
+                           down to the feet), the arms (the mirrored pair of branches above),
+                           the neck (the central chain going up) and the spine between them
+  location                 from the place along the chain: hip (before the knee), knee (the
+                           hinge across the leg splitting thigh and shank), ankle, toe;
+                           shoulder, elbow, wrist; grippers and fingers are held
+  facing                   from the feet (the sole reaches ahead of the ankle), the knees'
+                           bend and limits and the toes; --forward overrides it
+  sides and mirror pairs   side from the chain; a hinge's partner sits at its mirror image
+                           across the sagittal plane with a mirrored axis; names (l_/r_...)
+                           only break ties and are checked against it
+  axis, index and sign     the principal axis nearest the joint's in the facing's frame (yaw,
+                           roll, pitch), index 1, 2... for more joints of one role along a chain
+                           (a spine), and anatomical angle = sign * model angle
+  range, home              the model's range made anatomical and cut to the servo's reach
+                           (+-90 deg if unlimited); a keyframe 'home' or 0
   servo ids                1, 2, ... in model order: set them to your servos' IDs
-  root, imu, feet, hands   the floating body (a URDF's base), the IMU at its origin, the lowest
-                           body of each leg, the distal body of each arm
-joints it cannot place (no location in the name, an axis far from x, y and z, slide and ball
-joints such as a gripper's) are left out, so the model builder holds them at their home pose.
+  root, imu, feet, hands   the floating body (a URDF's base), the IMU at its origin, the end
+                           of each leg, the end of each arm
+joints on no chain (grippers, fingers), with an axis far from x, y and z, without a twin on
+the other side, and slide and ball joints are left out, so the model builder holds them at
+their home pose; a knee or elbow whose limits let it bend only the wrong way is named.
 
 examples:
   biped robot import op3.xml --servo XM430-W350 -o configs/robots/op3.yaml
   biped robot import robot.urdf --package-dir ~/ws/src -o robot.yaml
+  biped robot import poppy.urdf --forward +y --servo MX-28 --servo neck=AX-12A -o poppy.yaml
 """
 
 
@@ -281,9 +331,13 @@ def _add_import(rsub: argparse._SubParsersAction) -> None:
                      ".xacro first: `xacro robot.urdf.xacro > robot.urdf`, or `pip install xacrodoc`)")
     imp.add_argument("-o", "--output", type=output_file(".yaml", ".yml"), required=True,
                      help="the robot YAML to write (its name is the file's stem; paths in it are relative to it)")
-    imp.add_argument("--servo", type=_servo_model, default=DEFAULT_SERVO, metavar="MODEL",
+    imp.add_argument("--servo", type=_servo_choice, action="append", default=[], metavar="[WHERE=]MODEL",
                      help=f"the Dynamixel model of the servos (default {DEFAULT_SERVO}; any model in "
-                     "firmware_profiles/, e.g. XM430-W350, XL330-M288-T)")
+                     "firmware_profiles/, e.g. XM430-W350, XL330-M288-T); repeat with WHERE=MODEL for "
+                     "the servos of legs, arms, neck, waist or one joint (e.g. --servo neck=AX-12A)")
+    imp.add_argument("--forward", choices=("+x", "-x", "+y", "-y"), default=None,
+                     help="the way the robot faces in the model file (default: inferred from its feet, "
+                     "knees and toes); write a minus with '=': --forward=-y")
     imp.add_argument("--package-dir", action="append", default=[], type=Path, metavar="DIR",
                      help="a folder holding the packages of a URDF's package://PKG/PATH meshes (tried as "
                      "DIR/PKG/PATH and DIR/PATH); repeatable")
@@ -303,12 +357,26 @@ def _servo_model(text: str) -> str:
         raise argparse.ArgumentTypeError(exc.args[0]) from None
 
 
+def _servo_choice(text: str) -> tuple[str | None, str]:
+    """``MODEL`` or ``WHERE=MODEL``: (where or None, the model's canonical name)."""
+    where, _, model = text.rpartition("=")
+    return (where or None, _servo_model(model))
+
+
 def cmd_robot_import(args: argparse.Namespace) -> int:
     from sim2real.robot.import_yaml import write_robot_yaml
     from sim2real.robot.importer import import_robot
 
-    result = import_robot(args.model, args.output, servo=args.servo, package_dirs=args.package_dir,
-                          recompute_inertias=args.recompute_inertias)
+    from sim2real.robot.importer import DEFAULT_SERVO
+
+    defaults = [model for where, model in args.servo if where is None]
+    if len(defaults) > 1:
+        raise UsageError(f"--servo: give one model for all servos, and WHERE=MODEL for the others (got "
+                         f"{', '.join(defaults)})")
+    result = import_robot(args.model, args.output, servo=defaults[0] if defaults else DEFAULT_SERVO,
+                          servos={where: model for where, model in args.servo if where is not None},
+                          package_dirs=args.package_dir, recompute_inertias=args.recompute_inertias,
+                          forward=args.forward)
     print("\n".join(result.report()))
     write_robot_yaml(result)
     print(f"wrote {args.output}: check every line marked 'guessed: check' (servo ids, signs, feet, IMU) "

@@ -346,10 +346,13 @@ def selection_keys(settings: InputSettings) -> dict[str, Any]:
     return keys
 
 
-def angle_names(leg_slots: Sequence[tuple[str, str]], center: Sequence[str]) -> list[str]:
+def angle_names(leg_slots: Sequence[tuple[str, ...]], center: Sequence[str]) -> list[str]:
     """The joint angles' input names: ``own_<location>_<axis>`` for each leg slot (``own_knee``
-    for the knee), the same with ``other_``, then the centre joints' own names."""
-    slots = [f"{loc}_{axis}" if loc != "knee" else "knee" for loc, axis in leg_slots]
+    for the knee; the second joint of a slot along its chain, index 1, ``own_<location>_<axis>_2``),
+    the same with ``other_``, then the centre joints' own names.  A slot is (location, axis) or
+    (location, axis, index)."""
+    slots = [(f"{slot[0]}_{slot[1]}" if slot[0] != "knee" else "knee")
+             + (f"_{slot[2] + 1}" if len(slot) > 2 and slot[2] else "") for slot in leg_slots]
     return [f"own_{s}" for s in slots] + [f"other_{s}" for s in slots] + list(center)
 
 

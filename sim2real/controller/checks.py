@@ -422,7 +422,7 @@ def joint_map_hash(robot: RobotSpec) -> str:
         servo = (j.servo.id, j.servo.profile.model, j.servo.direction, round(j.servo.zero_offset_rad, 9)) if j.servo else None
         # a model joint turned over (sign -1) adds its sign: older robots' hashes stay as they were
         parts.append([j.name, j.side, j.location, j.axis, [round(a, 9) for a in j.range_rad], servo]
-                     + ([j.sign] if j.sign != 1 else []))
+                     + ([j.sign] if j.sign != 1 else []) + ([{"index": j.index}] if j.index else []))
     return hashlib.sha256(json.dumps(parts).encode()).hexdigest()[:16]
 
 

@@ -83,7 +83,7 @@ def phase_inputs(t_s: np.ndarray | float, period_s: float) -> np.ndarray:
 @dataclass(frozen=True, eq=False)
 class SymmetricLayout:
     driven: tuple[str, ...]  # driven joints, robot order
-    leg_slots: tuple[tuple[str, str], ...]  # (location, axis) of each driven leg joint kind
+    leg_slots: tuple[tuple[str, str, int], ...]  # (location, axis, index) of each driven leg joint kind
     leg_index: dict[str, np.ndarray]  # side -> robot joint index of each slot
     center_index: np.ndarray  # robot joint index of each driven centre joint
     center_mirror: np.ndarray  # -1 where the left network sees the joint mirrored (yaw, roll)
@@ -142,17 +142,17 @@ def symmetric_layout(robot: RobotSpec, driven: tuple[str, ...], inputs: InputSet
     if unknown:
         raise ValueError(f"driven joints not on robot {robot.name}: {unknown}")
     order = {j.name: i for i, j in enumerate(robot.joints)}
-    slots: list[tuple[str, str]] = []
+    slots: list[tuple[str, str, int]] = []
     for name in sorted(driven, key=order.get):
         j = joints[name]
-        if j.side != "center" and (j.location, j.axis) not in slots:
-            slots.append((j.location, j.axis))
-    by_slot = {(j.side, j.location, j.axis): j.name for j in robot.joints}
+        if j.side != "center" and j.slot not in slots:
+            slots.append(j.slot)
+    by_slot = {(j.side, *j.slot): j.name for j in robot.joints}
     legs = {}
     for side in SIDES:
         names = []
-        for location, axis in slots:
-            name = by_slot[(side, location, axis)]
+        for slot in slots:
+            name = by_slot[(side, *slot)]
             if name not in driven:
                 raise ValueError(f"driven joints must be symmetric: {name} is missing")
             names.append(name)
@@ -170,7 +170,7 @@ def wired_layout(robot: RobotSpec, right: tuple[str, ...], left: tuple[str, ...]
     unknown = [n for n in (*right, *left, *center) if n not in order]
     if unknown:
         raise ValueError(f"joints not on robot {robot.name}: {unknown}")
-    slots = tuple((robot.joints[order[n]].location, robot.joints[order[n]].axis) for n in right)
+    slots = tuple(robot.joints[order[n]].slot for n in right)
     settings = {key: dict(value) for key, value in (inputs or {}).items()}
     angles = channels.angle_names(slots, center)
     return SymmetricLayout(

@@ -53,7 +53,8 @@ def sagittal_joints(gait: Gait) -> list[dict[str, str]]:
     rows = []
     for location, axis in SAGITTAL:
         row = {j.side: j.name for j in gait.robot.joints
-               if j.location == location and j.axis == axis and j.side in SIDE_COLOURS and j.name in gait.joints}
+               if j.location == location and j.axis == axis and j.index == 0 and j.side in SIDE_COLOURS
+               and j.name in gait.joints}
         if row:
             rows.append({"location": location, **row})
     return rows

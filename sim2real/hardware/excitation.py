@@ -102,6 +102,8 @@ def joint_groups(robot: RobotSpec, joints: list[str] | None = None) -> list[tupl
         key = f"{j.location}_{j.axis}" if j.side != "center" else j.name
         if j.location == "knee":
             key = "knee"
+        if j.side != "center" and j.index:  # the second joint of one role along the chain
+            key += f"_{j.index + 1}"
         groups[key] = groups.get(key, ()) + (j.name,)
     if not joints:
         return list(groups.items())

@@ -41,3 +41,26 @@ def anatomical_axis(side: str, location: str, axis: str) -> tuple[float, float, 
     if side == "left" and axis in ("roll", "yaw"):
         x, z = -x, -z
     return (float(x), float(y), float(z))
+
+
+# -- facing: where a model file's robot looks ------------------------------------------------------
+# The anatomical frame is x forward, y left, z up.  A model file may draw its robot facing
+# any horizontal axis (Poppy's URDF faces +y); ``forward`` names it, and the model builder
+# turns the robot about z so that it faces +x in the simulation.
+FORWARDS: dict[str, tuple[float, float, float]] = {
+    "+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0), "+y": (0.0, 1.0, 0.0), "-y": (0.0, -1.0, 0.0)}
+DEFAULT_FORWARD = "+x"
+
+
+def facing_turn_deg(forward: str) -> float:
+    """[deg] the turn about world z that makes a model facing ``forward`` face +x (``+y``:
+    -90, a right turn); ``KeyError`` for a direction not in :data:`FORWARDS`."""
+    return {"+x": 0.0, "+y": -90.0, "-x": 180.0, "-y": 90.0}[forward]
+
+
+def to_anatomical(vector, forward: str) -> tuple[float, float, float]:
+    """A world vector of a model facing ``forward`` in the anatomical frame (x forward, y
+    left, z up): its components along forward, left (up x forward) and up."""
+    fx, fy, _ = FORWARDS[forward]
+    x, y, z = (float(v) for v in vector)
+    return (fx * x + fy * y, -fy * x + fx * y, z)

@@ -26,6 +26,10 @@ from sim2real.robot.importer import (
 )
 from sim2real.robot.spec import LEG_LOCATIONS
 
+# seed 000's "Walk" set for a robot without a waist, as configs/robots/op3.yaml has it: the hips
+# (the yaw steers) and the knees; the ankles hold their stance
+WALK_LOCATIONS = ("hip", "knee")
+
 _PLAIN = re.compile(r"[A-Za-z_.][A-Za-z0-9_.\-/]*")
 _YAML_WORDS = {"true", "false", "yes", "no", "on", "off", "null", "y", "n", "~"}
 
@@ -46,10 +50,11 @@ def robot_yaml(result: ImportResult) -> str:
     r = result
     here = r.output.parent
     out = [f"# Imported by `biped robot import` from {r.model_file.name} ({r.kind.upper()}).",
-           f"# Lines marked \"{GUESSED}\" are guesses from the model's names and geometry: check each",
+           f"# Lines marked \"{GUESSED}\" are guesses from the model's structure and geometry: check each",
            "# against the real robot before evolving a controller, and before powering a servo.",
-           "# Angles are anatomical: anatomical angle = sign * model angle, the sign from each joint's",
-           "# world axis at the model's zero pose (right side: hip/ankle/shoulder/wrist yaw -z, roll -x,",
+           "# Angles are anatomical: anatomical angle = sign * model angle, the sign from each joint's axis",
+           "# at the model's zero pose in the robot's frame, x forward (model.forward), y left, z up",
+           "# (right side: hip/ankle/shoulder/wrist yaw -z, roll -x,",
            "# pitch -y; knee pitch +y; waist/neck yaw +z, roll +x, pitch +y; the left mirrors roll and yaw).",
            f"# Mirror pairs found from the geometry ({len(r.mirror.pairs)}; +1: equal model angles make "
            "mirror-image poses, -1: opposite motions):"]
@@ -60,8 +65,12 @@ def robot_yaml(result: ImportResult) -> str:
         out.append(f"# UNPAIRED ({GUESSED}): {name} has no mirror partner in the geometry")
     for c in r.mirror.conflicts:
         out.append(f"# NAMES DISAGREE ({GUESSED}): {c}")
+    if r.facing is not None:
+        out += [f"# {line.strip()}" for line in r.facing.report()]
     for note in (*r.mirror.notes, *r.notes):
         out.append(f"# NOTE: {note}")
+    for text in r.contradictions:
+        out.append(f"# LIMIT AGAINST THE GEOMETRY: {text}")
     if r.missing_visual_meshes:
         out.append(f"# NOTE: {len(r.missing_visual_meshes)} visual mesh file(s) are missing (the collision "
                    "geometry is whole): loading with visuals needs them")
@@ -81,13 +90,16 @@ def robot_yaml(result: ImportResult) -> str:
     if r.package_dirs:
         out.append(f"  package_dirs: [{', '.join(_scalar(_relative(d, here)) for d in r.package_dirs)}]")
     base = "the URDF's base link: it gets a free joint" if r.kind == "urdf" else "the body that floats"
+    if r.forward != "+x":
+        out.append(f"  forward: \"{r.forward}\"  # the way the robot faces in the model file ({GUESSED}); "
+                   "the model is turned to face +x")
     out += [f"  root: {_scalar(r.root)}  # {base}",
             f"  imu: {{body: {_scalar(r.root)}, pos: [0.0, 0.0, 0.0]}}  # {GUESSED} where the IMU sits, "
             "in this body's frame [m]",
             "  feet:"]
     for side in ("left", "right"):
         if side in r.feet:
-            out.append(f"    {side}: {{body: {_scalar(r.feet[side])}}}  # {GUESSED} the lowest body of the "
+            out.append(f"    {side}: {{body: {_scalar(r.feet[side])}}}  # {GUESSED} the end of the "
                        f"{side} leg; its collision geoms are the sole")
         else:
             out.append(f"    # {side}: {{body: ...}}  NOT FOUND: no {side} leg joint was recognised; "
@@ -98,19 +110,28 @@ def robot_yaml(result: ImportResult) -> str:
     why = f"  # {r.inertias_why}" if r.inertias_why else ""
     out.append(f"  inertias: {r.inertias}{why}")
     out += ["joints:",
-            f"  # side from the geometry, location from the name, axis and sign from the world axis ({GUESSED})",
+            f"  # side and location from the chains of the body tree, axis and sign from the axis in the facing's "
+            f"frame ({GUESSED});",
+            "  # index: the second (third...) joint of one side, location and axis along its chain",
             f"  # servo ids numbered 1.. in model order ({GUESSED}): set each to its servo's ID",
             "  # servo direction = sign: the servo's angle taken to be the model's, centre tick at 0, as ROBOTIS",
             f"  # maps its robots ({GUESSED}: a servo mounted the other way round needs the other direction)"]
     for j in r.joints:
         note = f"  # {'; '.join(j.notes)}" if j.notes else ""
-        out.append(f"  - {{name: {_scalar(j.name)}, side: {j.side}, location: {j.location}, axis: {j.axis}, "
+        index = f", index: {j.index}" if j.index else ""
+        model = f", model: {_scalar(j.servo_model)}" if j.servo_model else ""
+        out.append(f"  - {{name: {_scalar(j.name)}, side: {j.side}, location: {j.location}, axis: {j.axis}{index}, "
                    f"sign: {j.sign}, range_deg: [{number_text(j.range_deg[0])}, {number_text(j.range_deg[1])}], "
-                   f"home_deg: {number_text(j.home_deg)}, servo: {{id: {j.servo_id}, direction: {j.sign}}}}}{note}")
+                   f"home_deg: {number_text(j.home_deg)}, servo: {{id: {j.servo_id}{model}, direction: {j.sign}}}}}"
+                   f"{note}")
     legs = [j.name for j in r.joints if j.location in LEG_LOCATIONS or j.location == "waist"]
+    walk = [j.name for j in r.joints if j.location in WALK_LOCATIONS]
     out.append("control_sets:")
     if legs:
         out.append(f"  legs: [{', '.join(_scalar(n) for n in legs)}]")
+    if walk:
+        out.append("  # seed 000's walk for a robot without a waist (as op3.yaml's): hips and knees, the ankles hold")
+        out.append(f"  walk: [{', '.join(_scalar(n) for n in walk)}]")
     out.append(f"  all: [{', '.join(_scalar(j.name) for j in r.joints)}]")
     return "\n".join(out) + "\n"
 

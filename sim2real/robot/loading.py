@@ -17,11 +17,11 @@ from pathlib import Path
 
 from sim2real.errors import ConfigError
 from sim2real.robot import anthropometry
+from sim2real.robot.anatomy import DEFAULT_FORWARD, FORWARDS
 from sim2real.robot.paths import robots_dir
 from sim2real.robot.profiles import DeviceProfile, load_profile
 from sim2real.robot.spec import (
     AXES,
-    BOX_LOCATIONS,
     CENTER_LOCATIONS,
     CONTROL_TICK_S,
     DEFAULT_CONTACT_SHARE,
@@ -49,6 +49,7 @@ from sim2real.robot.spec import (
     ServoMap,
     common_baud_rates,
 )
+from sim2real.robot.joint_map import box_location_problems, id_problems, joint_map_problems, raise_all
 from sim2real.robot.validation import Node, load_yaml, show, show_name
 
 SIZE = dict(lo=SEGMENT_SIZE_M[0], hi=SEGMENT_SIZE_M[1], unit="m",
@@ -56,6 +57,7 @@ SIZE = dict(lo=SEGMENT_SIZE_M[0], hi=SEGMENT_SIZE_M[1], unit="m",
 MASS = dict(lo=SEGMENT_MASS_KG[0], hi=SEGMENT_MASS_KG[1], unit="kg",
             why=f"a plausible segment: {SEGMENT_MASS_KG[0]:g}-{SEGMENT_MASS_KG[1]:g} kg")
 MAX_NAME = 64  # characters of a joint's or a control set's name
+MAX_INDEX = 15  # joints of one role along one chain (a spine of five has index 0 and 1 per axis)
 MAX_JOINTS = 64  # a biped's joints (the shipped robots have 11 and 15; a bus has IDs 0-252)
 ANGLE = dict(lo=JOINT_ANGLE_DEG[0], hi=JOINT_ANGLE_DEG[1], unit="deg")
 
@@ -136,19 +138,27 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
     model = _read_model(root["model"], Path(source)) if root.has("model") else None
 
     default_model = root["servo_model"].string() if root.has("servo_model") else None
-    joints = tuple(
-        _read_joint(node, actuation == "servo", default_model, model is not None)
-        for node in root["joints"].list(1, MAX_JOINTS)
-    )
-    _check_joints(root, joints)
+    problems: list[ConfigError] = []  # every joint's problems, listed together (one round of fixes)
+    joints_list = []
+    for node in root["joints"].list(1, MAX_JOINTS):
+        try:
+            joint = _read_joint(node, actuation == "servo", default_model, model is not None, problems)
+        except ConfigError as exc:
+            problems.append(exc)
+            continue
+        if joint is not None:
+            joints_list.append(joint)
+    joints = tuple(joints_list)
+    problems += joint_map_problems(root, joints, complete=len(joints) == len(root["joints"].value))
     if model is None:
-        _check_box_locations(root, joints)
+        problems += box_location_problems(root, joints)
     board = _read_sensor_board(root["sensor_board"]) if root.has("sensor_board") else None
     if actuation == "servo":
         for key in ("bus", "sensor_board"):
             if not root.has(key):
-                raise root.error(f"missing required key {key!r} for a servo robot", key=key)
-        _check_ids(root, joints, board)
+                problems.append(root.error(f"missing required key {key!r} for a servo robot", key=key))
+        problems += id_problems(root, joints, board)
+    raise_all(root.source, problems)
     bus = _read_bus(root["bus"]) if root.has("bus") else None
     if bus is not None:
         rates = common_baud_rates(joints, board)
@@ -189,7 +199,7 @@ def _read_model(node: Node, config: Path) -> ModelSource:
     """The ``model:`` block: the file (relative to the robot config), where its parts are.
     That the names exist in the file is checked when the model is built (MuJoCo reads it)."""
     node.mapping(required=("file", "root", "imu", "feet"),
-                 optional=("package_dirs", "hands", "inertias", "visuals"))
+                 optional=("package_dirs", "hands", "inertias", "visuals", "forward"))
 
     def path(item: Node) -> Path:
         text = item.string()
@@ -220,6 +230,7 @@ def _read_model(node: Node, config: Path) -> ModelSource:
         feet=parts, hands=hands,
         inertias=node.get("inertias", "as_given").string(("as_given", "from_geometry")),
         drop_visuals=node.get("visuals", "drop").string(("drop", "keep")) == "drop",
+        forward=node.get("forward", DEFAULT_FORWARD).string(tuple(FORWARDS)),
     )
 
 
@@ -302,9 +313,15 @@ def _read_pd(node: Node, mass_kg: float | None) -> PDGains:
                    max_torque_nm=fixed, max_torque_nm_per_kg=per_kg)
 
 
-def _read_joint(node: Node, servo_robot: bool, default_model: str | None, model_robot: bool = False) -> Joint:
+def _read_joint(node: Node, servo_robot: bool, default_model: str | None, model_robot: bool = False,
+                problems: list[ConfigError] | None = None) -> Joint | None:
+    """A joint, or None when its range or servo is wrong: then each such problem is added to
+    ``problems`` (with its fix), so that every joint's are listed at once; a malformed entry
+    raises."""
+    problems = [] if problems is None else problems
+    found = len(problems)
     node.mapping(
-        required=("name", "location", "axis", "range_deg"), optional=("side", "home_deg", "servo", "sign")
+        required=("name", "location", "axis", "range_deg"), optional=("side", "home_deg", "servo", "sign", "index")
     )
     name = node["name"].string()
     if len(name) > MAX_NAME or not name.isprintable():
@@ -323,20 +340,32 @@ def _read_joint(node: Node, servo_robot: bool, default_model: str | None, model_
         sign = node["sign"].integer()
         if sign not in (1, -1):
             raise node.error(f"must be 1 or -1, got {sign}", key="sign")
+    index = 0
+    if node.has("index"):
+        if not model_robot:
+            raise node.error("an index orders joints of one role along a model file's chain: only for a robot "
+                             "with a model (the box tree has one joint per role)", key="index")
+        index = node["index"].integer(0, MAX_INDEX)
     axis = node["axis"].string(AXES)
     if location == "knee" and axis != "pitch":
         raise node.error("a knee is a pitch joint", key="axis")
     lo, hi = node["range_deg"].pair(**ANGLE)
     home = node.get("home_deg", 0.5 * (lo + hi) if not lo <= 0 <= hi else 0.0).number(**ANGLE)
     if not lo <= home <= hi:
-        raise node.error(f"{home} deg is outside range_deg [{lo}, {hi}]", key="home_deg")
+        problems.append(node.error(f"{home} deg is outside range_deg [{lo}, {hi}] (fix: a home_deg inside the "
+                                   "range, or a wider range_deg)", key="home_deg"))
     servo = None
     if servo_robot:
         if not node.has("servo"):
             raise node.error(f"joint {show(name)} has no servo", key="servo")
-        servo = _read_servo(node["servo"], default_model, (lo, hi))
+        try:
+            servo = _read_servo(node["servo"], default_model, (lo, hi))
+        except ConfigError as exc:
+            problems.append(exc)
     elif node.has("servo"):
         raise node.error("servo blocks are only allowed with actuation: servo", key="servo")
+    if len(problems) > found:
+        return None
     return Joint(
         name=name,
         side=side,
@@ -346,6 +375,7 @@ def _read_joint(node: Node, servo_robot: bool, default_model: str | None, model_
         home_rad=math.radians(home),
         servo=servo,
         sign=sign,
+        index=index,
     )
 
 
@@ -379,10 +409,15 @@ def _read_servo(node: Node, default_model: str | None, range_deg: tuple[float, f
     s_lo, s_hi = profile.position.range_rad
     ends = sorted(direction * math.radians(a) + servo.zero_offset_rad for a in range_deg)
     if ends[0] < s_lo - 1e-9 or ends[1] > s_hi + 1e-9:
+        fits = sorted(direction * (math.degrees(a) - math.degrees(servo.zero_offset_rad)) for a in (s_lo, s_hi))
+        lo, hi = max(range_deg[0], fits[0]), min(range_deg[1], fits[1])
+        fix = (f"range_deg [{math.floor(lo * 10 + 1e-6) / 10:g}, {math.floor(hi * 10 + 1e-6) / 10:g}] inside its reach, "
+               "a zero_offset_deg that centres it, or a servo model that turns farther") if lo < hi else \
+            "a zero_offset_deg that brings the range inside its reach"
         raise node.error(
             f"joint range {list(range_deg)} deg needs servo angles "
             f"[{math.degrees(ends[0]):.1f}, {math.degrees(ends[1]):.1f}] deg, outside the "
-            f"{profile.model}'s [{math.degrees(s_lo):.1f}, {math.degrees(s_hi):.1f}] deg"
+            f"{profile.model}'s [{math.degrees(s_lo):.1f}, {math.degrees(s_hi):.1f}] deg (fix: {fix})"
         )
     return servo
 
@@ -400,42 +435,3 @@ def _read_bus(node: Node) -> BusSettings:
     node.mapping(required=("port", "baud"))
     baud = node["baud"].integer(9600, 10_500_000)
     return BusSettings(port=node["port"].string(), baud=baud)
-
-
-def _check_joints(root: Node, joints: tuple[Joint, ...]) -> None:
-    seen: dict[str, int] = {}
-    slots: dict[tuple[str, str, str], str] = {}
-    for i, joint in enumerate(joints):
-        key = f"joints[{i}].name"
-        if joint.name in seen:
-            raise ConfigError(root.source, key, f"duplicate joint name {show(joint.name)}")
-        seen[joint.name] = i
-        slot = (joint.side, joint.location, joint.axis)
-        if slot in slots:
-            raise ConfigError(root.source, key, f"{show(joint.name)} repeats the {' '.join(slot)} axis of {show(slots[slot])}")
-        slots[slot] = joint.name
-    for joint in joints:
-        if joint.side != "center":
-            other = "left" if joint.side == "right" else "right"
-            if (other, joint.location, joint.axis) not in slots:
-                raise ConfigError(root.source, "joints", f"{show(joint.name)} has no {other} twin (bipeds are symmetric)")
-
-
-def _check_box_locations(root: Node, joints: tuple[Joint, ...]) -> None:
-    for i, joint in enumerate(joints):
-        if joint.location not in BOX_LOCATIONS:
-            raise ConfigError(root.source, f"joints[{i}].location", f"the box tree has joints at the "
-                              f"{', '.join(BOX_LOCATIONS)} only; {show(joint.name)} is a {joint.location} "
-                              "joint: a body with arms, a neck or toes comes as a model file (model:)")
-
-
-def _check_ids(root: Node, joints: tuple[Joint, ...], board: SensorBoard | None) -> None:
-    owners: dict[int, str] = {}
-    devices = [(j.servo.id, f"joint {show(j.name)}") for j in joints if j.servo is not None]
-    if board is not None:
-        devices.append((board.id, "the sensor board"))
-    for i, (dxl_id, owner) in enumerate(devices):
-        if dxl_id in owners:
-            key = f"joints[{i}].servo.id" if i < len(joints) else "sensor_board.id"
-            raise ConfigError(root.source, key, f"duplicate ID {dxl_id}: used by {owners[dxl_id]} and {owner}")
-        owners[dxl_id] = owner

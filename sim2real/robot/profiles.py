@@ -46,6 +46,15 @@ UNIT_MAX = 100.0  # a unit's size (velocity_unit_rpm, load_unit_percent, voltage
 TICK_LIMIT = 2**31  # position ticks are within (-2^31, 2^31)
 RESOLUTION = (2, 2**20)  # encoder ticks a revolution
 BAUD_RANGE = (9600, 10_500_000)  # [bit/s], as a robot's bus.baud
+# The instructions each protocol defines, by the names a profile's ``instructions`` lists (ROBOTIS
+# e-manual, "Protocol 1.0" and "Protocol 2.0" instruction tables).  Which of them a model answers
+# is the model's own (protocol 1.0: Reboot on MX firmware v40+ and X, Bulk Read on MX only).
+INSTRUCTIONS: dict[float, tuple[str, ...]] = {
+    1.0: ("ping", "read", "write", "reg_write", "action", "factory_reset", "reboot", "sync_write", "bulk_read"),
+    2.0: ("ping", "read", "write", "reg_write", "action", "factory_reset", "reboot", "clear", "sync_read",
+          "sync_write", "bulk_read", "bulk_write", "fast_sync_read", "fast_bulk_read"),
+}
+_BASIC_INSTRUCTIONS = ("ping", "read", "write")  # every device on a bus answers these
 
 
 @dataclass(frozen=True)
@@ -135,6 +144,7 @@ class DeviceProfile:
     variants: tuple[str, ...] = ()
     sensors: dict[str, Any] = field(default_factory=dict)
     baud_rates: tuple[int, ...] = ()  # [bit/s] the rates it can be set to (empty: not listed)
+    instructions: tuple[str, ...] = ()  # what its firmware answers, names of INSTRUCTIONS (empty: not listed)
 
     def register(self, name: str) -> Register:
         try:
@@ -196,6 +206,18 @@ def _register_range(node: Node, fits: dict[str, int]) -> tuple[int, int]:
     return items[0].integer(), items[1].integer()
 
 
+def _read_instructions(node: Node, protocol: float) -> tuple[str, ...]:
+    """The instructions a model answers: names its protocol defines, each once, ping/read/write among them."""
+    known = INSTRUCTIONS[protocol]
+    names = tuple(item.string(known) for item in node.list(min_len=1))
+    if len(set(names)) != len(names):
+        raise node.error(f"lists an instruction twice: {show(list(names))}")
+    missing = [name for name in _BASIC_INSTRUCTIONS if name not in names]
+    if missing:
+        raise node.error(f"must list {', '.join(missing)} (every device answers them)")
+    return names
+
+
 def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     """Validate one profile document (already loaded from YAML)."""
     root = Node(doc, str(path))
@@ -204,9 +226,9 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     kind = root["kind"].string(("servo", "sensor_board"))
     common = ("model", "kind", "model_number", "protocol", "mass_kg", "source", "control_table")
     if kind == "servo":
-        root.mapping(required=common + _SERVO_KEYS, optional=_UNIT_KEYS + ("variants", "baud_rates"))
+        root.mapping(required=common + _SERVO_KEYS, optional=_UNIT_KEYS + ("variants", "baud_rates", "instructions"))
     else:
-        root.mapping(required=common + ("sensors",), optional=("variants", "baud_rates"))
+        root.mapping(required=common + ("sensors",), optional=("variants", "baud_rates", "instructions"))
 
     table: dict[str, Register] = {}
     for entry in root["control_table"].list(min_len=1):
@@ -221,6 +243,11 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
     protocol = root["protocol"].number()
     if protocol not in (1.0, 2.0):
         raise root.error(f"must be 1.0 or 2.0, got {protocol}", key="protocol")
+    if protocol == 1.0:  # a protocol-1.0 packet carries the address in one byte
+        for i, reg in enumerate(table.values()):
+            if reg.address + reg.size > 256:
+                raise root.error(f"{reg.name} (address {reg.address}, {reg.size} bytes) is beyond address 255, "
+                                 "which protocol 1.0 cannot reach", key=f"control_table[{i}].address")
     profile = dict(
         model=root["model"].string(),
         kind=kind,
@@ -232,6 +259,7 @@ def parse_profile(doc: Any, path: Path) -> DeviceProfile:
         control_table=table,
         variants=tuple(v.string() for v in root.get("variants", []).list()),
         baud_rates=tuple(sorted({b.integer(*BAUD_RANGE) for b in root.get("baud_rates", []).list()})),
+        instructions=_read_instructions(root["instructions"], protocol) if root.has("instructions") else (),
     )
     if kind == "sensor_board":
         sensors = root["sensors"]

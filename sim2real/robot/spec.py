@@ -128,6 +128,9 @@ class ModelSource:
     hands: dict[str, str]  # side -> body (arms' end effectors), maybe empty
     inertias: str = "as_given"  # or "from_geometry": each body's inertia from its collision geometry
     drop_visuals: bool = True  # the geoms that only show are not loaded (nor their meshes)
+    # the way the robot faces in the file (sim2real.robot.anatomy.FORWARDS); the model builder
+    # turns it about z to face +x, and the IMU's axes with it
+    forward: str = "+x"
 
 
 @dataclass(frozen=True)
@@ -150,6 +153,14 @@ class Joint:
     home_rad: float
     servo: ServoMap | None = None
     sign: int = 1  # a model robot's joint: anatomical angle = sign * the model joint's angle
+    # among joints of one side, location and axis, its order along the chain from the root (a
+    # spine's second pitch joint is 1): a model robot's; every box robot joint is 0
+    index: int = 0
+
+    @property
+    def slot(self) -> tuple[str, str, int]:
+        """(location, axis, index): what a joint is on either side (its twin has the same)."""
+        return (self.location, self.axis, self.index)
 
     @property
     def center_rad(self) -> float:

@@ -14,7 +14,11 @@ most ``MAX_MODEL_BYTES``) and refused, with the file named and what to do:
 * mesh files that are missing or unreadable: every one at once, each with where it was looked
   for, and for ``package://PKG/PATH`` how to name the package root (``--package-dir DIR``:
   tried as ``DIR/PKG/PATH`` and ``DIR/PATH``);
-* a model without one hinge joint (nothing a servo could turn).
+* a model without one hinge joint (nothing a servo could turn);
+* anything :mod:`.model_guard` refuses before MuJoCo opens a file: includes, textures, skins,
+  height fields and meshes that are no regular files (a FIFO would block MuJoCo), too large or
+  outside the model's folders; include cycles; deep nesting; more bodies, joints or geoms than a
+  robot has; NaN or infinity in a number; a joint axis of length 0.
 
 URDF in MuJoCo 4.0.0 (checked by experiment): visuals are discarded at parse unless the file
 says otherwise, so they are kept here by turning ``discardvisual`` off in the text MuJoCo
@@ -41,10 +45,10 @@ import mujoco
 
 from sim2real.errors import ConfigError
 from sim2real.input_files import read_regular_bytes, regular_file_problem
+from sim2real.simulation.model_guard import MAX_MODEL_BYTES, XmlDocument, check_model_files, near_match, parse_model_xml
 from sim2real.simulation.model_roles import check_unique_names
 from sim2real.simulation.robot_model import is_collision_geom
 
-MAX_MODEL_BYTES = 16 << 20  # a model file's text; large URDFs (Talos, Atlas) are < 1 MB
 XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
 _SUBSTITUTION = re.compile(r"\$\((?:find|arg|env|optenv|eval|dirname|anon)\b[^)]*\)|\$\{[^}]*\}")
 HINGE = mujoco.mjtJoint.mjJNT_HINGE
@@ -83,10 +87,11 @@ def missing_meshes(path: Path | str, package_dirs: Iterable[Path | str] = (), *,
 
 def _load(path: Path, package_dirs: Iterable[Path | str], drop_visuals: bool) -> tuple[mujoco.MjSpec, "_MeshProblems"]:
     source = str(path)
-    root, kind = _read_model_xml(path)
+    doc, kind = _read_model_xml(path)
     dirs = [Path(d).expanduser() for d in package_dirs]
+    check_model_files(doc, kind, dirs)  # before MuJoCo opens any file the model names
     if kind == "urdf":
-        spec = _parse(source, lambda: mujoco.MjSpec.from_string(_urdf_text(root, keep_visuals=not drop_visuals)))
+        spec = _parse(source, lambda: mujoco.MjSpec.from_string(_urdf_text(doc.root, keep_visuals=not drop_visuals)))
         spec.modelfiledir = str(path.resolve().parent) + "/"  # from_string has no folder of its own
     else:
         spec = _parse(source, lambda: mujoco.MjSpec.from_file(str(path)))
@@ -143,7 +148,7 @@ def compile_model(spec: mujoco.MjSpec, source: str | None = None) -> mujoco.MjMo
 
 
 # -- reading the file -------------------------------------------------------------------------
-def _read_model_xml(path: Path) -> tuple[ET.Element, str]:
+def _read_model_xml(path: Path) -> tuple[XmlDocument, str]:
     source = str(path)
     raw = read_regular_bytes(path, source, limit=MAX_MODEL_BYTES, what="model file")
     try:
@@ -158,10 +163,8 @@ def _read_model_xml(path: Path) -> tuple[ET.Element, str]:
         raise ConfigError(source, "", _xacro_problem(path, xacro))
     if "<!ENTITY" in text:  # no robot needs them; expansion is how XML bombs work
         raise ConfigError(source, "", "XML entity declarations (<!ENTITY) are not accepted in a model file")
-    try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise ConfigError(source, "", f"not an XML model file: {exc}") from None
+    doc = parse_model_xml(text, path)  # bounded depth, no DTD
+    root = doc.root
     subst = next((m.group(0) for el in root.iter() for v in el.attrib.values() if (m := _SUBSTITUTION.search(v))), None)
     if subst:
         raise ConfigError(source, "", _xacro_problem(path, f"the substitution {subst[:60]!r}"))
@@ -170,7 +173,7 @@ def _read_model_xml(path: Path) -> tuple[ET.Element, str]:
         hint = " (SDF is not read: convert it to URDF or MJCF)" if root.tag == "sdf" else ""
         raise ConfigError(source, "", f"not a robot model: the root element is <{str(root.tag)[:40]}>, not "
                           f"<mujoco> (MJCF) or <robot> (URDF){hint}")
-    return root, kind
+    return doc, kind
 
 
 def _xacro_sign(path: Path, text: str) -> str | None:
@@ -266,7 +269,9 @@ def _resolve_meshes(spec: mujoco.MjSpec, kind: str, folder: Path, dirs: list[Pat
                 problems.packages.add(package)
             tried = ", ".join(str(c) for c in candidates)
             why = regular_file_problem(candidates[0]) if len(candidates) == 1 else "not found"
-            problems.lines.append(f"{mesh.file}{where}: {why} (looked for {tried})")
+            near = next((m for m in map(near_match, candidates) if m is not None), None)
+            hint = f"; there is {near} (names differ in case or extension)" if near else ""
+            problems.lines.append(f"{mesh.file}{where}: {why} (looked for {tried}){hint}")
         elif kind == "urdf":
             mesh.file = str(found)
     return problems

@@ -58,11 +58,12 @@ class _Geometric:
     iquat: np.ndarray  # principal axes in the body frame
 
 
-def implausible_inertias(spec: mujoco.MjSpec, factor: float = FACTOR) -> list[InertiaProblem]:
+def implausible_inertias(spec: mujoco.MjSpec, factor: float = FACTOR, *, source: str | None = None
+                         ) -> list[InertiaProblem]:
     """Bodies of ``spec`` with an explicit inertia (mass > 0) that is more than ``factor``
     times off their collision geometry's on some principal axis, or breaks ``A + B >= C``;
-    in body order."""
-    geometric = _geometry_inertias(spec)
+    in body order.  ``source``: the model file, named in a refusal."""
+    geometric = _geometry_inertias(spec, source)
     problems = []
     for body in list(spec.bodies)[1:]:
         if not body.explicitinertial or not body.mass > 0:
@@ -88,10 +89,11 @@ def implausible_inertias(spec: mujoco.MjSpec, factor: float = FACTOR) -> list[In
     return problems
 
 
-def recompute_inertias(spec: mujoco.MjSpec) -> list[str]:
+def recompute_inertias(spec: mujoco.MjSpec, *, source: str | None = None) -> list[str]:
     """Each body's inertia set from its collision geometry at its mass (its mass and centre
-    of mass kept); the names of the bodies changed, in body order."""
-    geometric = _geometry_inertias(spec)
+    of mass kept); the names of the bodies changed, in body order.  ``source``: the model
+    file, named in a refusal."""
+    geometric = _geometry_inertias(spec, source)
     changed = []
     for body in list(spec.bodies)[1:]:
         geo = geometric.get(body.name)
@@ -114,30 +116,25 @@ def _given_moments(body) -> tuple[float, float, float]:
     return tuple(float(v) for v in np.sort(np.asarray(body.inertia, dtype=float)))
 
 
-def _geometry_inertias(spec: mujoco.MjSpec) -> dict[str, _Geometric]:
+def _geometry_inertias(spec: mujoco.MjSpec, source: str | None = None) -> dict[str, _Geometric]:
     """Each body's collision geometry's mass, principal moments and axes, computed by
     MuJoCo in a copy: inertia from geoms forced, visuals deleted, one density throughout,
     no static bodies fused (so each of the spec's bodies is there)."""
-    probe = spec.copy()
+    probe = _without_visuals(spec)
     probe.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
-    probe.compiler.fusestatic = False
     probe.compiler.balanceinertia = False
     probe.compiler.settotalmass = -1
-    probe.compiler.boundmass = 1e-12  # bodies without geometry compile, as nearly massless
-    probe.compiler.boundinertia = 1e-18
     collision = set()
-    for geom in list(probe.geoms):
-        if not is_collision_geom(geom.contype, geom.conaffinity):
-            probe.delete(geom)
-            continue
+    for geom in probe.geoms:
         geom.mass = math.nan  # from the density, so that shapes an author made massless count too
         geom.density = _DENSITY
         collision.add(geom.parent.name)
     try:
         model = probe.compile()
     except ValueError as exc:
-        raise ConfigError(spec.modelname or "model", "", "MuJoCo cannot compute the collision geometry's "
-                          f"inertias: {' '.join(str(exc).split())[:300]}") from None
+        _refuse_uncompilable(spec, source)  # a bad texture, skin, axis: MuJoCo's words, not ours
+        raise ConfigError(source or spec.modelname or "model", "", "MuJoCo cannot compute the collision "
+                          f"geometry's inertias: {' '.join(str(exc).split())[:300]}") from None
     found = {}
     for name in collision:
         i = model.body(name).id
@@ -145,6 +142,31 @@ def _geometry_inertias(spec: mujoco.MjSpec) -> dict[str, _Geometric]:
             found[name] = _Geometric(float(model.body_mass[i]), model.body_inertia[i].copy(),
                                      model.body_iquat[i].copy())
     return found
+
+
+def _without_visuals(spec: mujoco.MjSpec) -> mujoco.MjSpec:
+    """A copy of ``spec`` with only its collision geoms, no static body fused away, and
+    bodies without geometry nearly massless (so that they compile)."""
+    probe = spec.copy()
+    probe.compiler.fusestatic = False
+    probe.compiler.boundmass = 1e-12
+    probe.compiler.boundinertia = 1e-18
+    for geom in list(probe.geoms):
+        if not is_collision_geom(geom.contype, geom.conaffinity):
+            probe.delete(geom)
+    return probe
+
+
+def _refuse_uncompilable(spec: mujoco.MjSpec, source: str | None) -> None:
+    """:class:`ConfigError` with MuJoCo's own message when the model fails to compile even
+    without its inertias computed from geometry (the failure is then not about inertias)."""
+    control = _without_visuals(spec)
+    control.compiler.balanceinertia = True  # A + B < C as given is what the probe is for
+    try:
+        control.compile()
+    except ValueError as exc:
+        raise ConfigError(source or spec.modelname or "model", "", "MuJoCo cannot compile the model: "
+                          f"{' '.join(str(exc).split())[:400]}") from None
 
 
 def _moments(values) -> str:

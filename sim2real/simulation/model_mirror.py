@@ -8,8 +8,9 @@
     mirror.conflicts   # where the names and the geometry disagree, one sentence each
 
 Method (DESIGN.md 11): at qpos0 (``mj_kinematics``) each hinge has a world anchor ``p`` and
-axis ``u``.  Mirroring across the sagittal plane (x-z, through the root body's origin: the
-robot faces +x with its left at +y, wherever it stands) maps a point ``(x, y, z)`` to
+axis ``u``, taken into the anatomical frame of the robot's facing (``forward``: ``+x`` by
+default; :func:`sim2real.robot.anatomy.to_anatomical`), so that below x is forward and y left.
+Mirroring across the sagittal plane (x-z, through the root body's origin, wherever it stands) maps a point ``(x, y, z)`` to
 ``(x, -y, z)`` and an axis of rotation ``(x, y, z)`` to ``-(x, -y, z)`` (a rotation's axis is
 a pseudo-vector: the mirror turns its sense).  A hinge's partner has its anchor within
 ``tolerance`` of the mirrored anchor and its axis parallel or antiparallel to the mirrored
@@ -27,7 +28,8 @@ the plane, as ROBOTIS OP3's).  Any other is unpaired, on the side of its anchor.
 Names are read for their side (``l_``, ``_right``, ``LHip`` ...: :mod:`sim2real.robot.joint_names`)
 and checked: a pair whose names differ once the side is taken out, a name that says left on a
 hinge right of the plane, two names that pair but whose geometry does not.  A model that pairs
-better across the y-z plane faces along y, against the convention: ``notes`` says so.
+better across the other vertical plane faces the other way than ``forward`` says: ``notes``
+says so.  ``anchors`` and ``axes`` are in the anatomical frame.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from sim2real.robot.anatomy import DEFAULT_FORWARD, to_anatomical
 from sim2real.robot.joint_names import base_of, side_of
 
 SIZE_FRACTION = 0.01  # anchor tolerance, of the robot's size
@@ -70,8 +73,10 @@ class MirrorInference:
     conflicts: tuple[str, ...]  # sentences: names against geometry
     tolerance: float  # [m] the anchor tolerance used
     notes: tuple[str, ...] = ()  # about the model as a whole (e.g. it faces along y)
-    anchors: dict[str, tuple[float, float, float]] = field(repr=False, default_factory=dict)  # [m] from the root, qpos0
-    axes: dict[str, tuple[float, float, float]] = field(repr=False, default_factory=dict)  # world, qpos0
+    # [m] from the root, qpos0, and unit axes: in the anatomical frame (x forward, y left, z up)
+    anchors: dict[str, tuple[float, float, float]] = field(repr=False, default_factory=dict)
+    axes: dict[str, tuple[float, float, float]] = field(repr=False, default_factory=dict)
+    forward: str = DEFAULT_FORWARD  # the model's facing the frame is taken from
 
     def partner(self, name: str) -> str | None:
         for pair in self.pairs:
@@ -96,17 +101,20 @@ class MirrorInference:
         return lines
 
 
-def mirror_pairs(model: mujoco.MjModel) -> MirrorInference:
-    """Mirror pairs, centre and unpaired hinges of ``model`` at its zero pose (qpos0)."""
+def mirror_pairs(model: mujoco.MjModel, forward: str = DEFAULT_FORWARD) -> MirrorInference:
+    """Mirror pairs, centre and unpaired hinges of ``model`` at its zero pose (qpos0), the
+    robot facing ``forward`` (a key of :data:`sim2real.robot.anatomy.FORWARDS`)."""
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     mujoco.mj_comPos(model, data)  # subtree centres of mass
     hinges = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
     names = [model.joint(j).name or f"joint{j}" for j in hinges]
     origin = data.xpos[_root(model)].copy()  # the mirror plane runs through the root's origin
-    anchors = np.array([data.xanchor[j] - origin for j in hinges]).reshape(-1, 3)
-    axes = np.array([data.xaxis[j] / np.linalg.norm(data.xaxis[j]) for j in hinges]).reshape(-1, 3)
-    size = _robot_size(model, data, anchors + origin)  # both in world coordinates
+    frame = np.array([to_anatomical(e, forward) for e in np.eye(3)]).T  # world -> anatomical
+    world_anchors = np.array([data.xanchor[j] for j in hinges]).reshape(-1, 3)
+    anchors = (world_anchors - origin) @ frame.T
+    axes = np.array([data.xaxis[j] / np.linalg.norm(data.xaxis[j]) for j in hinges]).reshape(-1, 3) @ frame.T
+    size = _robot_size(model, data, world_anchors)  # both in world coordinates
     tol = max(MIN_TOLERANCE_M, SIZE_FRACTION * size)
     cos_tol = math.cos(math.radians(AXIS_TOLERANCE_DEG))
 
@@ -114,17 +122,19 @@ def mirror_pairs(model: mujoco.MjModel) -> MirrorInference:
     paired = {names.index(n) for p in pairs for n in (p.left, p.right)}
     notes = []
     sideways = _pairs(names, anchors, axes, tol, cos_tol, plane_normal=0)
-    if len(sideways) > len(pairs):  # a model that faces +-y pairs across the y-z plane instead
-        notes.append(f"{len(sideways)} pairs form across the y-z plane against {len(pairs)} across the x-z "
-                     "plane: the model seems to face along y, but the project's convention is facing +x with "
-                     "left at +y (rotate the root body 90 deg about z in the model file)")
+    if len(sideways) > len(pairs):  # a model facing along the other axis pairs across the other plane
+        other = "y" if forward in ("+x", "-x") else "x"
+        notes.append(f"{len(sideways)} pairs form across the {other}-z plane against {len(pairs)} across the "
+                     f"plane square to its left: the model seems to face along {other}, not {forward} "
+                     f"(biped robot import --forward +{other} or -{other})")
 
     sides, centre, unpaired = {}, [], []
     com_tol = max(tol, CENTRED_COM_FRACTION * size)
     for i, name in enumerate(names):
         on_plane = abs(anchors[i, 1]) <= tol
+        com = (data.subtree_com[model.jnt_bodyid[hinges[i]]] - origin) @ frame.T
         if i not in paired and _line_is_symmetric(anchors[i], axes[i], tol, cos_tol) and (
-                on_plane or abs(data.subtree_com[model.jnt_bodyid[hinges[i]], 1] - origin[1]) <= com_tol):
+                on_plane or abs(com[1]) <= com_tol):
             sides[name] = "center"
             centre.append(name)
             continue
@@ -134,7 +144,7 @@ def mirror_pairs(model: mujoco.MjModel) -> MirrorInference:
     return MirrorInference(tuple(pairs), tuple(centre), tuple(unpaired), sides,
                            tuple(_name_conflicts(pairs, sides, names)), tol, tuple(notes),
                            {n: tuple(float(v) for v in a) for n, a in zip(names, anchors)},
-                           {n: tuple(float(v) for v in u) for n, u in zip(names, axes)})
+                           {n: tuple(float(v) for v in u) for n, u in zip(names, axes)}, forward)
 
 
 def _pairs(names: list[str], anchors: np.ndarray, axes: np.ndarray, tol: float, cos_tol: float,

@@ -18,6 +18,9 @@ does (:func:`~sim2real.simulation.model_builder.finished_spec`).
 * The sole site of a foot is a box over the bottom of the foot's collision geoms (bounding box
   in the foot's frame) reaching a little below them, where contact points lie.
 * Links that touch at the model's zero pose (CAD meshes overlapping at a joint) never collide.
+* A model drawn facing another way than +x (``model.forward``) has its root turned about z to
+  face +x, and the IMU site turned back by as much on its body, so that the IMU's x is still
+  forward (its axes are the body's, as drawn, turned to the robot's facing).
 
 :func:`measure_physique` gives mass, height and leg length from the compiled model at its
 zero pose; the control tick and the holding-torque margins follow from them as for a box robot.
@@ -33,6 +36,7 @@ import numpy as np
 
 from sim2real.errors import ConfigError
 from sim2real.robot import RobotSpec
+from sim2real.robot.anatomy import facing_turn_deg
 from sim2real.robot.servo_model import servo_physics
 from sim2real.robot.spec import Physique
 from sim2real.simulation.model_parts import (
@@ -78,6 +82,9 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
                           f"{', '.join(b.name for b in spec.bodies if b.name and b.name != 'world')})")
     _check_bodies(spec, robot)
     check_roles(spec, robot)
+    turn = facing_turn_deg(source.forward)
+    if turn:
+        _turn_about_z(spec, root, turn)
     degree = bool(spec.compiler.degree)  # the file's angle unit: joint ranges are written in it
     frees = [j for j in root.joints if j.type == mujoco.mjtJoint.mjJNT_FREE]
     if suspended:
@@ -99,7 +106,7 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
     if missing:
         raise ConfigError(where, "joints", f"{', '.join(missing)}: no such joint in {source.path.name}")
     if source.inertias == "from_geometry":
-        recompute_inertias(spec)
+        recompute_inertias(spec, source=where)
     dt = physics_dt(robot)
     for robot_joint in robot.joints:
         joint = spec.joint(robot_joint.name)
@@ -124,7 +131,10 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
         root.pos = [root.pos[0], root.pos[1], root.pos[2] + lift]
         add_tracking_camera(root, height)
     imu = spec.body(source.imu_body)
-    imu.add_site(name=IMU_SITE, pos=list(source.imu_pos))
+    if turn:  # the IMU's x forward: its body's axes turned back by the root's turn
+        imu.add_site(name=IMU_SITE, pos=list(source.imu_pos), quat=_z_quat(-turn).tolist())
+    else:
+        imu.add_site(name=IMU_SITE, pos=list(source.imu_pos))
     model = compile_model(spec, where)
     _exclude_touching_links(spec, model)
     for side in FEET:
@@ -139,6 +149,24 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
         add_touch_sensor(spec, side)
     add_sensors_and_actuators(spec, robot)
     return spec
+
+
+def _z_quat(turn_deg: float) -> np.ndarray:
+    quat = np.zeros(4)
+    mujoco.mju_axisAngle2Quat(quat, np.array([0.0, 0.0, 1.0]), math.radians(turn_deg))
+    return quat
+
+
+def _turn_about_z(spec: mujoco.MjSpec, root, turn_deg: float) -> None:
+    """Turn the root body by ``turn_deg`` about world z, about its own origin (its orientation
+    as the file writes it, in any of MJCF's forms, read from a compiled copy)."""
+    if root.alt.type != mujoco.mjtOrientation.mjORIENTATION_QUAT:
+        model = spec.copy().compile()
+        root.quat = model.body_quat[model.body(root.name).id].tolist()
+        root.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT
+    quat = np.zeros(4)
+    mujoco.mju_mulQuat(quat, _z_quat(turn_deg), np.asarray(root.quat, dtype=float))
+    root.quat = quat.tolist()
 
 
 def _colour_by_side(spec: mujoco.MjSpec, robot: RobotSpec) -> None:

@@ -43,7 +43,7 @@ def crouch_pose(robot: RobotSpec, knee_deg: float = CROUCH_KNEE_DEG) -> dict[str
     wanted = {("hip", "pitch"): knee / 2, ("knee", "pitch"): knee, ("ankle", "pitch"): knee / 2}
     pose = {}
     for j in robot.joints:
-        angle = wanted.get((j.location, j.axis), 0.0)
+        angle = wanted.get((j.location, j.axis), 0.0) if j.index == 0 else 0.0
         pose[j.name] = min(max(angle, j.range_rad[0]), j.range_rad[1])
     return pose
 

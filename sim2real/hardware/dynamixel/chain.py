@@ -52,7 +52,13 @@ def decode(reg: Register, raw: int) -> int:
 
 
 def encode(reg: Register, value: int) -> int:
+    """A number as the register's raw unsigned value (two's complement when signed; bit 10 as the
+    sign on the protocol-1.0 speed and load entries), the inverse of :func:`decode`."""
     value = int(value)
+    if reg.encoding == "sign_magnitude_bit10":
+        if abs(value) > 0x3FF:
+            raise ValueError(f"{reg.name}: {value} does not fit 10 bits and a sign")
+        return abs(value) | (0x400 if value < 0 else 0)
     lo, hi = (-(1 << (8 * reg.size - 1)), (1 << (8 * reg.size - 1)) - 1) if reg.signed else (0, (1 << (8 * reg.size)) - 1)
     if not lo <= value <= hi:
         raise ValueError(f"{reg.name}: {value} does not fit {reg.size} {'signed' if reg.signed else 'unsigned'} bytes")

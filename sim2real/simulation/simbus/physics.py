@@ -31,7 +31,7 @@ import numpy as np
 
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.channels import turn_rad
-from sim2real.hardware.dynamixel.chain import board_reports, decode
+from sim2real.hardware.dynamixel.chain import board_reports, decode, encode
 from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockBus
@@ -176,8 +176,12 @@ class PhysicsChain:
                 device.set_named(Reg.PRESENT_VELOCITY, int(round(rpm / unit)))
             table = device.profile.control_table
             if Reg.PRESENT_LOAD in table:
-                load = self.data.actuator_force[k] / self.stall[k] * 1000.0
-                device.set_named(Reg.PRESENT_LOAD, int(round(self.mapping.direction[k] * load)))
+                load = int(round(self.mapping.direction[k] * self.data.actuator_force[k] / self.stall[k] * 1000.0))
+                reg = table[Reg.PRESENT_LOAD]
+                if reg.encoding == "sign_magnitude_bit10":  # protocol 1.0 (AX, MX): bit 10 is the sign
+                    device.set_named(Reg.PRESENT_LOAD, encode(reg, max(-0x3FF, min(0x3FF, load))))
+                else:
+                    device.set_named(Reg.PRESENT_LOAD, load)
             elif Reg.PRESENT_CURRENT in table:  # current-sensing servos (XM430): torque / K_t
                 motor = device.profile.motor
                 amps = self.data.actuator_force[k] * motor.stall_current_a / motor.stall_torque_nm

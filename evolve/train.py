@@ -1,0 +1,429 @@
+"""``biped train ROBOT``: from nothing to a robust walker that walks straight, in one budget.
+
+    result = train("op3", Path("runs/op3"), TrainSettings(minutes=60, seed=1, threads=2))
+    result["controller"]        # runs/op3/controller.json, its measures in its provenance
+
+The recipe, in stages that share one budget of ``minutes`` (wall time, every stage and the
+measuring counted):
+
+1. **neat** - NEAT (population 512 in 30 species, ``configs/evolve/train.yaml``) with the gait
+   clock's period from the robot's leg length (``phase_period_s: auto``), until a champion passes the robustness bar
+   (:func:`evolve.walk_measures.robustness`: 8 of 10 unseen randomized robots and 3 of 3
+   ``default.yaml`` robots) or until ``NEAT_SHARE`` of the budget is spent;
+2. **polish** - CMA-ES on the walker's weights (:func:`evolve.polish.polish`), ranked on the
+   walk rate over common robots, until its validation plateaus or ``POLISH_UNTIL`` of the
+   budget is spent;
+3. **speed** - the same search paying a faster straight walk, ranked on each candidate's worst
+   quarter of robots, then once more from what it kept with a fresh CMA-ES (a restart), until a
+   plateau or the budget less ``MEASURE_SHARE``;
+4. **measure** - the walk rate on 50 unseen robots, 60 s walks on the nominal and
+   ``default.yaml`` robots, the transfer check through the simulated bus, the 90 deg turn
+   (:func:`evolve.walk_measures.measure_walker`), and ``DIR/controller.json`` written with the
+   command, each stage's settings and minutes, and those measures in its provenance.
+
+Each polish stage keeps the last walker that passes the robustness bar (tested whenever its
+validation keeps new weights); a stage that keeps none leaves the walker as it was.  A speed
+polish whose walker falls on the nominal model within 60 s where its source walked is undone
+(a user starts from the model).
+
+Everything is resumable: ``DIR/train.json`` records the settings and each finished stage;
+each stage resumes from its own checkpoint (NEAT's ``neat/checkpoint.json.gz``, a polish's
+``checkpoint.json``), so Ctrl-C leaves a folder that ``--resume`` continues.  A seed fixes each
+stage's search; where a stage stops depends on the budget, and the generations and updates run
+are recorded, so the stopping points of a run can be read back from its ``train.json``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from evolve.config import EvolveConfig, config_path, load_evolve_config
+from evolve.run_lock import RunLock
+from evolve.walk_measures import (
+    DRAWS,
+    NEED,
+    is_robust,
+    measure_walker,
+    meets_bar,
+    robustness,
+    sustained,
+)
+from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.errors import UsageError
+
+STATE = "train.json"  # in the training folder: the settings and each finished stage
+STATE_VERSION = 1
+CONTROLLER = "controller.json"  # the trained walker
+DEFAULT_MINUTES = 60.0
+NEAT_SHARE = 0.45  # NEAT may spend this share of the budget before the polish starts anyway
+POLISH_UNTIL = 0.65  # the walk-rate polish ends by this share of the budget
+MEASURE_SHARE = 0.08  # kept for the measuring: 50 robots, 60 s walks, 3 dry runs in real time, a turn
+# CMA-ES settings of the recipe that made the shipped walker (benchmarks/RESULTS.md, robust walking v2)
+POLISH = {"popsize": 16, "robots": 16, "sigma": 0.1, "validation": 30, "worst": 1.0}
+SPEED = {"popsize": 16, "robots": 32, "sigma": 0.05, "validation": 100, "worst": 0.25, "speed_leg_s": 0.8}
+SPEED_GOAL_M_S = 0.15  # the straight-walk goal's speed: the speed polish counts no slower walk than this
+MAX_UPDATES = 100_000  # a stage's update cap; the budget ends it long before
+PATIENCE = 4  # validations (5 updates each) without a kept walker before a polish stage stops
+STAGES = ("neat", "polish", "speed", "measure")
+# the joints a walker drives, by control set name in order of preference: seed 000's table 1 "Walk"
+# set (waist yaw, hips, knees) where the robot has one, else every leg joint (what import writes)
+WALKING_SETS = ("walk", "legs")
+
+
+@dataclass(frozen=True)
+class TrainSettings:
+    """What the user chose; the rest follows from the robot (:func:`neat_config`)."""
+
+    minutes: float = DEFAULT_MINUTES  # [min] wall time for every stage together
+    seed: int = 1
+    threads: int = 2  # simulation threads in every stage (0: every core)
+    config: str = "train"  # NEAT's evolution config (a name in configs/evolve/ or a path)
+
+    def identity(self) -> dict[str, Any]:
+        """What a resumed training must share with the cut one (threads and the budget may change)."""
+        return {"seed": self.seed, "config": self.config}
+
+
+@dataclass
+class Budget:
+    """Wall seconds spent across the sessions of one training, and the stages' deadlines."""
+
+    minutes: float
+    spent_s: float = 0.0  # before this session
+    started: float = field(default_factory=time.monotonic)
+
+    @property
+    def elapsed_s(self) -> float:
+        return self.spent_s + time.monotonic() - self.started
+
+    def until(self, share: float) -> float:
+        """Seconds left until ``share`` of the budget is spent (negative: past it)."""
+        return share * self.minutes * 60.0 - self.elapsed_s
+
+
+
+def neat_config(robot_name: str, settings: TrainSettings) -> EvolveConfig:
+    """The NEAT stage's config: ``settings.config`` for ``robot_name`` (its ``phase_period_s: auto``
+    sets the gait clock from the robot's leg length), the training's seed and threads, the
+    robot's walking control set, and no generation count of its own: the budget ends it."""
+    from sim2real.robot import load_robot
+
+    robot = load_robot(robot_name)
+    probe = load_evolve_config(config_path(settings.config))
+    wanted = (probe.task.control_set, *WALKING_SETS)
+    control_set = next((name for name in wanted if name in robot.control_sets), None)
+    if control_set is None:
+        raise UsageError(f"robot {robot.name} has none of the control sets a walker drives ({', '.join(wanted)}; "
+                         f"it has: {', '.join(robot.control_sets)}): add one listing its leg joints")
+    config = load_evolve_config(config_path(settings.config), {"robot": robot_name, "task.control_set": control_set})
+    return config.replace(seed=settings.seed, threads=settings.threads, generations=1_000_000)
+
+
+class Progress:
+    """One line per event, each with the stage, the minutes spent and those left of the budget."""
+
+    def __init__(self, budget: Budget, quiet: bool = False, out=None):
+        self.budget, self.quiet, self.out = budget, quiet, out or sys.stderr
+        self.stage = ""
+
+    def __call__(self, message: str) -> None:
+        if self.quiet:
+            return
+        spent = self.budget.elapsed_s / 60.0
+        left = max(0.0, self.budget.minutes - spent)
+        print(f"[{self.stage} {spent:5.1f} min, ~{left:.0f} left] {message}", file=self.out, flush=True)
+
+
+def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool = False,
+          command: str | None = None, log: Callable[[str], None] | None = None,
+          quiet: bool = False) -> dict[str, Any]:
+    """Train a walker for ``robot_name`` into ``out`` (see the module docstring); returns the
+    training's record (also ``out/train.json``).  ``resume``: continue a cut training in ``out``."""
+    out = Path(out)
+    _check_folder(out, resume)
+    out.mkdir(parents=True, exist_ok=True)
+    with RunLock.acquire(out):
+        state = _load_state(out, robot_name, settings) if resume else _new_state(robot_name, settings, command)
+        budget = Budget(settings.minutes, spent_s=state.get("elapsed_s", 0.0))
+        progress = Progress(budget, quiet) if log is None else log
+        if isinstance(progress, Progress):
+            progress.stage = "start"
+
+        def save() -> None:
+            state["elapsed_s"] = budget.elapsed_s
+            state["settings"]["minutes"], state["settings"]["threads"] = settings.minutes, settings.threads
+            write_json_atomic(out / STATE, state)
+
+        try:
+            for stage in STAGES:
+                if stage in state["stages"]:
+                    continue
+                if isinstance(progress, Progress):
+                    progress.stage = stage
+                t0, cpu0 = time.monotonic(), _cpu_s()
+                record = STAGE_FUNCTIONS[stage](robot_name, out, settings, state, budget, progress)
+                record.update(wall_minutes=(time.monotonic() - t0) / 60.0, cpu_minutes=(_cpu_s() - cpu0) / 60.0)
+                state["stages"][stage] = record
+                save()
+        finally:
+            if "measure" not in state["stages"]:
+                save()
+        return state
+
+
+# -- the stages --------------------------------------------------------------------------------
+def _neat(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
+          log: Callable[[str], None]) -> dict[str, Any]:
+    """NEAT until a champion passes the robustness bar or its share of the budget is spent."""
+    from evolve.run import Run
+
+    folder = out / "neat"
+    if (folder / "checkpoint.json.gz").exists():
+        run = Run.resume(folder, threads=settings.threads, log=log, robot=robot_name)
+        log(f"resuming NEAT at generation {run.population.generation}")
+    else:
+        config = neat_config(robot_name, settings)
+        log(f"NEAT: {robot_name}, population {config.neat.population_size}, gait clock "
+            f"{config.task.phase_period_s:g} s, {settings.threads} threads")
+        run = Run.create(config, folder, log=log)
+    run.open_ended = True
+    tests_file = folder / "tests.json"
+    found: dict[str, Any] = read_json(tests_file) if tests_file.exists() else {"tests": [], "robust": None}
+    tested = {(t["generation"], t["key"]) for t in found["tests"]}
+    candidate = folder / "champion.json"
+
+    def stop(run: Run, row: dict) -> bool:
+        best = run.best
+        if best is not None and not best.harness and (best.generation, best.genome.key) not in tested:
+            tested.add((best.generation, best.genome.key))
+            run.controller(best).save(candidate)
+            test = robustness(candidate, threads=settings.threads, robot=robot_name)
+            robust = is_robust(test)
+            found["tests"].append({"generation": best.generation, "key": best.genome.key, **_short(test),
+                                   "robust": robust})
+            log(f"champion of generation {best.generation}: walks on {test['randomized']['walked']}/{DRAWS} unseen "
+                f"robots, {test['default']['walked']}/{test['default_episodes']} default"
+                f"{' - robust' if robust else ''}")
+            if robust:
+                shutil.copyfile(candidate, folder / "walker.json")
+                found["robust"] = best.generation
+            write_json_atomic(tests_file, found)
+            if robust:
+                return True
+        return budget.until(NEAT_SHARE) <= 0
+
+    if found["robust"] is None:
+        run.evolve(stop=stop)
+    else:
+        run.close()
+    walker = folder / "walker.json" if found["robust"] is not None else candidate
+    if not walker.exists():  # no champion off the harness yet (a small budget): the polish starts from the best
+        if run.best is None:
+            raise UsageError(f"NEAT evaluated no generation within {NEAT_SHARE:.0%} of {settings.minutes:g} min; "
+                             "give more --minutes")
+        log(f"no champion off the support harness within {NEAT_SHARE:.0%} of the budget: the polish starts "
+            f"from the harnessed champion of generation {run.best.generation}")
+        run.controller(run.best).save(candidate)
+    return {"walker": str(walker), "robust": found["robust"] is not None, "robust_generation": found["robust"],
+            "generations": run.generation_offset + run.population.generation, "tests": found["tests"],
+            "config": str(folder / "config.yaml")}
+
+
+def _polish(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
+            log: Callable[[str], None]) -> dict[str, Any]:
+    """The walk-rate polish: it ends by ``POLISH_UNTIL`` of the budget once there is a robust walker
+    (NEAT's or its own); without one it goes on to the budget less the measures' share (there is
+    then no speed polish: it would tune a walker that does not yet walk on enough robots)."""
+    neat = state["stages"]["neat"]
+    source = Path(neat["walker"])
+    folder = out / "polish"
+    end = 1.0 - MEASURE_SHARE
+    until = lambda: POLISH_UNTIL if neat["robust"] or (folder / "walker.json").exists() else end  # noqa: E731
+    return polish_stage(source, folder, settings, budget, until, log, dict(POLISH), robot_name)
+
+
+def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
+           log: Callable[[str], None]) -> dict[str, Any]:
+    """The speed polish and its restart, each from the walker the one before kept."""
+    if not _robust_walker(state):
+        log("no robust walker to polish for speed")
+        return {"runs": [], "walker": None, "skipped": True}
+    source = Path(_latest_walker(state))
+    until = 1.0 - MEASURE_SHARE
+    # no walk slower than the walker's own counts (the lower of its 60 s walks'), so the polish keeps
+    # no slower walker; but at most the goal's speed, which no 10 s episode of a fast walker (its
+    # start-up included) may reach, leaving validation nothing to keep walkers by
+    own = [sustained(source, reality, episodes, threads=settings.threads, robot=robot_name)["speed_m_s"]
+           for reality, episodes in ((None, 1), ("default", 3))]
+    min_speed = min(SPEED_GOAL_M_S, *own)
+    log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s; the speed polish counts walks from "
+        f"{min_speed:.3f} m/s")
+    records = []
+    for restart in (0, 1):
+        folder = out / ("speed" if not restart else f"speed_restart{restart}")
+        stage = dict(SPEED, min_speed_m_s=min_speed)
+        record = polish_stage(source, folder, settings, budget, until, log, stage, robot_name)
+        records.append(record)
+        if record["walker"] is None or budget.until(until) <= 0:
+            break
+        source = Path(record["walker"])
+    kept = [r for r in records if r["walker"]]
+    return {"runs": records, "walker": kept[-1]["walker"] if kept else None, "min_speed_m_s": min_speed}
+
+
+def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
+             log: Callable[[str], None]) -> dict[str, Any]:
+    """Measure the final walker, undo a speed polish that lost the walk on the model, ship it."""
+    from sim2real.controller.file import Controller
+
+    walker = Path(_latest_walker(state))
+    log(f"measuring {walker}")
+    measured = measure_walker(walker, log, threads=settings.threads, robot=robot_name)
+    speed = state["stages"]["speed"]
+    if speed["walker"] and measured["sustained"]["nominal"]["falls"]:
+        before = Path(_latest_walker(state, skip_speed=True))
+        log(f"the speed polish's walker falls on the nominal model at "
+            f"{measured['sustained']['nominal']['upright_s']:.1f} s; measuring the walker it started from")
+        earlier = measure_walker(before, log, threads=settings.threads, robot=robot_name)
+        if not earlier["sustained"]["nominal"]["falls"]:
+            speed["undone"] = "falls on the nominal model in the 60 s walk; the walker it started from does not"
+            walker, measured = before, earlier
+    bar = meets_bar(measured)
+    made = {"made_by": state["command"], "trained": {
+        "robot": robot_name, "settings": state["settings"],
+        "stages": {name: _stage_summary(record) for name, record in state["stages"].items()},
+        "minutes": budget.elapsed_s / 60.0},
+        "walk_rate": measured["rate"], "transfer_ratio": measured["transfer"]["ratio"],
+        "transfer_passed": measured["transfer"]["passed"],
+        "sustained": {where: {k: v for k, v in s.items() if k != "per_episode"}
+                      for where, s in measured["sustained"].items()},
+        "steering": measured["steering"], "bar": bar}
+    data = Controller.load(walker).to_dict()
+    data["provenance"] = {**{k: v for k, v in data["provenance"].items() if k != "run"}, **made}
+    Controller.from_dict(data, str(out / CONTROLLER)).save(out / CONTROLLER)
+    log(f"wrote {out / CONTROLLER}: walks on {measured['rate']['walked']}/{measured['rate']['robots']} unseen "
+        f"robots, keeps {measured['transfer']['ratio']:.2f} through the simulated bus; bar "
+        + ", ".join(f"{k} {'met' if v else 'missed'}" for k, v in bar.items()))
+    return {"walker": str(walker), "controller": str(out / CONTROLLER), "measures": {
+        k: v for k, v in measured.items() if k != "transfer"}, "transfer": {
+        k: v for k, v in measured["transfer"].items() if k != "runs"}, "bar": bar}
+
+
+STAGE_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
+    "neat": _neat, "polish": _polish, "speed": _speed, "measure": _measure}
+
+
+def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Budget,
+                 until: float | Callable[[], float], log: Callable[[str], None], stage: dict[str, Any],
+                 robot: str | None = None) -> dict[str, Any]:
+    """Polish ``source`` in ``folder`` until a plateau or ``until`` (a share of the budget, or a
+    function giving it) is spent, testing each walker its validation keeps against the robustness
+    bar; ``walker``: the last that passed (None: none), ``kept``: the weights validation kept.
+    A cut stage resumes from the polish's checkpoint and ``folder/tests.json``."""
+    share = until if callable(until) else (lambda: until)
+    from evolve.polish import CHECKPOINT, polish
+
+    folder.mkdir(parents=True, exist_ok=True)
+    tests_file, walker = folder / "tests.json", folder / "walker.json"
+    resume = (folder / CHECKPOINT).exists()
+    tests: dict[str, Any] = read_json(tests_file) if resume and tests_file.exists() else {"tests": []}
+    if not resume:
+        walker.unlink(missing_ok=True)
+    if budget.until(share()) <= 0:
+        log(f"no budget left for {folder.name}")
+        return {"source": str(source), "walker": str(walker) if walker.exists() else None, "skipped": True,
+                **tests}
+
+    def on_best(kept: Path, entry: dict[str, Any]) -> bool:
+        done = [t for t in tests["tests"] if t["update"] == entry["update"]]
+        if not done:
+            test = robustness(kept, threads=settings.threads, robot=robot)
+            done = [{"update": entry["update"], **_short(test), "robust": is_robust(test)}]
+            tests["tests"].append(done[0])
+            write_json_atomic(tests_file, tests)
+            log(f"{folder.name}: kept walker of update {entry['update']}: walks on {test['randomized']['walked']}"
+                f"/{DRAWS} unseen robots, {test['default']['walked']}/{test['default_episodes']} default"
+                f"{' - robust' if done[0]['robust'] else ''}")
+        if done[0]["robust"]:
+            shutil.copyfile(kept, walker)
+        return False
+
+    options = {k: v for k, v in stage.items() if k != "popsize"}
+    record = polish(source, folder, updates=MAX_UPDATES, popsize=stage["popsize"], seed=settings.seed,
+                    on_best=on_best, resume=resume, patience=PATIENCE, threads=settings.threads, test=0,
+                    should_stop=lambda: budget.until(share()) <= 0, robot=robot, log=log, **options)
+    return {"source": str(source), "walker": str(walker) if walker.exists() else None,
+            "kept": record["polished"] if record["kept_update"] else None,
+            **{k: v for k, v in record.items() if k in ("kept_update", "history", "physics_steps", "minutes")},
+            "updates": len(record["history"]) and record["history"][-1]["update"], **tests}
+
+
+# -- helpers -----------------------------------------------------------------------------------
+def _robust_walker(state: dict[str, Any]) -> str | None:
+    """The newest walker that passed the robustness bar: the polish's, else NEAT's (None: none)."""
+    stages = state["stages"]
+    if stages.get("polish", {}).get("walker"):
+        return stages["polish"]["walker"]
+    return stages["neat"]["walker"] if stages["neat"]["robust"] else None
+
+
+def _latest_walker(state: dict[str, Any], skip_speed: bool = False) -> str:
+    """The walker to ship: the speed polish's robust walker, else the newest robust one; with none
+    robust, the weights the walk-rate polish's validation kept, else NEAT's champion."""
+    stages = state["stages"]
+    if not skip_speed and stages.get("speed", {}).get("walker"):
+        return stages["speed"]["walker"]
+    return _robust_walker(state) or stages.get("polish", {}).get("kept") or stages["neat"]["walker"]
+
+
+def _short(test: dict[str, Any]) -> dict[str, Any]:
+    return {"randomized_walked": test["randomized"]["walked"], "default_walked": test["default"]["walked"]}
+
+
+def _stage_summary(record: dict[str, Any]) -> dict[str, Any]:
+    """A stage's record without its long lists (what a controller's provenance carries)."""
+    return {k: v for k, v in record.items() if k not in ("tests", "history", "runs", "measures", "transfer")}
+
+
+def _new_state(robot_name: str, settings: TrainSettings, command: str | None) -> dict[str, Any]:
+    return {"version": STATE_VERSION, "robot": robot_name, "command": command or "biped train",
+            "settings": dataclasses.asdict(settings), "stages": {}, "elapsed_s": 0.0}
+
+
+def _load_state(out: Path, robot_name: str, settings: TrainSettings) -> dict[str, Any]:
+    path = out / STATE
+    if not path.exists():
+        raise UsageError(f"--resume: {out} holds no training ({STATE} is missing); start one without --resume")
+    state = read_json(path)
+    if state.get("version") != STATE_VERSION:
+        raise UsageError(f"{path}: written by another version of biped train ({state.get('version')!r}); "
+                         "train into another folder")
+    theirs = TrainSettings(**{k: state["settings"][k] for k in ("minutes", "seed", "threads", "config")})
+    if state.get("robot") != robot_name or theirs.identity() != settings.identity():
+        raise UsageError(f"--resume: {out} trains robot {state.get('robot')} with {theirs.identity()}; "
+                         f"this command asks robot {robot_name} with {settings.identity()}. Resume with the "
+                         "same robot, --seed and --config, or train into another folder")
+    return state
+
+
+def _check_folder(out: Path, resume: bool) -> None:
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out}: not a folder")
+    if not resume and out.is_dir() and any(p.name != ".lock" for p in out.iterdir()):
+        what = "a training (resume it with --resume)" if (out / STATE).exists() else "files"
+        raise UsageError(f"--out {out}: already holds {what}; give an empty or new folder")
+    if resume and not out.is_dir():
+        raise UsageError(f"--resume: {out} does not exist")
+
+
+def _cpu_s() -> float:
+    """CPU seconds of this process's threads and its finished children (the simulated bus of a dry run)."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
