@@ -31,6 +31,7 @@ from evolve.run import Run
 from evolve.transfer import transfer_check
 from sim2real.atomic_json import write_json_atomic
 from sim2real.controller.file import Controller
+from sim2real.controller.purpose import require_walker
 from sim2real.simulation.reality import centred, load_reality
 from sim2real.run_lock import RunLock, holds_folder
 
@@ -49,7 +50,9 @@ def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = 
     ``out`` is locked from start to end (a second adapt into it is refused, naming this
     process); ``lock``: that lock, handed down by :func:`~sim2real.run_lock.holds_folder`."""
     controller = Path(controller)
-    data, robot = Controller.load_for_robot(controller)
+    data, robot = Controller.load_for_robot(controller, robot_flag=None)
+    require_walker(data, str(controller), "biped adapt", "it evolves a walk on robots around the identified one "
+                   "and judges it by their walk rate and the transfer check's distance")
     centre = load_reality(identified)
     around = centred(load_reality(ranges), centre)  # refused here, with the file named, unless fixed values
     task = controller_task(data, str(controller))
@@ -57,7 +60,7 @@ def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = 
                                episode_s=episode_s or task.episode_s)
     randomize = RandomizeConfig(reality=ranges, episodes=episodes, centre=str(identified),
                                 validation=ValidationConfig(draws=validation, every=5, candidates=8, consistency=0.8))
-    config = EvolveConfig(robot=robot.name if robot.model is None else robot.source, seed=seed,
+    config = EvolveConfig(robot=data.robot_name, seed=seed,  # a project robot's name (load_for_robot)
                           generations=generations, threads=threads, task=task,
                           neat=NeatConfig(population_size=population, sigmoid_steepness=data.sigmoid_steepness),
                           randomize=randomize)

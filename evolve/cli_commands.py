@@ -41,7 +41,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                     help="evolution config: a name from configs/evolve/ or a YAML path (default: walk)")
     ev.add_argument("--out", type=output_dir, help="run folder (default: runs/<config>-seed<S>)")
     ev.add_argument("--robot", type=robot_name, help="robot to evolve for: a name from configs/robots/ or a robot "
-                    "YAML path (overrides the config's)")
+                    "YAML path (overrides the config's; with --resume, the run's robot file given again)")
     ev.add_argument("--set", type=config_override, action="append", default=[], metavar="KEY=VALUE",
                     help="change one config value, a dotted key and a YAML value, e.g. --set task.episode_s=20 "
                     "--set neat.population_size=256 (repeatable)")
@@ -193,7 +193,7 @@ def cmd_view_controller(args: argparse.Namespace) -> int:
     from evolve.replay import controller_setup
 
     data, _, evaluator, genome = controller_setup(Path(args.robot), None, None, keep_going=True,
-                                        disabled_modules=tuple(args.disable_module))
+                                        disabled_modules=tuple(args.disable_module), robot_flag=None)
     shown = mujoco.MjData(evaluator.model)
     with mujoco.viewer.launch_passive(evaluator.model, shown) as viewer:
         while viewer.is_running():
@@ -255,10 +255,10 @@ def check_evolve(args: argparse.Namespace) -> None:
             raise UsageError("--resume needs --out RUN_DIR")
         if args.seed is not None or args.population is not None:
             raise UsageError("--seed and --population cannot change when resuming")
-        if args.config is not None or args.robot is not None or args.set:
-            given = args.config or ("--robot" if args.robot else "--set")
+        if args.config is not None or args.set:  # --robot FILE: the run's robot file, given again
+            given = args.config or "--set"
             raise UsageError(f"--resume continues the run in --out with its own config.yaml; do not give a "
-                             f"config, --robot or --set ({given})")
+                             f"config or --set ({given})")
     if args.address is not None and args.backend != "ray":
         raise UsageError("--address is the Ray cluster's: it needs --backend ray")
     if args.backend == "ray":
@@ -275,7 +275,7 @@ def cmd_evolve(args: argparse.Namespace) -> int:
 
     log = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
     if args.resume:
-        run = Run.resume(args.out, generations=args.generations, threads=args.threads, log=log,
+        run = Run.resume(args.out, generations=args.generations, threads=args.threads, log=log, robot=args.robot,
                          backend=args.backend, address=args.address)
         log(f"resuming {args.out} at generation {run.population.generation}")
     else:
@@ -306,11 +306,14 @@ def cmd_evolve(args: argparse.Namespace) -> int:
         run = Run.create(config, out, log=log, backend=args.backend, address=args.address)
         log(f"evolving {config.robot} ({config.task.control_set} joints), population "
             f"{config.neat.population_size}, {config.generations} generations -> {out}")
+    from evolve.config import robot_is_a_file
+
+    again = f" --robot {run.config.robot}" if robot_is_a_file(run.config) else ""
     try:
         best = run.evolve()
     except KeyboardInterrupt:
         print(f"\ninterrupted: checkpoint of generation {run.checkpoint_generation} is in {run.out}; "
-              f"continue with: biped evolve --resume --out {run.out}", file=sys.stderr)
+              f"continue with: biped evolve --resume --out {run.out}{again}", file=sys.stderr)
         return 130
     if best is not None:
         v = best.validation
@@ -350,6 +353,13 @@ def check_eval(args: argparse.Namespace) -> None:
         raise UsageError("eval: --by-perturbation or --ablate, not both")
     if args.heading is not None and args.ablate:
         raise UsageError("eval: --heading or --ablate, not both")
+    if args.ablate or args.by_perturbation:  # walk rates and distances: a walker's measures
+        from sim2real.controller.file import Controller
+        from sim2real.controller.purpose import require_walker
+
+        flag = "--ablate" if args.ablate else "--by-perturbation"
+        require_walker(Controller.load(args.controller), str(args.controller), f"biped eval {flag}",
+                       "it sorts the robots that walk, and how far, by what was perturbed")
 
 
 def cmd_adapt(args: argparse.Namespace) -> int:

@@ -47,6 +47,7 @@ draws x ticks) <= 10 million.  The harness's physical settings have plausible ra
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -70,6 +71,7 @@ from evolve.neat import NeatConfig
 from evolve.stages import Stage, check_stage_joints, parse_stages, with_task
 from sim2real.errors import ConfigError
 from sim2real.robot import DEFAULT_ROBOT, RobotSpec, load_robot
+from sim2real.robot.names import load_named_robot
 from sim2real.robot.spec import JOINT_ANGLE_DEG
 from sim2real.robot.timing import control_timing
 from sim2real.robot.validation import Node, load_yaml, show, show_key
@@ -269,7 +271,10 @@ class EvolveConfig:
         return dataclasses.replace(self, **changes)
 
 
-def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
+def parse_evolve_config(doc: Any, source: str, robot_file: str | None = None) -> EvolveConfig:
+    """A config document checked whole.  Its ``robot`` is a project robot's name - a config may
+    come from anyone, and a name in it is never opened as a path - unless it is ``robot_file``,
+    the robot (a name or a file) the user gave on the command line (``--robot``)."""
     if doc is None:
         doc = {}
     if not isinstance(doc, dict):
@@ -285,8 +290,8 @@ def parse_evolve_config(doc: Any, source: str) -> EvolveConfig:
     if "robot" in doc:
         values["robot"] = root["robot"].string()
     try:
-        robot = load_robot(values.get("robot", DEFAULT_ROBOT))
-    except (FileNotFoundError, ConfigError) as exc:
+        robot = _config_robot(values.get("robot"), source, robot_file)
+    except FileNotFoundError as exc:
         raise ConfigError(source, "robot", str(exc)) from None
     # ``phase_period_s: auto``: the gait clock's period from this robot's leg length (measured
     # on the compiled model for a robot from a model file: only when asked for)
@@ -330,6 +335,24 @@ def _check_stages(stages: tuple[Stage, ...], source: str) -> None:
                                   f"must be within [{lo:g}, {hi:g}] deg, got {angle:g}")
 
 
+def _config_robot(named: str | None, source: str, robot_file: str | None) -> RobotSpec:
+    """The robot a config names: the command line's ``robot_file`` if it names that (the same
+    text or the same real path), else a project robot by name only."""
+    if named is None:
+        return load_robot(DEFAULT_ROBOT)
+    if robot_file is not None and (named == robot_file or os.path.realpath(named) == os.path.realpath(robot_file)):
+        return load_robot(robot_file)  # chosen by the user, on the command line
+    return load_named_robot(named, source, "robot")
+
+
+def robot_is_a_file(config: EvolveConfig) -> bool:
+    """Whether the config's robot is a file given on the command line (not a project robot's
+    name): resuming its run needs ``--robot FILE`` again."""
+    from sim2real.robot import available_robots
+
+    return config.robot.split(":", 1)[0] not in available_robots()
+
+
 def check_sizes(config: EvolveConfig, robot: RobotSpec, source: str) -> None:
     """Refuse a generation that would simulate more than ``MAX_GENERATION_TICKS`` control
     ticks (population x episodes, or validation's candidates x draws, times an episode's
@@ -357,7 +380,8 @@ def load_evolve_config(path: Path | str, overrides: dict[str, Any] | None = None
     for key, value in (overrides or {}).items():
         doc = _set(doc, key.split("."), value, source, key)
         source = f"{path} with --set"
-    return parse_evolve_config(doc, source)
+    given = (overrides or {}).get("robot")  # from the command line: may be a robot file
+    return parse_evolve_config(doc, source, robot_file=given if isinstance(given, str) else None)
 
 
 def config_path(name: str) -> Path:

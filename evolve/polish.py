@@ -41,6 +41,8 @@ from evolve.locomotion.export import controller_from_genome
 from evolve.neat import Genome, NeatConfig
 from evolve.replay import controller_setup
 from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.controller.file import Controller
+from sim2real.controller.purpose import require_walker
 from sim2real.run_lock import holds_folder
 from sim2real.errors import ConfigError
 from sim2real.simulation.reality import Perturbation, Reality, latency_capacity_s, load_reality, sample
@@ -82,7 +84,8 @@ class Judge:
         self.realities = [load_reality(name) for name in realities]
 
         def setup(reality: Reality):
-            return controller_setup(path, robot, episode_s, episodes=capacity, reality=reality, threads=threads)
+            return controller_setup(path, robot, episode_s, episodes=capacity, reality=reality, threads=threads,
+                                    robot_flag=None)
         self.data, self.robot, self.evaluator, self.genome = setup(self.realities[0])
         # the model keeps as much actuator history as the longest latency of any ranges needs
         widest = max(self.realities, key=lambda r: latency_capacity_s(r, self.evaluator.tick_s))
@@ -222,6 +225,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     ``robot``: the walker's robot, a name or a file (None: the one the controller names)."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
+    data, _ = Controller.load_for_robot(path, robot, robot_flag=None)  # refused before the folder is made
+    require_walker(data, str(path), "biped polish", "it tunes the weights for the share of randomized robots that walk")
     checkpoint = out / CHECKPOINT
     if checkpoint.exists() and not resume:
         raise FileExistsError(f"{out} holds a polish ({checkpoint}); resume it, or polish into another folder")

@@ -22,6 +22,7 @@ from sim2real.controller.activation import check_disabled_modules
 from sim2real.controller.channels import turn_rad
 from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError, UsageError
+from sim2real.robot.names import ROBOT_FLAG
 from sim2real.figures.gait import Gait
 from sim2real.figures.reach import Reach as ReachPlot
 from sim2real.simulation.model_builder import SimulationUnstable
@@ -37,12 +38,14 @@ def controller_task(data: Controller, source: str) -> TaskConfig:
 
 def controller_setup(path: Path | str, robot: str | None, seconds: float | None, episodes: int = 1,
                      keep_going: bool = False, reality: Reality = NOMINAL, disabled_modules: tuple[str, ...] = (),
-                     stagnation_stop: bool = True, threads: int = 1):
+                     stagnation_stop: bool = True, threads: int = 1, robot_flag: str | None = ROBOT_FLAG):
     """A controller file and its robot, an evaluator of ``episodes`` simulations on its task
     (the file's inputs whatever its task block says; ``seconds`` long, default the task's) and
     the genome it expresses: (controller, robot, evaluator, genome).  ``threads``: simulation
-    threads (0: every core); results do not depend on them."""
-    data, spec = Controller.load_for_robot(path, robot)
+    threads (0: every core); results do not depend on them.  ``robot_flag``: how the command
+    takes a robot file (None: it does not), for the error on a robot the file names that is
+    not the project's (:meth:`Controller.load_for_robot`)."""
+    data, spec = Controller.load_for_robot(path, robot, robot_flag=robot_flag)
     check_disabled_modules(data, disabled_modules)
     task = controller_task(data, str(path))
     changes = {"episode_s": float(seconds)} if seconds is not None else {}
@@ -279,7 +282,7 @@ def reach(path: Path | str, seconds: float | None = None, disabled_modules: tupl
     run records it: the state machine's state the networks read and the hand's distance to
     the goal it had (from the joint angles they read), until the end or a fall."""
     data, spec, evaluator, genome = controller_setup(path, None, seconds, disabled_modules=disabled_modules,
-                                                     stagnation_stop=False)
+                                                     stagnation_stop=False, robot_flag=None)
     if "reach" not in data.input_channels:
         raise UsageError(f"{path}: not a reaching controller (no reach_input)")
     times, error, state = [], [], []
@@ -309,7 +312,8 @@ def frames(path: Path | str, width: int = 640, height: int = 480, robot: str | N
     )
 
     # the film goes on after a fall or a stall (the score would have stopped there)
-    data, spec, evaluator, genome = controller_setup(path, robot, seconds, keep_going=True, disabled_modules=disabled_modules)
+    data, spec, evaluator, genome = controller_setup(path, robot, seconds, keep_going=True, disabled_modules=disabled_modules,
+                                                     robot_flag=None)  # `biped render CONTROLLER` takes no --robot
     images: list[np.ndarray] = []
     count = [0]
     marks = ReachMarks()
@@ -338,7 +342,7 @@ def strip(paths: list[Path | str], columns: int = 6, seconds: float | None = Non
 
     from sim2real.simulation.rendering import open_renderer
 
-    setups = [controller_setup(p, None, seconds, keep_going=True) for p in paths]
+    setups = [controller_setup(p, None, seconds, keep_going=True, robot_flag=None) for p in paths]
     tallest = max(spec.height for _, spec, _, _ in setups)
     length = min(ev.episode_s for _, _, ev, _ in setups)
     tick_s = setups[0][2].tick_s  # the moments in the first controller's ticks

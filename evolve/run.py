@@ -212,12 +212,14 @@ class Run:
 
     @classmethod
     def resume(cls, out: Path, generations: int | None = None, threads: int | None = None,
-               log: Callable[[str], None] = print, **backend) -> "Run":
-        """The run in ``out``, from its checkpoint, locked for this process."""
+               log: Callable[[str], None] = print, robot: str | None = None, **backend) -> "Run":
+        """The run in ``out``, from its checkpoint, locked for this process.  ``robot``: the
+        robot file the run evolves for, given again on the command line (its config.yaml may
+        name a project robot only: a path read from a file is never opened on its own)."""
         out = Path(out)
         if not (out / "checkpoint.json.gz").exists():
             raise FileNotFoundError(f"{out} has no checkpoint.json.gz to resume")
-        return cls._locked(out, lambda: cls._resume(out, generations, threads, log, **backend))
+        return cls._locked(out, lambda: cls._resume(out, generations, threads, log, robot, **backend))
 
     @staticmethod
     def _locked(out: Path, build: Callable[[], "Run"], held: RunLock | None = None) -> "Run":
@@ -235,8 +237,9 @@ class Run:
 
     @classmethod
     def _resume(cls, out: Path, generations: int | None, threads: int | None, log: Callable[[str], None],
-                **backend) -> "Run":
-        config = parse_evolve_config(load_yaml(check_regular_file(out / "config.yaml")), str(out / "config.yaml"))
+                robot: str | None = None, **backend) -> "Run":
+        config = parse_evolve_config(load_yaml(check_regular_file(out / "config.yaml")), str(out / "config.yaml"),
+                                     robot_file=robot)
         population = Population.load(out / "checkpoint.json.gz")
         if generations is not None and config.stages:
             raise UsageError(f"--generations: {out} is a staged run; each stage has its own budget "

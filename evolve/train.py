@@ -184,7 +184,7 @@ def _neat(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, 
 
     folder = out / "neat"
     if (folder / "checkpoint.json.gz").exists():
-        run = Run.resume(folder, threads=settings.threads, log=log)
+        run = Run.resume(folder, threads=settings.threads, log=log, robot=robot_name)
         log(f"resuming NEAT at generation {run.population.generation}")
     else:
         config = neat_config(robot_name, settings)

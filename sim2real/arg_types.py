@@ -183,9 +183,10 @@ def input_file_problem(text: str) -> str | None:
     return None
 
 
-def _loads(load: Callable[[str], object], text: str) -> str:
-    """``text`` if ``load(text)`` reads and validates it, else the loader's error as the flag's."""
-    problem = input_file_problem(text)
+def _loads(load: Callable[[str], object], text: str, *, is_path: bool = True) -> str:
+    """``text`` if ``load(text)`` reads and validates it, else the loader's error as the flag's
+    (``is_path`` False: a name the loader looks up, whatever the working folder holds)."""
+    problem = input_file_problem(text) if is_path else None
     if problem is not None:
         raise argparse.ArgumentTypeError(problem)
     try:
@@ -199,9 +200,10 @@ def _loads(load: Callable[[str], object], text: str) -> str:
 def robot_name(text: str) -> str:
     """A robot: a name from ``configs/robots/`` (presets as ``human:male_95``) or a YAML path,
     read and validated now."""
-    from sim2real.robot import load_robot
+    from sim2real.robot import available_robots, load_robot
 
-    return _loads(load_robot, text)
+    # a project robot's name is that robot, even beside a file or folder of that name
+    return _loads(load_robot, text, is_path=text.split(":", 1)[0] not in available_robots())
 
 
 def reality_name(text: str) -> str:

@@ -9,6 +9,7 @@ swapped since):
 
     raw = read_regular_bytes(path, limit=4 << 20)   # ConfigError naming the file otherwise
     check_regular_file(path)                        # before handing the path to a library
+    refuse_repeats(traces, "trace")                 # one file given twice, or a copy of it
 
 No MuJoCo here; :func:`sim2real.robot.validation.load_yaml` and the command-line types of
 :mod:`sim2real.arg_types` and :mod:`sim2real.cli.args` use it too.
@@ -16,12 +17,15 @@ No MuJoCo here; :func:`sim2real.robot.validation.load_yaml` and the command-line
 
 from __future__ import annotations
 
+import hashlib
 import os
 import stat
 from pathlib import Path
-from typing import BinaryIO
+from typing import BinaryIO, Sequence
 
-from sim2real.errors import ConfigError
+from sim2real.errors import ConfigError, UsageError
+
+_CHUNK_BYTES = 1 << 20  # read at a time when hashing a file
 
 
 def kind_problem(mode: int) -> str | None:
@@ -98,3 +102,31 @@ def read_regular_bytes(path: Path | str, source: str | None = None, limit: int |
             return f.read()
         except OSError as exc:
             raise ConfigError(source, "", f"cannot read: {exc.strerror or exc}") from None
+
+
+def refuse_repeats(paths: Sequence[Path | str], what: str = "file") -> None:
+    """:class:`UsageError` when two of ``paths`` are one file (the same path, a link and its
+    target: the same real path) or hold the same bytes (a copy): a command that takes several
+    inputs (``biped sysid T.csv T.csv``) would count that one twice.  Each is read once, in
+    chunks, as a regular file (:func:`open_regular`)."""
+    by_path: dict[str, str] = {}
+    by_content: dict[str, str] = {}
+    for path in paths:
+        source = str(path)
+        real = os.path.realpath(path)
+        if real in by_path:
+            raise UsageError(f"{source}: the {what} {by_path[real]} again (one file, given twice): give each "
+                             f"{what} once")
+        by_path[real] = source
+        digest = hashlib.sha256()
+        with open_regular(path, source) as f:
+            try:
+                for chunk in iter(lambda: f.read(_CHUNK_BYTES), b""):
+                    digest.update(chunk)
+            except OSError as exc:
+                raise ConfigError(source, "", f"cannot read: {exc.strerror or exc}") from None
+        key = digest.hexdigest()
+        if key in by_content:
+            raise UsageError(f"{source}: the same bytes as {by_content[key]} (a copy of that {what}): give each "
+                             f"{what} once")
+        by_content[key] = source

@@ -338,7 +338,7 @@ BYTE_CASES = {
     "gzipped.json": "not UTF-8 text (binary, or another encoding?): byte 0x8b at line 1 (offset 1)",
     "truncated.json": "not valid JSON (truncated?): Expecting ',' delimiter (line 8 column 28)",
     "empty.json": "not valid JSON (truncated?): Expecting value (line 1 column 1)",
-    "not_an_object.json": "a controller file must hold a JSON object, got [1, 2, 3]",
+    "not_an_object.json": "a controller file must hold a JSON object, got list",
     "deep.json": f"JSON nested 5001 levels deep (line 1); a controller nests at most {MAX_DEPTH}",
     "duplicate_key.json": "key 'tick_s' appears twice in one object (JSON keys must be unique)",
     "infinity_weight.json": "connections[0]: weight must be a finite number, got Infinity",

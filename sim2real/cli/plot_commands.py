@@ -115,13 +115,16 @@ def cmd_plot_gait(args: argparse.Namespace) -> int:
 
     if args.trace is not None:
         from sim2real.hardware.trace import Trace
+        from sim2real.hardware.trace import sidecar_path
         from sim2real.robot import load_robot
+        from sim2real.robot.names import load_named_robot
 
         trace = Trace.read(args.trace)
-        name = args.robot or trace.metadata.get("robot")
-        if not name:
+        name = trace.metadata.get("robot")
+        if not args.robot and name is None:
             raise UsageError(f"--trace {args.trace}: its sidecar names no robot; give --robot")
-        robot = load_robot(name)
+        robot = (load_robot(args.robot) if args.robot else
+                 load_named_robot(name, str(sidecar_path(args.trace)), "robot"))
         gait = Gait.from_trace(trace, robot, f"{args.trace.name} (trace, {robot.name})")
     else:
         gait = args.replay["gait"](args.controller, robot=args.robot, seconds=args.seconds, reality=args.reality,

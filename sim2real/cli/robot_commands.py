@@ -119,7 +119,8 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
 
 def _robot(name: str) -> RobotSpec:
     """The robot a positional ROBOT names, its file checked first (a FIFO would block the read)."""
-    check_input_file(name)
+    if name.split(":", 1)[0] not in available_robots():  # a project robot's name is that robot, whatever the cwd holds
+        check_input_file(name)
     return load_robot(name)
 
 

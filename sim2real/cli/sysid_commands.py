@@ -166,9 +166,13 @@ def _sysid_robot(args: argparse.Namespace):
     """The robot named, else the one the first trace names."""
     from sim2real.hardware.trace import Trace
 
+    from sim2real.hardware.trace import sidecar_path
+    from sim2real.robot.names import load_named_robot
+
     if args.robot:
         return load_robot(args.robot)
-    return load_robot(Trace.read(args.traces[0]).metadata.get("robot", DEFAULT_ROBOT))
+    named = Trace.read(args.traces[0]).metadata.get("robot", DEFAULT_ROBOT)
+    return load_named_robot(named, str(sidecar_path(args.traces[0])), "robot")
 
 
 def check_sysid(args: argparse.Namespace) -> None:

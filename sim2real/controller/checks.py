@@ -154,7 +154,8 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
     """Check a decoded controller whole (see the module docstring); returns it unchanged."""
     c = _Checker(source)
     if not isinstance(data, dict):
-        raise c.error("", f"a controller file must hold a JSON object, got {show(data)}")
+        # its type only: a file that is not a controller at all is not echoed
+        raise c.error("", f"a controller file must hold a JSON object, got {type(data).__name__}")
     if data.get("format") != FORMAT:
         problem = "missing" if "format" not in data else f"{show(data['format'])}"
         raise c.error("format", f"not a controller file (format {problem}, expected {FORMAT!r})")
@@ -428,7 +429,7 @@ def joint_map_hash(robot: RobotSpec) -> str:
 def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
     want = joint_map_hash(robot)
     if data["robot"]["joint_map_hash"] != want:
-        raise c.error("robot.joint_map_hash", f"made for robot {data['robot']['name']!r} with joint map "
+        raise c.error("robot.joint_map_hash", f"made for robot {show(data['robot']['name'])} with joint map "
                       f"{data['robot']['joint_map_hash']}, but {robot.name} has {want}")
     driven = data["joints"]["driven"]
     control_set = data["task"].get("control_set")

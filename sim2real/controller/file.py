@@ -39,6 +39,7 @@ from sim2real.controller.schema import FIELDS, FORMAT, NETWORKS, VERSION
 from sim2real.controller.symmetry import BIAS, CENTER_OUTPUT, SymmetricLayout, symmetric_layout, wired_layout
 from sim2real.errors import ConfigError
 from sim2real.robot import RobotSpec, load_robot
+from sim2real.robot.names import ROBOT_FLAG, load_named_robot
 from sim2real.robot.timing import control_timing
 
 def dumps(data: dict[str, Any]) -> str:
@@ -239,10 +240,16 @@ class Controller:
         return cls.from_dict(decode(read_bounded(path, source), source), source, robot)
 
     @classmethod
-    def load_for_robot(cls, path: Path | str, robot: str | None = None) -> tuple["Controller", RobotSpec]:
-        """The controller and its robot - ``robot`` if named, else the one the file names -
-        checked against each other."""
-        spec = load_robot(robot or cls.load(path).robot_name)
+    def load_for_robot(cls, path: Path | str, robot: str | None = None, *,
+                       robot_flag: str | None = ROBOT_FLAG) -> tuple["Controller", RobotSpec]:
+        """The controller and its robot - ``robot`` if named (on the command line: a name or
+        a path), else the one the file names, looked up among the project's robots only
+        (:func:`~sim2real.robot.names.load_named_robot`; ``robot_flag``: how the command takes
+        a robot file instead, None if it does not) - checked against each other."""
+        if robot:
+            spec = load_robot(robot)
+        else:
+            spec = load_named_robot(cls.load(path).robot_name, str(path), "robot.name", flag=robot_flag)
         return cls.load(path, spec), spec
 
     def save(self, path: Path | str) -> None:

@@ -80,11 +80,16 @@ def exists(path: Path) -> bool:
 
 
 def resolve_robot_path(name_or_path: str | Path) -> tuple[Path, str | None]:
-    """A robot name (``xl430_biped``, ``human:male_95``) or a path -> (file, preset)."""
+    """A robot name (``xl430_biped``, ``human:male_95``) or a path -> (file, preset).
+
+    For a name or path given on the command line; a name read from a file goes through
+    :func:`sim2real.robot.names.named_robot_path` instead, which never opens a path."""
     text = str(name_or_path)
     preset = None
     if ":" in text and not exists(Path(text)):
         text, preset = text.split(":", 1)
+    if text in available_robots():  # the project's robot, even beside a file of that name in the cwd
+        return robots_dir() / f"{text}.yaml", preset
     path = Path(text)
     if path.suffix in (".yaml", ".yml") or exists(path):
         if not exists(path):

@@ -304,11 +304,14 @@ class Node:
             return f"{self.path}[{key}]"
         return _join_path(self.path, key)
 
+    def _kind(self) -> str:
+        return _kind(self.value) if self.path else _document_kind(self.value)
+
     # -- structure ---------------------------------------------------------------
     def mapping(self, required: Iterable[str] = (), optional: Iterable[str] = ()) -> "Node":
         """Check that this is a mapping with exactly the allowed keys."""
         if not isinstance(self.value, dict):
-            raise self.error(f"must be a mapping, got {_kind(self.value)}")
+            raise self.error(f"must be a mapping, got {self._kind()}")
         required, optional = list(required), list(optional)
         allowed = set(required) | set(optional)
         for key in self.value:
@@ -333,7 +336,7 @@ class Node:
     def free_mapping(self) -> dict:
         """A mapping with any keys (names chosen by the user, e.g. presets)."""
         if not isinstance(self.value, dict):
-            raise self.error(f"must be a mapping, got {_kind(self.value)}")
+            raise self.error(f"must be a mapping, got {self._kind()}")
         return self.value
 
     def items(self) -> list[tuple[str, "Node"]]:
@@ -341,7 +344,7 @@ class Node:
 
     def list(self, min_len: int = 0, max_len: int | None = None) -> list["Node"]:
         if not isinstance(self.value, list):
-            raise self.error(f"must be a list, got {_kind(self.value)}")
+            raise self.error(f"must be a list, got {self._kind()}")
         if len(self.value) < min_len:
             raise self.error(f"must have at least {min_len} entries")
         if max_len is not None and len(self.value) > max_len:
@@ -419,6 +422,13 @@ class Node:
         return tuple(item.number(lo, hi, positive=positive, unit=unit, why=why) for item in items)
 
 
+def _document_kind(value: Any) -> str:
+    """What a whole document is instead of a mapping: its type only - a file that is not a
+    configuration at all (a path read from somewhere: ``/etc/hostname``) is never echoed."""
+    noun = type(value).__name__
+    return f"{'an' if noun[:1] in 'aeiou' else 'a'} {noun}: is it the right file?"
+
+
 def _kind(value: Any) -> str:
     """What a value is, for "must be a mapping, got ..." (its type; a short value itself)."""
     return type(value).__name__ if isinstance(value, (dict, list)) else f"{type(value).__name__} {show(value)}"
@@ -432,7 +442,8 @@ def dataclass_from_mapping(cls: type, values: Any, source: str, prefix: str, wha
     if values is None:
         values = {}
     if not isinstance(values, dict):
-        raise ConfigError(source, prefix.rstrip("."), f"must be a mapping, got {_kind(values)}")
+        got = _kind(values) if prefix else _document_kind(values)
+        raise ConfigError(source, prefix.rstrip("."), f"must be a mapping, got {got}")
     fields = {f.name: f for f in dataclasses.fields(cls)}
     kwargs: dict[str, Any] = {}
     for key, value in values.items():

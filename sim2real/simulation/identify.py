@@ -42,7 +42,9 @@ from sim2real.atomic_json import write_text_atomic
 from sim2real.controller.mapping import ServoMapping
 from sim2real.errors import ConfigError
 from sim2real.hardware.trace import Trace, check_joint_angles, sidecar_path
+from sim2real.input_files import refuse_repeats
 from sim2real.robot import RobotSpec
+from sim2real.robot.validation import show
 from sim2real.simulation.model_builder import finished_spec
 from sim2real.simulation.robot_model import JointAngles, joint_sensor
 from sim2real.simulation.reality import NOMINAL, Perturbation, apply_to_model, sample
@@ -89,6 +91,7 @@ def check_traces(paths: Sequence[Path | str], robot: RobotSpec, warn: Callable[[
     how the robot was held (a `biped run` trace of a walk: the model is fitted hung, and
     a walking robot's joints carry its weight and hit the floor, so its servo parameters
     would come out wrong, with nothing to say so)."""
+    refuse_repeats(paths, "trace")  # fitted twice, its segments would weigh double
     traces = []
     for path in paths:
         trace = Trace.read(path)  # refuses NaNs, text that is not a trace; notes a cut last row and gaps
@@ -97,7 +100,7 @@ def check_traces(paths: Sequence[Path | str], robot: RobotSpec, warn: Callable[[
         source = str(path)
         made_for = trace.metadata.get("robot")
         if made_for is not None and made_for != robot.name:
-            raise ConfigError(source, "robot", f"a trace of robot {made_for!r}, not {robot.name!r} (use --robot)")
+            raise ConfigError(source, "robot", f"a trace of robot {show(made_for)}, not {robot.name!r} (use --robot)")
         missing = trace.missing([f"{j}_{kind}_rad" for j in robot.joint_names for kind in ("goal", "present")])
         if missing:
             raise ConfigError(source, "header", f"lacks {len(missing)} channel(s) of robot {robot.name}, "

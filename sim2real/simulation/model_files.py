@@ -46,6 +46,7 @@ import mujoco
 from sim2real.errors import ConfigError
 from sim2real.input_files import read_regular_bytes, regular_file_problem
 from sim2real.simulation.model_guard import MAX_MODEL_BYTES, XmlDocument, check_model_files, near_match, parse_model_xml
+from sim2real.simulation.model_roles import check_unique_names
 from sim2real.simulation.robot_model import is_collision_geom
 
 XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
@@ -71,6 +72,7 @@ def load_model_spec(path: Path | str, package_dirs: Iterable[Path | str] = (), *
     spec, problems = _load(Path(path), package_dirs, drop_visuals)
     if problems:
         raise ConfigError(str(path), "", problems.message())
+    check_unique_names(spec, path)
     if not any(j.type == HINGE for j in spec.joints):
         raise ConfigError(str(path), "", "the model has no hinge (revolute) joint: nothing a servo could turn")
     return spec

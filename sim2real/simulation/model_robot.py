@@ -52,6 +52,7 @@ from sim2real.simulation.model_parts import (
 )
 from sim2real.simulation.model_files import add_free_joint, compile_model, load_model_spec
 from sim2real.simulation.model_inertias import recompute_inertias
+from sim2real.simulation.model_roles import check_roles
 from sim2real.simulation.robot_model import FEET, IMU_SITE, is_collision_geom, sole_site
 
 DEFAULT_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's colour of a geom that sets none
@@ -80,6 +81,7 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
         raise ConfigError(where, "model.root", f"no body {source.root!r} in {source.path.name} (bodies: "
                           f"{', '.join(b.name for b in spec.bodies if b.name and b.name != 'world')})")
     _check_bodies(spec, robot)
+    check_roles(spec, robot)
     turn = facing_turn_deg(source.forward)
     if turn:
         _turn_about_z(spec, root, turn)
