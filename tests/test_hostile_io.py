@@ -49,6 +49,7 @@ def _holder(target: Path, output: bool = False) -> subprocess.Popen:
 LOCKED = [
     ("polish", lambda t: ["polish", WALKER, "--out", t / "out", "--updates", "1", "--popsize", "2", "--robots", "1",
                           "--validation", "1", "--test", "1"], "out", False),
+    ("train", lambda t: ["train", "xl430_biped", "--out", t / "out"], "out", False),
     ("adapt", lambda t: ["adapt", WALKER, "--reality", "nominal", "--out", t / "out", "--generations", "1"], "out", False),
     ("quickstart", lambda t: ["quickstart", "--out", t / "out", "--generations", "1", "--no-video"], "out", False),
     ("excite", lambda t: ["excite", "--joints", "knee", "--chirp-s", "3", "--steps", "2", "--trace", t / "e.csv"],
@@ -141,7 +142,7 @@ def test_a_lock_released_while_another_opened_it_is_not_held_twice(tmp_path, mon
 
 # -- numbers bounded by their meaning ----------------------------------------------------------
 NOT_NUMBERS = {"Path", "output_file", "output_dir", "robot_name", "reality_name", "_servo_model", "heading_schedule",
-               "reach_target", "cluster_address"}
+               "reach_target", "cluster_address", "_servo_choice", "config_override"}
 DISCRETE = {"baud_rate", "cpu_index"}  # numbers from a list: a rate a profile lists, a CPU this process may use
 
 
