@@ -254,7 +254,13 @@ def test_a_joint_without_its_twin_is_held(tmp_path, capsys):
     files.urdf.write_text(files.urdf.read_text().replace('<joint name="l_ankle_roll_joint" type="revolute">',
                                                          '<joint name="l_ankle_roll_joint" type="fixed">'))
     assert main(["robot", "import", str(files.urdf), "-o", str(tmp_path / "t.yaml")]) == 0
-    assert "held (not mapped): r_ankle_roll_joint: " in capsys.readouterr().out
+    report = capsys.readouterr().out
+    assert "held (not mapped): r_ankle_roll_joint: " in report
     assert "no left twin of this right ankle roll" in (tmp_path / "t.yaml").read_text()
     robot = load_robot(tmp_path / "t.yaml")  # loads: the right ankle roll is welded
     assert "r_ankle_roll_joint" not in robot.joint_names and len(robot.joints) == 18
+    # welded, the right foot fuses into the ankle as a URDF compiles: the foot is the ankle link, and it builds
+    assert "the right foot r_foot_link has no mapped joint left, so the model's compile fuses it into " \
+           "r_ankle_link" in report
+    assert load_yaml(tmp_path / "t.yaml")["model"]["feet"]["right"] == {"body": "r_ankle_link"}
+    assert "as the YAML holds it: stands" in report and build_model(robot).nu == 18

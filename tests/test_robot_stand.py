@@ -33,11 +33,12 @@ def _pitch_home(robot_doc: dict, hip: float, knee: float, ankle: float) -> dict:
 
 @pytest.fixture(scope="module")
 def imported(tmp_path_factory):
-    """The generated humanoid imported by `biped robot import`: its YAML (home: the zero pose)."""
+    """The generated humanoid imported by `biped robot import --no-stand`: its YAML (home: the
+    zero pose, ranges the model's)."""
     folder = tmp_path_factory.mktemp("kit")
     files = write_humanoid(folder)
     out = folder / "kit.yaml"
-    assert main(["robot", "import", str(files.urdf), "-o", str(out)]) == 0
+    assert main(["robot", "import", str(files.urdf), "--no-stand", "-o", str(out)]) == 0
     return out
 
 
