@@ -1,6 +1,7 @@
 """Does it stand? `biped robot stand` (sim2real/simulation/stand_check.py) on the shipped robots
 and on homes that fall, and the home :func:`propose_home` (stand_home.py) gives a robot whose
-home falls, checked on the generated URDF humanoid imported as a user would."""
+home falls, checked on the generated URDF humanoid imported as a user would; and the importer's
+stand step (import_stand.py) where no home stands or the robot does not load yet."""
 
 import json
 import math
