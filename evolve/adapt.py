@@ -32,18 +32,22 @@ from evolve.transfer import transfer_check
 from sim2real.atomic_json import write_json_atomic
 from sim2real.controller.file import Controller
 from sim2real.simulation.reality import centred, load_reality
+from sim2real.run_lock import RunLock, holds_folder
 
 TEST_SEED = 271_828  # the judging robots' episode seeds [TEST_SEED, e]: no training or validation key
 
 
+@holds_folder("out", what="biped adapt")  # held to adapt.json, past the run's own lock
 def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = "narrow", generations: int = 100,
           minutes: float | None = None, population: int = 64, episodes: int = 3, validation: int = 20,
           test: int = 50, seed: int = 1, threads: int = 0, episode_s: float | None = None, transfer_runs: int = 3,
-          log: Callable[[str], None] = print) -> dict[str, Any]:
+          log: Callable[[str], None] = print, lock: RunLock | None = None) -> dict[str, Any]:
     """Adapt the walker in ``controller`` to the robot of the reality file ``identified`` (fixed
     values: what ``biped sysid`` writes); the run folder is ``out`` (``out/controller.json`` the
     adapted walker, ``out/adapt.json`` the result, also returned).  ``episode_s``: episodes of
-    this length [s] (default the walker's task's); ``transfer_runs``: dry runs of the check."""
+    this length [s] (default the walker's task's); ``transfer_runs``: dry runs of the check.
+    ``out`` is locked from start to end (a second adapt into it is refused, naming this
+    process); ``lock``: that lock, handed down by :func:`~sim2real.run_lock.holds_folder`."""
     controller = Path(controller)
     data, robot = Controller.load_for_robot(controller)
     centre = load_reality(identified)
@@ -59,7 +63,7 @@ def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = 
                           randomize=randomize)
     grown = Population.from_genome(config.neat, neat_layout(data.layout(robot)), seed, genome_from_controller(data))
     started = time.monotonic()
-    run = Run.create(config, out, log=log, population=grown)
+    run = Run.create(config, out, log=log, population=grown, lock=lock)
     log(f"adapting {controller.name} to {centre.name}: {population} genomes from it, {episodes} robots each "
         f"from {ranges} around the identified robot, {generations} generations"
         + (f" or {minutes:g} minutes" if minutes else ""))

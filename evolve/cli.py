@@ -64,9 +64,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"biped: error: biped {args.command} needs MuJoCo, which the robot's lean install leaves out: "
               "pip install 'servo-biped-evolve[sim]' (biped run does not need it)", file=sys.stderr)
         return 2
-    except BrokenPipeError:  # e.g. `biped robot show | head`
-        sys.stdout = None
-        return 0
+    except BrokenPipeError:  # e.g. `biped robot show | head -1`: what the reader did not take is lost
+        sys.stdout = None  # (else Python's own flush at exit fails again, with a traceback)
+        print("biped: error: the standard output was closed before the output ended (a pipe whose reader "
+              "stopped, e.g. | head): the rest is not written", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("biped: interrupted", file=sys.stderr)
         return 130

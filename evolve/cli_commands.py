@@ -10,9 +10,10 @@ import sys
 from pathlib import Path
 
 from evolve.limits import MAX_EPISODE_S, MAX_EVAL_EPISODES, MAX_GENERATIONS, MAX_POPULATION, MAX_THREADS
+from evolve.train import POLISH
 from sim2real.cli.args import (
     int_within,
-    non_negative_finite_float,
+    float_within,
     output_dir,
     output_file,
     positive_float_at_most,
@@ -22,10 +23,14 @@ from sim2real.cli.args import (
     robot_name,
     seed,
 )
-from sim2real.arg_types import HEADING_HELP, heading_schedule
+from sim2real.arg_types import HEADING_HELP, cluster_address, heading_schedule
 from sim2real.errors import UsageError
 
 DEFAULT_CONFIG = "walk"
+# A weight of one of selection's terms (polish --straight, --walk-bonus): the shipped recipe's are
+# 8 and 20; a weight past a thousand drowns every other term, which is no longer a weighting.
+MAX_SELECTION_WEIGHT = 1000.0
+SELECTION_WEIGHT_WHY = "past it the term drowns all others"
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -50,7 +55,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     ev.add_argument("--backend", choices=("local", "ray"), default="local",
                     help="where simulations run: this machine, or a Ray cluster (pip install '.[cluster]')")
-    ev.add_argument("--address", help="Ray cluster address, e.g. 10.0.0.1:6379 (default: start a local Ray)")
+    ev.add_argument("--address", type=cluster_address, help="Ray cluster address, HOST:PORT, e.g. 10.0.0.1:6379, "
+                    "or auto (default: start a local Ray); checked to answer within a few seconds before the run")
     ev.add_argument("--quiet", action="store_true", help="no progress lines")
     ev.set_defaults(func=cmd_evolve, check=check_evolve)
 
@@ -98,13 +104,17 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     po.add_argument("controller", type=Path)
     po.add_argument("--out", type=output_dir, required=True, help="folder for polished.json and result.json")
     po.add_argument("--updates", type=int_within(1, 100_000), default=60, help="CMA-ES updates (default 60)")
-    po.add_argument("--popsize", type=int_within(2, 1024), default=16, help="candidates an update (default 16)")
-    po.add_argument("--robots", type=int_within(1, 1024), default=8, help="robots each candidate meets in an "
-                    "update, the same for all (default 8)")
-    po.add_argument("--sigma", type=positive_float_at_most(20.0, "weights are bounded by 20"), default=0.1,
-                    help="CMA-ES's first step size in weight units (default 0.1)")
-    po.add_argument("--every", type=int_within(1, 100_000), default=5, help="validate every this many updates")
-    po.add_argument("--validation", type=int_within(1, 10_000), default=30, help="validation robots (default 30)")
+    # the defaults are biped train's walk-rate polish (evolve.train.POLISH)
+    po.add_argument("--popsize", type=int_within(2, 1024), default=POLISH["popsize"],
+                    help="candidates an update (default %(default)s)")
+    po.add_argument("--robots", type=int_within(1, 1024), default=POLISH["robots"], help="robots each candidate "
+                    "meets in an update, the same for all (default %(default)s)")
+    po.add_argument("--sigma", type=positive_float_at_most(20.0, "weights are bounded by 20"), default=POLISH["sigma"],
+                    help="CMA-ES's first step size in weight units (default %(default)s)")
+    po.add_argument("--every", type=int_within(1, 100_000), default=5,
+                    help="validate every this many updates (default 5)")
+    po.add_argument("--validation", type=int_within(1, 10_000), default=POLISH["validation"],
+                    help="validation robots (default %(default)s)")
     po.add_argument("--test", type=int_within(1, 10_000), default=100, help="fresh test robots (default 100)")
     po.add_argument("--randomize", type=reality_name, action="append", metavar="RANGES",
                     help="ranges the robots are drawn from (default configs/reality/randomize.yaml); given "
@@ -113,7 +123,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     po.add_argument("--seed", type=seed, default=0, help="seed of the search and every draw")
     po.add_argument("--episode-s", type=positive_float_at_most(MAX_EPISODE_S), metavar="S",
                     help="episodes of this length [s] (default: the controller's task's); longer ones show circling")
-    po.add_argument("--straight", type=non_negative_finite_float, metavar="C",
+    po.add_argument("--straight", type=float_within(0.0, MAX_SELECTION_WEIGHT, SELECTION_WEIGHT_WHY), metavar="C",
                     help="weigh selection's straight term so (selection_straight_coeff; default: the task's)")
     po.add_argument("--heading-deg", type=positive_float_at_most(180.0), metavar="DEG",
                     help="count a walk only if the torso never turned further than this (default: any)")
@@ -122,7 +132,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                     "the task's); above the goal's speed so that selection pays for reaching it")
     po.add_argument("--min-speed", type=positive_float_at_most(5.0, "m/s"), metavar="M_S",
                     help="count a walk only if it averaged at least this speed [m/s] over its episode (default: any)")
-    po.add_argument("--walk-bonus", type=non_negative_finite_float, metavar="B",
+    po.add_argument("--walk-bonus", type=float_within(0.0, MAX_SELECTION_WEIGHT, SELECTION_WEIGHT_WHY), metavar="B",
                     help="what selection pays an episode that walks (selection_walk_bonus; default: the task's); "
                     "a larger one trades speed for the walk rate")
     po.add_argument("--lr-adapt", action="store_true", help="CMA-ES with learning-rate adaptation (Nomura et "
@@ -253,6 +263,10 @@ def check_evolve(args: argparse.Namespace) -> None:
         raise UsageError("--address is the Ray cluster's: it needs --backend ray")
     if args.backend == "ray":
         require_module("ray", "--backend ray", extra="cluster")
+        if args.address is not None:
+            from evolve.ray_backend import check_reachable
+
+            check_reachable(args.address)  # before anything runs: Ray's own connect waits a minute or more
 
 
 def cmd_evolve(args: argparse.Namespace) -> int:

@@ -41,6 +41,7 @@ from evolve.locomotion.export import controller_from_genome
 from evolve.neat import Genome, NeatConfig
 from evolve.replay import controller_setup
 from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.run_lock import holds_folder
 from sim2real.errors import ConfigError
 from sim2real.simulation.reality import Perturbation, Reality, latency_capacity_s, load_reality, sample
 
@@ -180,6 +181,7 @@ def _resumed(checkpoint: Path, identity: dict[str, Any], updates: int) -> dict[s
     return saved
 
 
+@holds_folder("out", what="biped polish")  # two polishes into one folder: the second refused
 def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robots: int = 8, sigma: float = 0.1,
            every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str | list[str] = "randomize",
            episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,

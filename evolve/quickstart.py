@@ -18,6 +18,7 @@ from pathlib import Path
 
 from evolve.limits import MAX_GENERATIONS, MAX_POPULATION
 from sim2real.cli.args import (
+    holding_lock,
     int_within,
     output_dir,
     reality_name,
@@ -51,6 +52,7 @@ def check_quickstart(args: argparse.Namespace) -> None:
         require_module("imageio_ffmpeg", "the .mp4 video (or give --no-video)")
 
 
+@holding_lock("out", what="biped quickstart", folder=True, flag="--out")  # its run folder has its own
 def cmd_quickstart(args: argparse.Namespace) -> int:
     from evolve.config import config_path
     from evolve.config import load_evolve_config

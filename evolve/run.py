@@ -11,10 +11,10 @@
       best.json            its genome and scores (what --resume needs to keep it)
       stages.json          a staged run's finished stages (evolve.stages)
       stages/<name>/       each finished stage's controller.json and best.json
-      .lock                the id of the process working in the folder, locked while it does
+      .lock                the id of the process working in the folder, there while it does
 
 One process works in a folder at a time: :meth:`Run.create` and :meth:`Run.resume` lock it
-(:mod:`evolve.run_lock`; a second process is refused naming the first's id), :meth:`Run.evolve`
+(:mod:`sim2real.run_lock`; a second process is refused naming the first's id), :meth:`Run.evolve`
 keeps it locked until it returns, and a process that dies frees it.  Every file but
 ``stats.csv`` is replaced whole (written beside, then renamed: a full disk leaves the previous
 file); a row of ``stats.csv`` that the disk refuses is taken back out.
@@ -56,7 +56,7 @@ from evolve.evaluation import (
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.objectives import DEFAULT_OBJECTIVE, OBJECTIVES, ObjectiveType
 from evolve.neat import Genome, Population
-from evolve.run_lock import RunLock
+from sim2real.run_lock import RunLock
 from evolve.stages import Stage, check_stage_joints
 from sim2real.atomic_json import OutputError, copy_file_atomic, read_json, write_json_atomic, write_text_atomic
 from sim2real.controller.channels import REACH
@@ -155,6 +155,7 @@ class Run:
         self._checkpoint_at = -math.inf  # [s, time.monotonic] when it was written
         self.lock: RunLock | None = None  # the folder's, while this run works in it
         self.open_ended = False  # True: the caller's stop ends the run (no generation total or ETA shown)
+        self.lock_borrowed = False  # the lock is its caller's, who releases it
 
     def _silent_inputs(self, stage_index: int) -> frozenset[int]:
         """The inputs stage ``stage_index``'s networks read as 0 - the reach inputs below a
@@ -192,9 +193,11 @@ class Run:
 
     # -- folder -------------------------------------------------------------------------------
     @classmethod
-    def create(cls, config: EvolveConfig, out: Path, log: Callable[[str], None] = print, **backend) -> "Run":
+    def create(cls, config: EvolveConfig, out: Path, log: Callable[[str], None] = print,
+               lock: RunLock | None = None, **backend) -> "Run":
         """A new run in ``out`` (created), locked for this process (:class:`RunFolderBusy`
-        if another works there)."""
+        if another works there); ``lock``: the caller's, already held on ``out`` (``adapt``
+        holds it over its whole command), which the run uses and leaves to its holder."""
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         def create() -> "Run":
@@ -205,7 +208,7 @@ class Run:
             write_text_atomic(out / "stats.csv", _csv_text([run.columns]))
             return run
 
-        return cls._locked(out, create)
+        return cls._locked(out, create, lock)
 
     @classmethod
     def resume(cls, out: Path, generations: int | None = None, threads: int | None = None,
@@ -217,15 +220,17 @@ class Run:
         return cls._locked(out, lambda: cls._resume(out, generations, threads, log, **backend))
 
     @staticmethod
-    def _locked(out: Path, build: Callable[[], "Run"]) -> "Run":
-        """``build()``'s run, holding the folder's lock (released again if building fails)."""
-        lock = RunLock.acquire(out)
+    def _locked(out: Path, build: Callable[[], "Run"], held: RunLock | None = None) -> "Run":
+        """``build()``'s run, holding the folder's lock (released again if building fails),
+        or the caller's ``held`` one (left to the caller)."""
+        lock = held or RunLock.acquire(out)
         try:
             run = build()
         except BaseException:
-            lock.release()
+            if held is None:
+                lock.release()
             raise
-        run.lock = lock
+        run.lock, run.lock_borrowed = lock, held is not None
         return run
 
     @classmethod
@@ -259,7 +264,8 @@ class Run:
     def close(self) -> None:
         """Unlock the folder (idempotent); :meth:`evolve` does it when it returns."""
         if self.lock is not None:
-            self.lock.release()
+            if not self.lock_borrowed:
+                self.lock.release()
             self.lock = None
 
     # -- the loop ------------------------------------------------------------------------------
@@ -268,7 +274,7 @@ class Run:
         ``stop(run, stats_row)`` says so; the folder stays locked until it returns (locked
         again here if this run was closed, or made without :meth:`create`/:meth:`resume`)."""
         if self.lock is None:
-            self.lock = RunLock.acquire(self.out)
+            self.lock, self.lock_borrowed = RunLock.acquire(self.out), False
         try:
             stages = self.config.stages
             while not stages or len(self.finished) < len(stages):

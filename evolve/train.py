@@ -44,19 +44,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from evolve.config import EvolveConfig, config_path, load_evolve_config
-from evolve.run_lock import RunLock
-from evolve.walk_measures import (
-    DRAWS,
-    NEED,
-    is_robust,
-    measure_walker,
-    meets_bar,
-    robustness,
-    sustained,
-)
+from typing import TYPE_CHECKING
+
+from sim2real.run_lock import RunLock
 from sim2real.atomic_json import read_json, write_json_atomic
 from sim2real.errors import UsageError
+
+if TYPE_CHECKING:  # pragma: no cover - the simulation side is imported where a stage needs it, so that
+    from evolve.config import EvolveConfig  # `biped run` on the robot's lean install (no MuJoCo) can load the CLI
 
 STATE = "train.json"  # in the training folder: the settings and each finished stage
 STATE_VERSION = 1
@@ -109,10 +104,11 @@ class Budget:
 
 
 
-def neat_config(robot_name: str, settings: TrainSettings) -> EvolveConfig:
+def neat_config(robot_name: str, settings: TrainSettings) -> "EvolveConfig":
     """The NEAT stage's config: ``settings.config`` for ``robot_name`` (its ``phase_period_s: auto``
     sets the gait clock from the robot's leg length), the training's seed and threads, the
     robot's walking control set, and no generation count of its own: the budget ends it."""
+    from evolve.config import config_path, load_evolve_config
     from sim2real.robot import load_robot
 
     robot = load_robot(robot_name)
@@ -149,7 +145,7 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
     out = Path(out)
     _check_folder(out, resume)
     out.mkdir(parents=True, exist_ok=True)
-    with RunLock.acquire(out):
+    with RunLock.acquire(out, what="biped train"):
         state = _load_state(out, robot_name, settings) if resume else _new_state(robot_name, settings, command)
         budget = Budget(settings.minutes, spent_s=state.get("elapsed_s", 0.0))
         progress = Progress(budget, quiet) if log is None else log
@@ -182,6 +178,8 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
 def _neat(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
           log: Callable[[str], None]) -> dict[str, Any]:
     """NEAT until a champion passes the robustness bar or its share of the budget is spent."""
+    from evolve import walk_measures as wm
+
     from evolve.run import Run
 
     folder = out / "neat"
@@ -204,11 +202,11 @@ def _neat(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, 
         if best is not None and not best.harness and (best.generation, best.genome.key) not in tested:
             tested.add((best.generation, best.genome.key))
             run.controller(best).save(candidate)
-            test = robustness(candidate, threads=settings.threads, robot=robot_name)
-            robust = is_robust(test)
+            test = wm.robustness(candidate, threads=settings.threads, robot=robot_name)
+            robust = wm.is_robust(test)
             found["tests"].append({"generation": best.generation, "key": best.genome.key, **_short(test),
                                    "robust": robust})
-            log(f"champion of generation {best.generation}: walks on {test['randomized']['walked']}/{DRAWS} unseen "
+            log(f"champion of generation {best.generation}: walks on {test['randomized']['walked']}/{wm.DRAWS} unseen "
                 f"robots, {test['default']['walked']}/{test['default_episodes']} default"
                 f"{' - robust' if robust else ''}")
             if robust:
@@ -252,6 +250,8 @@ def _polish(robot_name: str, out: Path, settings: TrainSettings, state: dict[str
 def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
            log: Callable[[str], None]) -> dict[str, Any]:
     """The speed polish and its restart, each from the walker the one before kept."""
+    from evolve import walk_measures as wm
+
     if not _robust_walker(state):
         log("no robust walker to polish for speed")
         return {"runs": [], "walker": None, "skipped": True}
@@ -260,7 +260,7 @@ def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str,
     # no walk slower than the walker's own counts (the lower of its 60 s walks'), so the polish keeps
     # no slower walker; but at most the goal's speed, which no 10 s episode of a fast walker (its
     # start-up included) may reach, leaving validation nothing to keep walkers by
-    own = [sustained(source, reality, episodes, threads=settings.threads, robot=robot_name)["speed_m_s"]
+    own = [wm.sustained(source, reality, episodes, threads=settings.threads, robot=robot_name)["speed_m_s"]
            for reality, episodes in ((None, 1), ("default", 3))]
     min_speed = min(SPEED_GOAL_M_S, *own)
     log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s; the speed polish counts walks from "
@@ -281,21 +281,23 @@ def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str,
 def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
              log: Callable[[str], None]) -> dict[str, Any]:
     """Measure the final walker, undo a speed polish that lost the walk on the model, ship it."""
+    from evolve import walk_measures as wm
+
     from sim2real.controller.file import Controller
 
     walker = Path(_latest_walker(state))
     log(f"measuring {walker}")
-    measured = measure_walker(walker, log, threads=settings.threads, robot=robot_name)
+    measured = wm.measure_walker(walker, log, threads=settings.threads, robot=robot_name)
     speed = state["stages"]["speed"]
     if speed["walker"] and measured["sustained"]["nominal"]["falls"]:
         before = Path(_latest_walker(state, skip_speed=True))
         log(f"the speed polish's walker falls on the nominal model at "
             f"{measured['sustained']['nominal']['upright_s']:.1f} s; measuring the walker it started from")
-        earlier = measure_walker(before, log, threads=settings.threads, robot=robot_name)
+        earlier = wm.measure_walker(before, log, threads=settings.threads, robot=robot_name)
         if not earlier["sustained"]["nominal"]["falls"]:
             speed["undone"] = "falls on the nominal model in the 60 s walk; the walker it started from does not"
             walker, measured = before, earlier
-    bar = meets_bar(measured)
+    bar = wm.meets_bar(measured)
     made = {"made_by": state["command"], "trained": {
         "robot": robot_name, "settings": state["settings"],
         "stages": {name: _stage_summary(record) for name, record in state["stages"].items()},
@@ -327,6 +329,8 @@ def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Bu
     function giving it) is spent, testing each walker its validation keeps against the robustness
     bar; ``walker``: the last that passed (None: none), ``kept``: the weights validation kept.
     A cut stage resumes from the polish's checkpoint and ``folder/tests.json``."""
+    from evolve import walk_measures as wm
+
     share = until if callable(until) else (lambda: until)
     from evolve.polish import CHECKPOINT, polish
 
@@ -344,12 +348,12 @@ def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Bu
     def on_best(kept: Path, entry: dict[str, Any]) -> bool:
         done = [t for t in tests["tests"] if t["update"] == entry["update"]]
         if not done:
-            test = robustness(kept, threads=settings.threads, robot=robot)
-            done = [{"update": entry["update"], **_short(test), "robust": is_robust(test)}]
+            test = wm.robustness(kept, threads=settings.threads, robot=robot)
+            done = [{"update": entry["update"], **_short(test), "robust": wm.is_robust(test)}]
             tests["tests"].append(done[0])
             write_json_atomic(tests_file, tests)
             log(f"{folder.name}: kept walker of update {entry['update']}: walks on {test['randomized']['walked']}"
-                f"/{DRAWS} unseen robots, {test['default']['walked']}/{test['default_episodes']} default"
+                f"/{wm.DRAWS} unseen robots, {test['default']['walked']}/{test['default_episodes']} default"
                 f"{' - robust' if done[0]['robust'] else ''}")
         if done[0]["robust"]:
             shutil.copyfile(kept, walker)

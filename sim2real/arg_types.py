@@ -16,9 +16,11 @@ same flags the same way.  No MuJoCo here (:func:`reality_name` imports it when c
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import math
 import os
-from typing import Callable
+import re
+from typing import Any, Callable
 
 from sim2real.errors import BipedError
 from sim2real.hardware.realtime import DEFAULT_PRIORITY, RealtimeRequest
@@ -29,34 +31,33 @@ MAX_SEED = 2**32 - 1  # numpy seeds are non-negative; keys are stored as 64-bit 
 
 
 # -- numbers ---------------------------------------------------------------------------------
+# Every numeric flag's converter carries ``bounds = (low, high)``, both finite, and
+# ``low_open`` (True: ``low`` itself is refused): what the value means bounds it, so that no
+# flag reaches the code as 1e308 (an OverflowError in a tick count) or a count that fills the
+# memory.  tests/test_hostile_io.py walks every parser and holds each numeric flag to it.
+def _bounded(convert: Callable[[str], Any], name: str, low: float, high: float, low_open: bool = False
+             ) -> Callable[[str], Any]:
+    convert.__name__ = name
+    convert.bounds = (low, high)  # type: ignore[attr-defined]
+    convert.low_open = low_open  # type: ignore[attr-defined]
+    return convert
+
+
 def _whole(text: str) -> int:
     try:
         return int(text)
     except (TypeError, ValueError):
-        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must be a whole number, got {show(text)}") from None
 
 
 def _finite(text: str) -> float:
     try:
         value = float(text)
     except (TypeError, ValueError):
-        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must be a number, got {show(text)}") from None
     if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {show(text)}")
     return value
-
-
-def int_at_least(low: int) -> Callable[[str], int]:
-    """A converter for whole numbers >= ``low``."""
-
-    def convert(text: str) -> int:
-        value = _whole(text)
-        if value < low:
-            raise argparse.ArgumentTypeError(f"must be a whole number >= {low}, got {text!r}")
-        return value
-
-    convert.__name__ = f"int_at_least_{low}"
-    return convert
 
 
 def int_within(low: int, high: int, why: str = "") -> Callable[[str], int]:
@@ -70,50 +71,37 @@ def int_within(low: int, high: int, why: str = "") -> Callable[[str], int]:
                                              f"{f' ({why})' if why else ''}, got {show(text)}")
         return value
 
-    convert.__name__ = f"int_within_{low}_{high}"
-    return convert
+    return _bounded(convert, f"int_within_{low}_{high}", low, high)
 
 
 def positive_float_at_most(high: float, why: str = "") -> Callable[[str], float]:
     """A converter for finite numbers in (0, ``high``]."""
+    return float_within(0.0, high, why, low_open=True)
+
+
+def float_within(low: float, high: float, why: str = "", *, low_open: bool = False) -> Callable[[str], float]:
+    """A converter for finite numbers in [``low``, ``high``] ((``low``, ``high``] with
+    ``low_open``); ``why`` says what the bounds mean (e.g. "a week"), in the message."""
 
     def convert(text: str) -> float:
         value = _finite(text)
-        if not 0 < value <= high:
-            raise argparse.ArgumentTypeError(f"must be a number within (0, {high:g}]"
+        if not (low < value if low_open else low <= value) or value > high:
+            raise argparse.ArgumentTypeError(f"must be a number within {'(' if low_open else '['}{low:g}, {high:g}]"
                                              f"{f' ({why})' if why else ''}, got {show(text)}")
         return value
 
-    convert.__name__ = f"positive_float_at_most_{high:g}"
-    return convert
-
-
-positive_int = int_at_least(1)
-positive_int.__name__ = "positive_int"
-non_negative_int = int_at_least(0)
-non_negative_int.__name__ = "non_negative_int"
+    return _bounded(convert, f"float_within_{low:g}_{high:g}", low, high, low_open)
 
 
 def seed(text: str) -> int:
     """A random seed: a whole number in [0, 2^32 - 1]."""
     value = _whole(text)
     if not 0 <= value <= MAX_SEED:
-        raise argparse.ArgumentTypeError(f"a seed must be a whole number in [0, {MAX_SEED}], got {text!r}")
+        raise argparse.ArgumentTypeError(f"a seed must be a whole number in [0, {MAX_SEED}], got {show(text)}")
     return value
 
 
-def positive_finite_float(text: str) -> float:
-    value = _finite(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
-    return value
-
-
-def non_negative_finite_float(text: str) -> float:
-    value = _finite(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text!r}")
-    return value
+_bounded(seed, "seed", 0, MAX_SEED)
 
 
 def baud_rate(text: str) -> int:
@@ -123,7 +111,7 @@ def baud_rate(text: str) -> int:
     rates = supported_baud_rates()
     value = _whole(text)
     if value not in rates:
-        raise argparse.ArgumentTypeError(f"{text} is not a Dynamixel baud rate "
+        raise argparse.ArgumentTypeError(f"{show(text)} is not a Dynamixel baud rate "
                                          f"(firmware_profiles/ list: {', '.join(map(str, rates))})")
     return value
 
@@ -135,8 +123,11 @@ def rt_priority(text: str) -> int:
     except ValueError:
         value = 0
     if not 1 <= value <= 99:
-        raise argparse.ArgumentTypeError(f"{text!r}: a SCHED_FIFO priority is an integer 1-99")
+        raise argparse.ArgumentTypeError(f"{show(text)}: a SCHED_FIFO priority is an integer 1-99")
     return value
+
+
+_bounded(rt_priority, "rt_priority", 1, 99)
 
 
 def cpu_index(text: str) -> int:
@@ -221,6 +212,44 @@ def reality_name(text: str) -> str:
     return _loads(load_reality, text)
 
 
+# -- a cluster's address -------------------------------------------------------------------
+def cluster_address(text: str) -> str:
+    """A Ray cluster's address: ``HOST:PORT`` (or ``ray://HOST:PORT``, Ray's client) with a
+    port in 1-65535 and a host name or IP address (IPv6 in brackets), or ``auto`` (the
+    cluster this machine runs, found by Ray).  Only the form is checked here; that something
+    answers there is checked before connecting (:func:`evolve.ray_backend.check_reachable`)."""
+    if text == "auto":
+        return text
+    try:
+        host_port(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
+_HOST_LABEL = re.compile(r"(?!-)[A-Za-z0-9-]{1,63}(?<!-)")
+
+
+def host_port(address: str) -> tuple[str, int]:
+    """(host, port) of ``[ray://]HOST:PORT``; ``ValueError`` saying what is wrong."""
+    rest = address.removeprefix("ray://")
+    host, sep, port = rest.rpartition(":")
+    if not sep or not host:
+        raise ValueError(f"{show(address)} is not HOST:PORT (e.g. 10.0.0.1:6379)")
+    if not port.isascii() or not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise ValueError(f"{show(address)}: the port must be a whole number within [1, 65535], got {show(port)}")
+    if host.startswith("[") and host.endswith("]"):  # [IPv6]
+        try:
+            ipaddress.IPv6Address(host[1:-1])
+        except ValueError:
+            raise ValueError(f"{show(address)}: {show(host)} is not an IPv6 address") from None
+        return host[1:-1], int(port)
+    labels = host.removesuffix(".").split(".")
+    if len(host) > 253 or not all(_HOST_LABEL.fullmatch(label) for label in labels):
+        raise ValueError(f"{show(address)}: {show(host)} is not a host name or IPv4 address")
+    return host, int(port)
+
+
 HEADING_HELP = ("steer a controller with a heading input: hold the start's heading turned by DEG (left "
                 "positive), or follow a schedule SECONDS:DEG,... (e.g. 0:0,5:90,12:-45: 90 deg left from 5 s on, "
                 "45 deg right from 12 s on)")
@@ -240,13 +269,17 @@ REACH_HELP = ("where a reaching controller's right hand reaches: X,Y,Z in metres
               "frame (x forward, y left, z up; default: the target it was evolved for)")
 
 
+MAX_REACH_M = 10.0  # |X|, |Y|, |Z| of a reach target [m]: past any robot's arm (a human's spans ~0.8 m)
+
+
 def reach_target(text: str) -> tuple[float, float, float]:
     """``--reach-target``'s value: X,Y,Z [m], three finite numbers (argparse type)."""
     parts = [p.strip() for p in text.split(",")]
     try:
         values = tuple(float(p) for p in parts)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not X,Y,Z in metres") from None
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise argparse.ArgumentTypeError(f"{text!r}: three finite numbers X,Y,Z in metres")
+        raise argparse.ArgumentTypeError(f"{show(text)} is not X,Y,Z in metres") from None
+    if len(values) != 3 or not all(math.isfinite(v) and abs(v) <= MAX_REACH_M for v in values):
+        raise argparse.ArgumentTypeError(f"{show(text)}: three numbers X,Y,Z in metres, each within +-{MAX_REACH_M:g} "
+                                         "(no robot's hand reaches further)")
     return values  # type: ignore[return-value]

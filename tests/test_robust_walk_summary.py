@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from evolve import train as tr
+from evolve import walk_measures as wm
 
 WALKER = Path("configs/controllers/xl430_biped.json")
 
@@ -50,7 +51,7 @@ def test_a_polish_stage_tests_each_kept_walker_once_and_keeps_the_last_robust(tm
     def robustness(path, threads=1, robot=None):
         tested.append(len(tested))
         return verdicts[[5, 10, 15][len(tested) - 1]]
-    monkeypatch.setattr(tr, "robustness", robustness)
+    monkeypatch.setattr(wm, "robustness", robustness)
     record = tr.polish_stage(WALKER, tmp_path / "p", tr.TrainSettings(seed=4), budget, 0.65, lambda s: None,
                              dict(tr.POLISH))
     assert len(tested) == 3
@@ -59,7 +60,7 @@ def test_a_polish_stage_tests_each_kept_walker_once_and_keeps_the_last_robust(tm
     assert calls[0]["seed"] == 4 and calls[0]["robots"] == tr.POLISH["robots"] and not calls[0]["resume"]
     # cut after its tests: the resumed stage meets the same updates and tests none again
     (tmp_path / "p" / "checkpoint.json").write_text("{}")
-    monkeypatch.setattr(tr, "robustness", lambda *a, **k: pytest.fail("a walker tested twice"))
+    monkeypatch.setattr(wm, "robustness", lambda *a, **k: pytest.fail("a walker tested twice"))
     again = tr.polish_stage(WALKER, tmp_path / "p", tr.TrainSettings(seed=4), budget, 0.65, lambda s: None,
                             dict(tr.POLISH))
     assert calls[-1]["resume"] and again["tests"] == record["tests"] and again["walker"] == record["walker"]
@@ -91,9 +92,9 @@ def test_the_speed_polish_starts_from_the_newest_robust_walker_no_slower_than_it
 
     calls = []
     monkeypatch.setattr(evolve.polish, "polish", fake_polish([5], calls))
-    monkeypatch.setattr(tr, "robustness", lambda path, **k: _test(9))
+    monkeypatch.setattr(wm, "robustness", lambda path, **k: _test(9))
     speeds = iter([0.11, 0.13])
-    monkeypatch.setattr(tr, "sustained", lambda *a, **k: {"speed_m_s": next(speeds)})
+    monkeypatch.setattr(wm, "sustained", lambda *a, **k: {"speed_m_s": next(speeds)})
     state = _state(tmp_path, neat_robust=True, polish_walker=True)
     record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     assert calls[0]["source"] == tmp_path / "polish.json", "the polish's walker, not NEAT's"
@@ -145,7 +146,7 @@ def test_a_speed_polish_that_falls_on_the_model_is_undone_and_the_walker_before_
     state["stages"]["speed"] = {"walker": str(tmp_path / "sped.json")}
     state.update(command="biped train xl430_biped", settings={"seed": 1})
     measured = {str(tmp_path / "sped.json"): _measured(falls=1), str(tmp_path / "polish.json"): _measured(falls=0)}
-    monkeypatch.setattr(tr, "measure_walker", lambda walker, log, **k: measured[str(walker)])
+    monkeypatch.setattr(wm, "measure_walker", lambda walker, log, **k: measured[str(walker)])
     record = tr._measure("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     assert record["walker"] == str(tmp_path / "polish.json") and state["stages"]["speed"]["undone"]
     assert all(record["bar"].values())

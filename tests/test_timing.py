@@ -32,9 +32,10 @@ def test_human_keeps_the_papers_tick():
 
 def test_bus_bytes_match_the_wire_format():
     # DESIGN.md section 6: 12-servo sync write of goals 74 bytes, sync read of 4 bytes
-    # 26 + 12 x 15; plus one READ of the sensor board (14 out, 11 + 8 back).
+    # 26 + 12 x 15; plus one READ of the sensor board (14 out, 11 + 16 back: foot switches,
+    # up-vector, heading and angular rates, addresses 100-115 of its profile).
     robot = load_robot("op3_legs")
-    assert bus_cycle_bytes(robot) == 74 + 26 + 12 * 15 + 14 + 19
+    assert bus_cycle_bytes(robot) == 74 + 26 + 12 * 15 + 14 + 11 + 16
 
 
 def test_tick_never_below_the_bus_cycle_at_a_slow_baud():

@@ -124,14 +124,14 @@ def test_bad_flags_are_refused_before_anything_runs(tmp_path, args, problem):
 
 
 def test_a_folder_in_use_or_full_is_refused_and_left_as_it_was(tmp_path):
-    from evolve.run_lock import RunLock
+    from sim2real.run_lock import RunLock
 
     busy = tmp_path / "busy"
     busy.mkdir()
     with RunLock.acquire(busy):
         out = biped("train", "xl430_biped", "--out", str(busy))
-    assert out.returncode == 2 and "another run is working in this folder" in out.stderr
-    assert sorted(p.name for p in busy.iterdir()) == [".lock"]
+        assert out.returncode == 2 and "another biped train is working in this folder" in out.stderr
+        assert sorted(p.name for p in busy.iterdir()) == [".lock"]  # nothing of its own written
     full = tmp_path / "full"
     full.mkdir()
     (full / "mine.txt").write_text("keep me")

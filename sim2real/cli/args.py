@@ -1,6 +1,6 @@
 """Checked command-line values, shared by every ``biped`` subcommand.
 
-Flags get a typed converter (``type=positive_int``, ``type=output_file(".csv")``): it turns
+Flags get a typed converter (``type=int_within(1, 64)``, ``type=output_file(".csv")``): it turns
 the text into the value or raises ``argparse.ArgumentTypeError``, so argparse prints the
 usage and ``biped <command>: error: argument --flag: <problem>`` and exits 2 before
 anything runs.  Checks that need more than one flag's text - a robot's baud rates, a
@@ -8,7 +8,7 @@ controller's tick, a default path - raise :class:`UsageError`, which ``biped`` p
 one line, ``biped: error: <problem>``, exit 2.  A run that started but did not end as
 asked reports with :func:`run_failed`: one line, exit 1.
 
-    run.add_argument("--duration", type=positive_finite_float)
+    run.add_argument("--duration", type=positive_float_at_most(MAX_TIME_S, "a week"))
     run.add_argument("--trace", type=output_file(".csv", exclude=(".json",)))
 
 Used by :mod:`sim2real.cli.robot_commands`, :mod:`sim2real.cli.deploy_commands`, :mod:`evolve.cli_commands` and
@@ -21,6 +21,7 @@ No MuJoCo here.
 from __future__ import annotations
 
 import argparse
+import functools
 import io
 import json
 import os
@@ -34,14 +35,10 @@ from sim2real.arg_types import (  # the flag values, re-exported: every command 
     add_realtime_arguments,
     baud_rate,
     cpu_index,
+    float_within,
     input_file_problem,
-    int_at_least,
     int_within,
-    non_negative_finite_float,
-    non_negative_int,
-    positive_finite_float,
     positive_float_at_most,
-    positive_int,
     realtime_flags,
     realtime_request,
     reality_name,
@@ -57,12 +54,11 @@ if TYPE_CHECKING:
     from sim2real.robot import RobotSpec
 
 __all__ = [  # its own, then the flag values of sim2real.arg_types
-    "MAX_REPLAY_S", "MAX_STRIP_FRAMES", "MAX_VIDEO_S", "NamedStdout", "check_baud", "check_duration",
-    "check_input_file", "check_output_file", "output_dir", "output_dir_problem", "output_file",
+    "MAX_RENDER_PX", "MAX_REPLAY_S", "MAX_SETTLE_S", "MAX_STRIP_FRAMES", "MAX_VIDEO_S", "NamedStdout", "check_baud", "check_duration",
+    "check_input_file", "check_output_file", "holding_lock", "output_dir", "output_dir_problem", "output_file",
     "output_file_problem", "print_result", "require_module", "run_failed",
-    "MAX_SEED", "add_realtime_arguments", "baud_rate", "cpu_index", "input_file_problem", "int_at_least",
-    "int_within", "non_negative_finite_float", "non_negative_int", "positive_finite_float",
-    "positive_float_at_most", "positive_int", "realtime_flags", "realtime_request", "reality_name",
+    "MAX_SEED", "add_realtime_arguments", "baud_rate", "cpu_index", "float_within", "input_file_problem",
+    "int_within", "positive_float_at_most", "realtime_flags", "realtime_request", "reality_name",
     "robot_name", "rt_priority", "seed",
 ]
 
@@ -73,15 +69,18 @@ __all__ = [  # its own, then the flag values of sim2real.arg_types
 MAX_REPLAY_S = 300.0
 MAX_VIDEO_S = 60.0
 MAX_STRIP_FRAMES = 50
+MAX_RENDER_PX = (1280, 720)  # a render's width, height [px]: simulation.model_parts.OFFSCREEN_SIZE (no MuJoCo here)
+MAX_SETTLE_S = 60.0  # simulated seconds a robot stands before its picture (default 1: it is still within a second)
 
 
 # -- checks of more than one flag ---------------------------------------------------------------
 def check_baud(robot: RobotSpec, baud: int, flag: str = "--baud") -> None:
     """Refuse a baud rate that not every device on ``robot``'s bus can be set to."""
-    rates = robot.baud_rates
-    if rates is not None and baud not in rates:
-        raise UsageError(f"{flag} {baud}: not a rate every device of {robot.name} supports "
-                         f"({', '.join(map(str, rates))})")
+    from sim2real.robot.bus_plan import baud_problem, bus_devices
+
+    problem = baud_problem(bus_devices(robot), baud)  # names the devices that cannot take it, by model and protocol
+    if problem:
+        raise UsageError(f"{flag} {baud}: not a rate every device of {robot.name} supports: {problem}")
 
 
 def check_duration(seconds: float | None, tick_s: float, flag: str = "--duration") -> None:
@@ -183,6 +182,32 @@ def check_output_file(path: Path, flag: str, suffixes: tuple[str, ...] = ()) -> 
     problem = output_file_problem(Path(path), tuple(s.lower() for s in suffixes))
     if problem:
         raise UsageError(f"{flag}: {problem}")
+
+
+# -- one writer per output ------------------------------------------------------------------
+def holding_lock(attribute: str, *, what: str, flag: str, folder: bool = False
+                 ) -> Callable[[Callable[[argparse.Namespace], int]], Callable[[argparse.Namespace], int]]:
+    """Decorate a command ``cmd(args)`` that writes ``args.<attribute>``: it runs holding
+    :mod:`sim2real.run_lock`'s lock on it - a folder (made if missing, removed again if left
+    empty) when ``folder``, else a named output file and what is named after it (a trace's
+    sidecar) - so a second instance is refused at once, naming it and the holder's process
+    id.  Nothing is locked when the value is None (the output was not asked for)."""
+    from sim2real.run_lock import RunLock, output_lock
+
+    def decorate(cmd: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
+        @functools.wraps(cmd)
+        def locked(args: argparse.Namespace) -> int:
+            target = getattr(args, attribute)
+            if folder and target is not None:
+                lock = RunLock.acquire(target, what=what, flag=flag, create=True)
+            else:
+                lock = output_lock(target, what=what, flag=flag)
+            with lock:
+                return cmd(args)
+
+        return locked
+
+    return decorate
 
 
 # -- ends ------------------------------------------------------------------------------------

@@ -13,6 +13,7 @@ from sim2real.cli.args import (
     baud_rate,
     check_baud,
     check_duration,
+    holding_lock,
     output_file,
     positive_float_at_most,
     print_result,
@@ -206,6 +207,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+@holding_lock("trace", what="biped dry-run", flag="--trace")
 def cmd_dry_run(args: argparse.Namespace) -> int:
     from sim2real.simulation.dry_run import dry_run
 
@@ -218,6 +220,7 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
     return run_exit_code(result, log)
 
 
+@holding_lock("trace", what="biped run", flag="--trace")
 def cmd_run(args: argparse.Namespace) -> int:
     from sim2real.controller.file import Controller
     from sim2real.hardware import MockBus

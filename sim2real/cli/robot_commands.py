@@ -21,15 +21,17 @@ from sim2real.cli.args import (
     MAX_VIDEO_S,
     check_input_file,
     check_output_file,
+    MAX_RENDER_PX,
+    MAX_SETTLE_S,
+    float_within,
     int_within,
-    non_negative_finite_float,
     output_file,
     positive_float_at_most,
-    positive_int,
     require_module,
 )
-from sim2real.errors import UsageError
+from sim2real.errors import ConfigError, UsageError
 from sim2real.robot import DEFAULT_ROBOT, RobotSpec, available_robots, load_robot
+from sim2real.robot.bus_plan import id_list
 
 ROBOT_HELP = (
     f"robot name from configs/robots/ ({', '.join(available_robots())}; presets as "
@@ -103,11 +105,12 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
                         "same distance so that sizes compare (default output strip.png)")
     render.add_argument("--frames", type=int_within(1, MAX_STRIP_FRAMES),
                         help=f"moments of a --strip (default {STRIP_FRAMES}, at most {MAX_STRIP_FRAMES})")
-    render.add_argument("--width", type=positive_int, default=None,
+    render.add_argument("--width", type=int_within(1, MAX_RENDER_PX[0], "the offscreen framebuffer's"), default=None,
                         help="pixels (default 960, a --strip frame 320; at most 1280)")
-    render.add_argument("--height", type=positive_int, default=None,
+    render.add_argument("--height", type=int_within(1, MAX_RENDER_PX[1], "the offscreen framebuffer's"), default=None,
                         help="pixels (default 720, a --strip frame 400; at most 720)")
-    render.add_argument("--settle", type=non_negative_finite_float, default=None,
+    render.add_argument("--settle", type=float_within(0.0, MAX_SETTLE_S, "a robot stands still within seconds"),
+                        default=None,
                         help="simulated seconds to stand before the picture of a robot (default 1)")
     render.set_defaults(func=cmd_render, check=check_render, replay=replay or {})
 
@@ -127,8 +130,12 @@ def describe(robot: RobotSpec) -> dict:
     from sim2real.simulation.model_builder import build_model
     from sim2real.simulation.statics import CROUCH_KNEE_DEG, holding_torques
 
+    from sim2real.controller.checks import bus_problems
+    from sim2real.robot.bus_plan import bus_time
+
     model = build_model(robot)
     timing = control_timing(robot)
+    wire = bus_time(robot)
     torques = {t.joint: t for t in holding_torques(robot, model)}
     joints = []
     for j in robot.joints:
@@ -169,6 +176,12 @@ def describe(robot: RobotSpec) -> dict:
             "rule": timing.rule,
         },
         "bus": {"port": robot.bus.port, "baud": robot.bus.baud} if robot.bus else None,
+        "bus_tick": None if wire is None else {
+            "time_s": wire.total_s, "wire_s": wire.wire_s, "turnaround_s": wire.turnaround_s,
+            "return_delay_s": wire.return_delay_s, "packets": wire.packets, "bytes": wire.bytes,
+            "exchanges": [{"kind": e.kind, "protocol": e.protocol, "ids": list(e.ids),
+                           "bytes": e.out_bytes() + e.in_bytes()} for e in wire.exchanges]},
+        "bus_problems": bus_problems(robot, timing.tick_s),
         "model": None if robot.model is None else {
             "file": str(robot.model.path), "root": robot.model.root, "imu_body": robot.model.imu_body,
             "imu_pos_m": list(robot.model.imu_pos), "feet": {s: f.body for s, f in robot.model.feet.items()},
@@ -204,6 +217,13 @@ def _print_description(d: dict) -> None:
     print(f"  bus cycle {deriv['bus_bytes_per_cycle']} bytes = {d['bus_cycle_s'] * 1e3:.2f} ms"
           + (f" at {d['bus']['baud']} baud" if d["bus"] else ""))
     print(f"  rule: {deriv['rule']}")
+    if d["bus_tick"] is not None:
+        bt = d["bus_tick"]
+        print(f"  bus time a tick {bt['time_s'] * 1e3:.2f} ms: {bt['packets']} packets, wire "
+              f"{bt['wire_s'] * 1e3:.2f} ms + host turnaround {bt['turnaround_s'] * 1e3:.0f} ms")
+        for e in bt["exchanges"]:
+            print(f"    {e['kind'].replace('_', ' '):<10} protocol {e['protocol']:.1f}  {e['bytes']:>4} bytes  "
+                  f"IDs {id_list(e['ids'])}")
     print(f"joints (torque margin: stall / holding torque, {d['torque_margin_stance']}):")
     width = max([18] + [len(j["name"]) for j in d["joints"]])
     print(f"  {'name':<{width}} {'id':>3} {'servo':<14} {'proto':>5} {'range [deg]':>16} {'home':>6} "
@@ -225,11 +245,14 @@ def _print_description(d: dict) -> None:
 
 
 def cmd_robot_show(args: argparse.Namespace) -> int:
-    d = describe(_robot(args.robot))
+    robot = _robot(args.robot)
+    d = describe(robot)
     if args.json:
         print(json.dumps(d, indent=2))
     else:
         _print_description(d)
+    if d["bus_problems"]:  # shown above, and refused: `biped run` would refuse it before opening the port
+        raise ConfigError(robot.source, "bus", "; ".join(d["bus_problems"]))
     return 0
 
 

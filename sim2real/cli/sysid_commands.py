@@ -13,10 +13,11 @@ from sim2real.cli.args import (
     add_realtime_arguments,
     baud_rate,
     check_baud,
+    holding_lock,
     output_dir,
     output_file,
-    positive_finite_float,
-    positive_int,
+    float_within,
+    int_within,
     print_result,
     reality_name,
     realtime_flags,
@@ -31,6 +32,14 @@ from sim2real.hardware.excitation import POSES
 from sim2real.robot import DEFAULT_ROBOT, load_robot
 
 EXCITE_TICK_MS = 10.0  # 100 Hz: ten goals a period of a 10 Hz chirp; a bus cycle of the default robot is ~3 ms
+# What the excitation's numbers mean bounds them (refused at parse time, the flag named):
+MIN_TICK_MS, MAX_TICK_MS = 1.0, 1000.0  # a bus cycle takes ~3 ms; past a second a 0.2-10 Hz chirp is not sampled
+TICK_WHY = "no bus turns a tick around in under 1 ms; past a second the chirp is not sampled"
+MAX_CHIRP_S = 600.0  # ten minutes a chirp: 120 periods of its lowest frequency (0.2 Hz), and it runs per joint
+CHIRP_WHY = "ten minutes: 120 periods of the lowest frequency, for each joint"
+MAX_STEP_DEG = 90.0  # a step of a quarter turn; each is cut to the joint's room around home anyway
+STEP_WHY = "a quarter turn; each is cut to the joint's room"
+MAX_ITERS = 10_000  # the optimizer's iterations: 30 is the default, a few hundred more than any fit took
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -50,12 +59,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ex.add_argument("--joints", nargs="+", metavar="NAME",
                     help="joints or pairs to excite (e.g. knee hip_pitch waist_yaw; default: all)")
     ex.add_argument("--pose", choices=POSES, default="suspended", help="how the robot is held (default: %(default)s)")
-    ex.add_argument("--tick-ms", type=positive_finite_float, default=EXCITE_TICK_MS,
-                    help="the program's tick (default %(default)g ms: as fast as the bus allows, not the "
-                    "controller's tick)")
-    ex.add_argument("--chirp-s", type=positive_finite_float, metavar="S",
+    ex.add_argument("--tick-ms", type=float_within(MIN_TICK_MS, MAX_TICK_MS, TICK_WHY),
+                    help=f"the program's tick (default {EXCITE_TICK_MS:g} ms, or the robot's bus time a tick if "
+                    "longer: as fast as the bus allows, not the controller's tick)")
+    ex.add_argument("--chirp-s", type=float_within(0.0, MAX_CHIRP_S, CHIRP_WHY, low_open=True), metavar="S",
                     help="seconds of each chirp (default 12; longer resolves low frequencies better)")
-    ex.add_argument("--steps", type=positive_finite_float, nargs="+", metavar="DEG",
+    ex.add_argument("--steps", type=float_within(0.0, MAX_STEP_DEG, STEP_WHY, low_open=True), nargs="+", metavar="DEG",
                     help="step amplitudes (default 2 5 10 20 deg hung, 1 2 4 standing; cut to the joint's room)")
     ex.add_argument("--trace", type=TRACE_FILE, required=True, help="trace CSV to write (+ JSON sidecar)")
     ex.add_argument("--reality", type=reality_name, metavar="PROFILE",
@@ -78,7 +87,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     fit.add_argument("--report", type=output_dir, metavar="DIR",
                      help="write mujoco.sysid's HTML report and an overlay plot (overlay.png) here")
     fit.add_argument("--per-joint", action="store_true", help="fit every joint on its own, not per servo model")
-    fit.add_argument("--max-iters", type=positive_int, default=30, help="optimizer iterations at most (default 30)")
+    fit.add_argument("--max-iters", type=int_within(1, MAX_ITERS, "each replays every trace"), default=30,
+                     help="optimizer iterations at most (default 30)")
     fit.add_argument("--json", action="store_true", help="print the result as one JSON object")
     fit.set_defaults(func=cmd_sysid, check=check_sysid)
 
@@ -90,12 +100,25 @@ def _program(args: argparse.Namespace):
     if robot.bus is None:
         raise UsageError(f"robot {robot.name} has no Dynamixel bus (a simulation-only character): "
                          "it cannot be excited through servos")
-    settings = ExcitationSettings.for_pose(args.pose, args.tick_ms / 1e3)
+    settings = ExcitationSettings.for_pose(args.pose, (args.tick_ms or excite_tick_ms(robot)) / 1e3)
     if args.chirp_s is not None:
         settings = dataclasses.replace(settings, chirp_s=args.chirp_s)
     if args.steps:
         settings = dataclasses.replace(settings, step_deg=tuple(args.steps))
     return robot, build_program(robot, args.pose, args.joints, settings)
+
+
+def excite_tick_ms(robot) -> float:
+    """The default excitation tick [ms]: :data:`EXCITE_TICK_MS`, or the whole ms above the
+    robot's bus time a tick - positions, board, goals and the traced velocity and load - where
+    that is longer (a chain with servos read one by one, say)."""
+    import math
+
+    from sim2real.hardware.readings import traced_registers
+    from sim2real.robot.bus_plan import bus_time
+
+    needed = bus_time(robot, motion=traced_registers(robot)).total_s * 1e3
+    return max(EXCITE_TICK_MS, float(math.ceil(needed)))
 
 
 def check_excite(args: argparse.Namespace) -> None:
@@ -108,6 +131,7 @@ def check_excite(args: argparse.Namespace) -> None:
         raise UsageError("--reality applies to the simulated bus; a real robot is its own reality")
 
 
+@holding_lock("trace", what="biped excite", flag="--trace")  # the trace and its sidecar: one writer
 def cmd_excite(args: argparse.Namespace) -> int:
     from sim2real.cli.deploy_commands import run_exit_code
     from sim2real.hardware.deploy import drive
@@ -159,6 +183,7 @@ def check_sysid(args: argparse.Namespace) -> None:
     _sysid_robot(args)
 
 
+@holding_lock("report", what="biped sysid", flag="--report", folder=True)
 def cmd_sysid(args: argparse.Namespace) -> int:
     import yaml
 

@@ -483,20 +483,22 @@ def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
 
 def tick_bounds(robot: RobotSpec) -> tuple[float, float, str]:
     """The control ticks a controller may run at on ``robot``: (shortest, longest [s], where
-    both come from, in words).  Shortest: one bus cycle - the sync write of every goal, the
-    sync read of every position and the sensor board's read at the robot's baud
-    (:func:`sim2real.robot.timing.bus_cycle_s`) - or one physics step for a robot without a
+    both come from, in words).  Shortest: one bus cycle - the reads of every position and of
+    the sensor board and the writes of every goal, grouped by protocol and control table, at
+    the robot's baud, with the host's turnaround per exchange
+    (:func:`sim2real.robot.bus_plan.bus_time`) - or one physics step for a robot without a
     bus.  Longest: half the Bus Watchdog that start-up sets on servos that have one (goals
     must keep coming though one tick runs late), else the format's bound."""
     from sim2real.hardware.dynamixel.registers import Reg
     from sim2real.hardware.dynamixel.startup import WATCHDOG_MS
-    from sim2real.robot.timing import PHYSICS_DT_S, bus_cycle_bytes, bus_cycle_s
+    from sim2real.robot.bus_plan import bus_time
+    from sim2real.robot.timing import PHYSICS_DT_S
 
-    cycle, step = bus_cycle_s(robot), robot.physics_dt_s or PHYSICS_DT_S
-    if robot.bus is not None and cycle >= step:
-        low = cycle
-        why = (f"the shortest is one bus cycle ({bus_cycle_bytes(robot)} bytes at {robot.bus.baud} baud, "
-               "sim2real/robot/timing.py)")
+    time, step = bus_time(robot), robot.physics_dt_s or PHYSICS_DT_S
+    if time is not None and time.total_s >= step:
+        low = time.total_s
+        why = (f"the shortest is one bus cycle ({time.packets} packets, {time.bytes} bytes at {robot.bus.baud} baud "
+               "with the host's turnaround, sim2real/robot/bus_plan.py)")
     else:
         low, why = step, f"the shortest is one physics step ({step * 1e3:g} ms, longer than a bus cycle)"
     watched = robot.bus is not None and any(
@@ -509,3 +511,28 @@ def tick_bounds(robot: RobotSpec) -> tuple[float, float, str]:
         high = TICK_RANGE_S[1]
         why += "; the longest the format's"
     return low, high, why
+
+
+def bus_problems(robot: RobotSpec, tick_s: float, *, baud: int | None = None, motion: tuple[str, ...] = ()) -> list[str]:
+    """Why ``robot``'s bus cannot run a tick of ``tick_s`` [s] at ``baud`` (default: the
+    robot's), every reason at once: a device that cannot be set to the baud rate (servos of
+    both protocols that need different ones), a tick's reads and writes (and ``motion``'s
+    extra reads) that take longer than the tick, or a bus that no tick the Bus Watchdog
+    allows can serve.  Empty when it can; checked by ``biped robot show`` and before a run
+    opens its port."""
+    from sim2real.robot.bus_plan import baud_problem, bus_devices, bus_time, tick_problem
+
+    if robot.bus is None:
+        return []
+    baud = baud or robot.bus.baud
+    problems = [p for p in (baud_problem(bus_devices(robot), baud),) if p]
+    time = bus_time(robot, baud, motion)
+    _, high, why = tick_bounds(robot)
+    if time.total_s > high + 1e-12:
+        problems.append(f"one control tick's bus traffic takes {time.total_s * 1e3:.2f} ms, longer than the longest "
+                        f"tick the robot can run at ({high * 1e3:.3g} ms: {why.split('; ')[-1]}): {time.describe()}")
+    else:
+        problem = tick_problem(robot, tick_s, baud, motion)
+        if problem:
+            problems.append(problem)
+    return problems

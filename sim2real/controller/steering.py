@@ -14,6 +14,9 @@ from typing import Callable
 import numpy as np
 
 
+MAX_SCHEDULE_S = 7 * 24 * 3600.0  # a schedule's last time [s]: a run's longest (a trace's MAX_TIME_S)
+
+
 def parse_schedule(text: str) -> list[tuple[float, float]]:
     """A user's heading schedule, ``"0:0,5:90,12:-45"`` (seconds since the start : degrees from
     the start's heading, times increasing) or one angle ``"30"`` (from the start on), as
@@ -28,8 +31,9 @@ def parse_schedule(text: str) -> list[tuple[float, float]]:
             pair = (float(t), float(deg)) if sep else (0.0, float(t))
         except ValueError:
             raise ValueError(f"{item!r} is not SECONDS:DEGREES (or DEGREES)") from None
-        if not all(np.isfinite(pair)) or pair[0] < 0 or abs(pair[1]) > 360:
-            raise ValueError(f"{item!r}: a time >= 0 s and a heading within +-360 deg")
+        if not all(np.isfinite(pair)) or not 0 <= pair[0] <= MAX_SCHEDULE_S or abs(pair[1]) > 360:
+            raise ValueError(f"{item!r}: a time within [0, {MAX_SCHEDULE_S:g}] s (a week: the longest run) and a "
+                             "heading within +-360 deg")
         if out and pair[0] <= out[-1][0]:
             raise ValueError(f"{item!r}: times must increase")
         out.append(pair)

@@ -46,7 +46,16 @@ class ServoError(BipedError):
 
 class Bus(ABC):
     """A chain of devices (servos, a sensor board) on one port, each answering by its ID.
-    Values are unsigned ints of ``size`` bytes at a control-table ``address``."""
+    Values are unsigned ints of ``size`` bytes at a control-table ``address``.
+
+    The devices may speak different protocols and keep an entry at different addresses: a
+    sync read, bulk read or sync write is one instruction, which reaches only devices of one
+    protocol whose firmware has it (and, for the sync ones, one address and size).  Asked to
+    reach others, a bus raises ``ValueError`` naming them
+    (:func:`sim2real.robot.bus_plan.check_group`) and sends nothing; the chain above plans
+    its accesses so that this never happens (:mod:`sim2real.robot.bus_plan`)."""
+
+    baud: int | None = None  # [bit/s] the port's rate, where there is a wire
 
     def open(self) -> None:
         """Open the port (idempotent)."""
@@ -81,6 +90,11 @@ class Bus(ABC):
         """Every listed device's value.  Raises :class:`CommunicationError` naming every device
         that did not answer, and :class:`ServoError` for a status with an error (the hardware
         alert included, which the Dynamixel SDK's group classes drop)."""
+
+    @abstractmethod
+    def bulk_read(self, items: dict[int, tuple[int, int]]) -> dict[int, int]:
+        """Each listed device's ``size`` bytes at its own ``address`` (``items``: id -> (address,
+        size)) in one instruction, with the errors of :meth:`sync_read`."""
 
     @abstractmethod
     def sync_write(self, address: int, size: int, values: dict[int, int]) -> None:

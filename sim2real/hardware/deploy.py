@@ -40,7 +40,8 @@ from sim2real.controller.file import Controller
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
 from sim2real.controller.reach import NO_REACH, metres
-from sim2real.errors import BipedError, UsageError
+from sim2real.controller.checks import bus_problems
+from sim2real.errors import BipedError, ConfigError, UsageError
 from sim2real.hardware.bus import Bus, CommunicationError, ServoError
 from sim2real.hardware.dynamixel.chain import BoardReading, ServoChain, board_reports
 from sim2real.hardware.dynamixel.errors import decode_hardware_error
@@ -52,7 +53,7 @@ from sim2real.hardware.realtime import (
     release_realtime,
     request_realtime,
 )
-from sim2real.hardware.readings import MotionReadings
+from sim2real.hardware.readings import MotionReadings, traced_registers
 from sim2real.hardware.trace import GYRO_CHANNELS, HEADING_CHANNEL, Channel, TraceWriter
 from sim2real.robot import RobotSpec
 
@@ -417,6 +418,10 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
     log = _SafeLog(log)
     chain = ServoChain(bus, robot)
     mapping = ServoMapping(robot)
+    traced = traced_registers(robot) if trace_path is not None and getattr(policy, "trace_motion", False) else ()
+    problems = bus_problems(robot, policy.tick_s, baud=bus.baud, motion=traced)
+    if problems:  # before any port is opened: this bus cannot serve this tick
+        raise ConfigError(robot.source, "bus", "; ".join(problems))
     trace = None
     startup_error: StartupError | None = None
     grant = None
@@ -431,7 +436,7 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
             signals.check()
             motion = MotionReadings(chain, robot) if getattr(policy, "trace_motion", False) else None
             if motion is not None and motion.left_out:
-                log(f"note: the trace leaves out servo {' and '.join(motion.left_out)}: not at one address on every servo")
+                log(f"note: the trace leaves out servo {' and '.join(motion.left_out)}: not on every servo")
             if trace_path is not None:
                 board_channels = ((Channel(HEADING_CHANNEL, "rad"),) if board_reports(robot, "heading") else ()) + \
                     (tuple(Channel(name, "rad/s") for name in GYRO_CHANNELS) if board_reports(robot, "gyro") else ())

@@ -8,6 +8,10 @@ locked while torque is on, the e-manual's ranges, goals within the position limi
     bus.faults.alert[7] = 0b100000         # servo 7 overloads: alert bit, torque off
     bus.faults.timeouts[3] = 2             # servo 3 misses its next two replies
 
+A sync read, bulk read or sync write reaches only devices of one protocol whose firmware has
+the instruction, as on a real chain (:func:`~sim2real.robot.bus_plan.check_group`); ``sent``
+lists every instruction packet, for tests of what a tick costs.
+
 Servos with a Bus Watchdog (X series, address 98) stop when the host falls silent longer than it
 is set to, as the firmware does (:meth:`MockDevice.watch`).
 """
@@ -32,6 +36,7 @@ from sim2real.hardware.dynamixel.errors import (
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.dynamixel.chain import decode
 from sim2real.robot import RobotSpec
+from sim2real.robot.bus_plan import BULK_READ, READ, SYNC_READ, SYNC_WRITE, WRITE, check_group
 from sim2real.robot.profiles import DeviceProfile
 
 WATCHDOG_UNIT_S = 0.020  # Bus Watchdog (98) counts in 20 ms
@@ -210,6 +215,9 @@ class MockBus(Bus):
         # (id, address, value) of every write and sync-write item a device received, applied or
         # refused: what went over the wire, for tests
         self.writes: list[tuple[int, int, int]] = []
+        # (instruction, IDs) of every instruction packet sent ("read", "sync_read", "bulk_read", ...)
+        self.sent: list[tuple[str, tuple[int, ...]]] = []
+        self.profiles = {i: d.profile for i, d in self.devices.items()}
 
     def open(self) -> None:
         self.is_open = True
@@ -254,34 +262,49 @@ class MockBus(Bus):
 
     # -- Bus --------------------------------------------------------------------------------------
     def ping(self, dxl_id: int) -> int:
+        self.sent.append(("ping", (dxl_id,)))
         device = self._device(dxl_id)
         return device.get_named(Reg.MODEL_NUMBER)
 
     def read(self, dxl_id: int, address: int, size: int) -> int:
+        self.sent.append((READ, (dxl_id,)))
         device = self._device(dxl_id)
         value, error = device.read(address, size)
         self._raise(device, error, value)
         return value
 
     def write(self, dxl_id: int, address: int, size: int, value: int) -> None:
+        self.sent.append((WRITE, (dxl_id,)))
         device = self._device(dxl_id)
         self.writes.append((dxl_id, address, value))
         self._raise(device, device.write(address, size, value))
 
     def sync_read(self, ids: list[int], address: int, size: int) -> dict[int, int]:
+        check_group(SYNC_READ, self.profiles, [(i, address, size) for i in ids])  # as a real chain: one protocol
+        self.sent.append((SYNC_READ, tuple(ids)))
+        return self._group_read(SYNC_READ, {i: (address, size) for i in ids})
+
+    def bulk_read(self, items: dict[int, tuple[int, int]]) -> dict[int, int]:
+        check_group(BULK_READ, self.profiles, [(i, *where) for i, where in items.items()])
+        self.sent.append((BULK_READ, tuple(items)))
+        return self._group_read(BULK_READ, items)
+
+    def _group_read(self, kind: str, items: dict[int, tuple[int, int]]) -> dict[int, int]:
         values, missing = {}, []
-        for dxl_id in ids:
+        for dxl_id, (address, size) in items.items():
             try:
                 values[dxl_id] = self._device(dxl_id).get(address, size)
             except CommunicationError:
                 missing.append(dxl_id)
         if missing:
-            raise CommunicationError(missing, "no status packet in sync read")
-        for dxl_id in ids:  # each status packet carries its servo's error byte
+            raise CommunicationError(missing, f"no status packet in {kind.replace('_', ' ')}")
+        for dxl_id in items:  # each status packet carries its servo's error byte
             self._raise(self.devices[dxl_id], self.devices[dxl_id].alert(), values[dxl_id])
         return values
 
     def sync_write(self, address: int, size: int, values: dict[int, int]) -> None:
+        check_group(SYNC_WRITE, self.profiles, [(i, address, size) for i in values])
+        self.sent.append((SYNC_WRITE, tuple(values)))
         self._advance()
         for dxl_id, value in values.items():
             device = self.devices.get(dxl_id)
@@ -291,4 +314,5 @@ class MockBus(Bus):
             device.write(address, size, value)  # the firmware's rules; no status packet says if it refused
 
     def reboot(self, dxl_id: int) -> None:
+        self.sent.append(("reboot", (dxl_id,)))
         self._device(dxl_id).reboot()

@@ -4,8 +4,9 @@ source asks for them (an excitation program, for system identification).
 
 Values are converted to the joint's frame and SI-like units: velocity [rad/s]; load as a
 share of the servo's maximum torque [1] (Present Load, 0.1 % a unit); current [A].  A
-register is read only if every servo has it at one address (one sync read); a mixed chain
-without one records what it can and says what it left out.  No MuJoCo here.
+register is read only if every servo has it (at whatever address: the chain groups the read
+by protocol and layout); a mixed chain without one records what it can and says what it left
+out.  No MuJoCo here.
 """
 
 from __future__ import annotations
@@ -23,8 +24,8 @@ from sim2real.robot import RobotSpec
 class MotionReadings:
     """The extra registers to read, with each joint's factor into its channel's unit."""
 
-    def __init__(self, chain: ServoChain, robot: RobotSpec):
-        self.chain = chain
+    def __init__(self, chain: ServoChain | None, robot: RobotSpec):
+        self.chain = chain  # None: only to ask what it would read (:func:`traced_registers`)
         profiles = [j.servo.profile for j in robot.joints]
         direction = np.array([float(j.servo.direction) for j in robot.joints])
         self.reads: list[tuple[Reg, np.ndarray]] = []
@@ -33,9 +34,7 @@ class MotionReadings:
         self.spanned = True  # read in one sync read of their span, while that works
 
         def common(reg: Reg) -> bool:
-            places = {(p.control_table[reg].address, p.control_table[reg].size) if reg in p.control_table else None
-                      for p in profiles}
-            return len(places) == 1 and None not in places
+            return all(reg in p.control_table for p in profiles)
 
         def add(reg: Reg, factor: np.ndarray, suffix: str, unit: str) -> None:
             self.reads.append((reg, direction * factor))
@@ -69,3 +68,9 @@ class MotionReadings:
         if not self.spanned:
             values = {reg: self.chain.sync_read(reg, attempts=attempts) for reg in names}
         return np.concatenate([values[reg] * factor for reg, factor in self.reads])
+
+
+def traced_registers(robot: RobotSpec) -> tuple[Reg, ...]:
+    """The registers :class:`MotionReadings` reads every tick on ``robot``: what a traced
+    excitation adds to the tick's bus time (:func:`sim2real.robot.bus_plan.bus_time`)."""
+    return tuple(reg for reg, _ in MotionReadings(None, robot).reads)

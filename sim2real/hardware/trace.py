@@ -18,19 +18,20 @@ a channel a tick, unique channel names.  Each channel has a unit (:func:`loop_ch
 
 from __future__ import annotations
 
-import csv
 import json
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
 from sim2real.atomic_json import write_text_atomic
 from sim2real.errors import ConfigError
+from sim2real.hardware.trace_rows import Rows, read_rows
 from sim2real.input_files import read_regular_bytes
 
 FLUSH_EVERY_S = 1.0
@@ -76,11 +77,29 @@ def sidecar_path(path: Path | str) -> Path:
     return Path(path).with_suffix(".json")
 
 
+class TraceCut(OSError):
+    """The disk refused the trace part way: the file was cut back to its last whole row.
+    The message says what was kept (rows, seconds, path) and why, without ``[Errno N]``."""
+
+    def __init__(self, cause: OSError, message: str):
+        super().__init__(cause.errno, message)
+        self.message = message
+
+    def __str__(self) -> str:
+        return self.message
+
+
 class TraceWriter:
     """Streams the loop's trace to ``path`` (and its sidecar: ``metadata`` plus the columns
     and the wall-clock start time), one row a :meth:`write`; ``extra`` channels (e.g.
     servo velocities, :mod:`sim2real.hardware.readings`) follow the loop's, their units in
-    the sidecar."""
+    the sidecar.
+
+    Rows are kept in memory and written at least once every ``FLUSH_EVERY_S``, whole rows
+    at a time; if the disk refuses part of a write (full, gone), the file is cut back to its
+    last whole row and :class:`TraceCut` says how many rows (and seconds) it keeps.  A trace
+    that keeps no row is removed with its sidecar: a run that failed before writing anything
+    useful leaves no empty files."""
 
     def __init__(self, path: Path | str, joints: Sequence[str], metadata: Mapping[str, Any],
                  extra: Sequence[Channel] = ()):
@@ -90,38 +109,115 @@ class TraceWriter:
         units = {"units": {c.name: c.unit for c in extra}} if extra else {}
         write_text_atomic(sidecar_path(self.path), json.dumps(
             {**metadata, "columns": self.columns, **units, "start_time": time.time()}, indent=1))
-        self._file = open(self.path, "w", newline="")
-        self._csv = csv.writer(self._file)
-        self._csv.writerow(self.columns)
+        self._fd: int | None = None
+        self._pending: list[str] = []  # rows not yet written, each with its end of line
+        self._pending_t: list[float] = []  # their times [s]
+        self.rows, self.last_t = 0, 0.0  # rows written whole, and the last one's time [s]
+        self._size = 0  # bytes of the file that are whole rows (the header included)
+        try:
+            self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o644)
+            self._write_all(_row_text(self.columns))  # now: a full disk is found before anything moves
+        except (OSError, _Partial) as exc:
+            self._remove()
+            raise (exc.cause if isinstance(exc, _Partial) else exc) from None
         self._last_flush = time.monotonic()
 
     def write(self, t: float, tick: int, goal: np.ndarray, present: np.ndarray, feet: np.ndarray,
               up: np.ndarray, compute_s: float, bus_s: float, overrun: bool, extra: Sequence[float] = ()) -> None:
         """One tick: ``t`` [s] since the loop began, goals and present angles (joints,) [rad],
         feet (2,) touching, up (3,), compute and bus time [s], the deadline missed, and the
-        ``extra`` channels' values."""
-        row = [f"{t:.6f}", tick, *(f"{v:.6f}" for v in goal), *(f"{v:.6f}" for v in present),
-               int(feet[0]), int(feet[1]), *(f"{v:.5f}" for v in up),
-               f"{compute_s * 1e3:.4f}", f"{bus_s * 1e3:.4f}", int(overrun), *(f"{v:.6g}" for v in extra)]
-        self._csv.writerow(row)
+        ``extra`` channels' values.  :class:`TraceCut` when the disk refuses the rows."""
+        if self._fd is None:
+            raise ValueError(f"the trace {self.path} is closed")
+        row = [f"{t:.6f}", str(tick), *(f"{v:.6f}" for v in goal), *(f"{v:.6f}" for v in present),
+               str(int(feet[0])), str(int(feet[1])), *(f"{v:.5f}" for v in up),
+               f"{compute_s * 1e3:.4f}", f"{bus_s * 1e3:.4f}", str(int(overrun)), *(f"{v:.6g}" for v in extra)]
+        self._pending.append(_row_text(row))
+        self._pending_t.append(t)
         now = time.monotonic()
         if now - self._last_flush >= FLUSH_EVERY_S:
-            self._file.flush()
             self._last_flush = now
+            self._flush()
 
     def close(self) -> None:
-        """Flush and close.  A flush the disk refuses raises its ``OSError`` (the caller says
-        what was lost), and the file is closed all the same: never left open to fail again
-        when it is collected."""
-        if self._file.closed:
+        """Write the rows still held and close.  A write the disk refuses raises
+        :class:`TraceCut` (the file cut back to its last whole row), and the file is closed all
+        the same; a trace without a row is removed with its sidecar."""
+        if self._fd is None:
             return
         try:
-            self._file.flush()
+            self._flush()
         finally:
+            fd, self._fd = self._fd, None
+            os.close(fd)
+            if self.rows == 0:
+                self._remove()
+
+    def _flush(self) -> None:
+        if not self._pending:
+            return
+        text, times = "".join(self._pending), self._pending_t
+        self._pending, self._pending_t = [], []
+        try:
+            self._write_all(text)
+        except _Partial as cut:
+            keep = text.rfind("\n", 0, cut.written) + 1  # the whole rows of what went in
+            whole = text.count("\n", 0, keep)
+            self._truncate(self._size + keep)
+            self.rows += whole
+            self.last_t = times[whole - 1] if whole else self.last_t
+            cause = cut.cause
+            kept = (f"kept {self.rows} rows ({self.last_t:.1f} s) in {self.path}, which ends at its last whole row"
+                    if self.rows else f"no row kept: {self.path} and its sidecar are removed")
+            fd, self._fd = self._fd, None
+            if fd is not None:
+                os.close(fd)
+            if not self.rows:
+                self._remove()
+            raise TraceCut(cause, f"{cause.strerror or cause}: {kept}") from cause
+        self.rows += len(times)
+        self.last_t = times[-1]
+
+    def _write_all(self, text: str) -> None:
+        """``text`` appended whole, or :class:`_Partial` saying how much of it went in."""
+        data, written = text.encode("ascii"), 0
+        while written < len(data):
             try:
-                self._file.close()
-            except OSError:  # its own flush of the same rows, refused again
+                written += os.write(self._fd, data[written:])
+            except OSError as exc:
+                raise _Partial(exc, written) from exc
+        self._size += len(data)
+
+    def _truncate(self, size: int) -> None:
+        try:
+            os.ftruncate(self._fd, size)
+            self._size = size
+        except OSError:  # cutting back frees space and does not fail; if it does, the reader drops a cut row
+            pass
+
+    def _remove(self) -> None:
+        """Remove the trace and its sidecar (nothing of use was written)."""
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+        for path in (self.path, sidecar_path(self.path)):
+            try:
+                path.unlink()
+            except FileNotFoundError:
                 pass
+
+
+class _Partial(Exception):
+    """A write refused after ``written`` of its bytes."""
+
+    def __init__(self, cause: OSError, written: int):
+        super().__init__(str(cause))
+        self.cause, self.written = cause, written
+
+
+def _row_text(fields: Sequence[str]) -> str:
+    """One CSV row as ``csv.writer`` writes it (numbers and names: nothing to quote)."""
+    return ",".join(fields) + "\r\n"
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,7 +293,7 @@ class Trace:
         return np.stack([self["foot_left"], self["foot_right"]], axis=1) > 0.5
 
     @classmethod
-    def read(cls, path: Path | str) -> "Trace":
+    def read(cls, path: Path | str, reader: Callable[..., Rows] | None = None) -> "Trace":
         """A trace CSV and its sidecar.
 
         Refused with :class:`ConfigError` naming the file: a file that is not a regular
@@ -210,55 +306,35 @@ class Trace:
         a missing sidecar (metadata ``{}``), and so are gaps of more than ``GAP_TICKS``
         ticks without a row (the tick: the sidecar's ``tick_s``, else the median step).
         Channels the loop writes get their units from :func:`loop_channels`; others have the
-        unit "".  Joint angles against a robot's ranges: :func:`check_joint_angles`.
+        unit "".  Joint angles against a robot's ranges: :func:`check_joint_angles`.  The rows
+        are read in chunks (:mod:`sim2real.hardware.trace_rows`: a file past its
+        ``MAX_TRACE_BYTES`` is refused); ``reader``: another reader of them, e.g. its
+        reference ``read_rows_plain``.
         """
         path = Path(path)
         source = str(path)
         if path.suffix.lower() == ".json":
             raise ConfigError(source, "", "a trace is the CSV file; a .json beside it is its sidecar")
-        raw = read_regular_bytes(path, source)  # a FIFO or a device refused unopened
-        try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError:
-            text = "\0"
-        if "\0" in text:
-            raise ConfigError(source, "", "not a trace: a binary file, not CSV text")
-        if not text.strip():
-            raise ConfigError(source, "", "the trace is empty (no header row)")
         notes: list[str] = []
-        meta = _read_sidecar(path, notes)
-        lines = text.splitlines(keepends=True)
-        rows = list(csv.reader(lines))
-        while len(rows) > 1 and not rows[-1]:  # blank lines at the end
-            rows.pop()
-            lines.pop()
-        header, rows = rows[0], rows[1:]
-        if len(set(header)) != len(header) or not all(header):
-            raise ConfigError(source, "header", "column names must be unique and non-empty")
-        columns = meta.pop("columns", None)
-        if isinstance(columns, list) and columns != header:
-            missing = [c for c in columns if c not in header]
-            extra = [c for c in header if c not in columns]
-            raise ConfigError(source, "header", f"does not match the columns of its sidecar {sidecar_path(path).name}"
-                              f" (missing {missing[:3]}, unexpected {extra[:3]})")
-        if TIME not in header:
-            raise ConfigError(source, "header", f"has no {TIME} column")
-        if rows and (not lines[-1].endswith(("\n", "\r")) or len(rows[-1]) < len(header)):
-            rows.pop()
+        meta: dict[str, Any] = {}
+
+        def check_header(header: list[str]) -> None:  # before any row is read
+            meta.update(_read_sidecar(path, notes))
+            columns = meta.pop("columns", None)
+            if isinstance(columns, list) and columns != header:
+                missing = [c for c in columns if c not in header]
+                extra = [c for c in header if c not in columns]
+                raise ConfigError(source, "header", f"does not match the columns of its sidecar "
+                                  f"{sidecar_path(path).name} (missing {missing[:3]}, unexpected {extra[:3]})")
+            if TIME not in header:
+                raise ConfigError(source, "header", f"has no {TIME} column")
+
+        # in chunks, in bounded memory, a file past MAX_TRACE_BYTES refused (a FIFO or a device unopened)
+        header, values, cut = (reader or read_rows)(path, source, check_header)
+        if cut:
             notes.append(f"{source}: the last row is cut short (a run killed mid-write?): dropped")
-        if not rows:
+        if not len(values):
             raise ConfigError(source, "", "the trace has no rows")
-        values = np.empty((len(rows), len(header)))
-        for k, row in enumerate(rows):
-            if len(row) != len(header):
-                raise ConfigError(source, f"row {k + 2}", f"has {len(row)} fields, the header {len(header)}")
-            for j, cell in enumerate(row):
-                try:
-                    values[k, j] = float(cell)
-                except ValueError:
-                    values[k, j] = math.nan
-                if not math.isfinite(values[k, j]):
-                    raise ConfigError(source, f"row {k + 2}", f"{header[j]}: {cell!r} is not a finite number")
         t = header.index(TIME)
         _check_times(values[:, t], meta, source, notes)
         joints = [name.removesuffix(GOAL) for name in header if name.endswith(GOAL)]
@@ -272,8 +348,9 @@ class Trace:
                 raise ConfigError(source, f"row {k + 2}", f"{name}: {values[k, j]:.6g} rad is more than a full turn "
                                   f"(|angle| <= 2 pi): not an angle in radians (degrees?)")
         others = [j for j in range(len(header)) if j != t]
-        return cls(values[:, t], values[:, others], tuple(Channel(header[j], units.get(header[j], "")) for j in others),
-                   meta, tuple(notes))
+        times, data = values[:, t].copy(), values[:, others]
+        del values  # the rows as read go before the trace copies its own: two arrays at most, not three
+        return cls(times, data, tuple(Channel(header[j], units.get(header[j], "")) for j in others), meta, tuple(notes))
 
 
 def _check_times(times: np.ndarray, meta: Mapping[str, Any], source: str, notes: list[str]) -> None:

@@ -20,6 +20,7 @@ from sim2real.robot import anthropometry
 from sim2real.robot.anatomy import DEFAULT_FORWARD, FORWARDS
 from sim2real.robot.paths import robots_dir
 from sim2real.robot.profiles import DeviceProfile, load_profile
+from sim2real.robot.bus_plan import baud_problem
 from sim2real.robot.spec import (
     AXES,
     CENTER_LOCATIONS,
@@ -47,7 +48,6 @@ from sim2real.robot.spec import (
     RobotSpec,
     SensorBoard,
     ServoMap,
-    common_baud_rates,
 )
 from sim2real.robot.joint_map import box_location_problems, id_problems, joint_map_problems, raise_all
 from sim2real.robot.validation import Node, load_yaml, show, show_name
@@ -156,10 +156,12 @@ def parse_robot(doc: object, source: str, preset: str | None = None) -> RobotSpe
     raise_all(root.source, problems)
     bus = _read_bus(root["bus"]) if root.has("bus") else None
     if bus is not None:
-        rates = common_baud_rates(joints, board)
-        if rates is not None and bus.baud not in rates:
-            raise root.error(f"{bus.baud} is not a baud rate every device on the bus supports "
-                             f"({', '.join(map(str, rates))})", key="bus.baud")
+        devices = {j.servo.id: j.servo.profile for j in joints if j.servo is not None}
+        if board is not None:
+            devices[board.id] = board.profile
+        problem = baud_problem(devices, bus.baud)  # names the servos, by model and protocol
+        if problem:
+            raise root.error(problem, key="bus.baud")
 
     names = {j.name for j in joints}
     control_sets = {}

@@ -55,6 +55,11 @@ INSTRUCTIONS: dict[float, tuple[str, ...]] = {
           "sync_write", "bulk_read", "bulk_write", "fast_sync_read", "fast_bulk_read"),
 }
 _BASIC_INSTRUCTIONS = ("ping", "read", "write")  # every device on a bus answers these
+# What a profile that lists no instructions is taken to answer besides those: what every model of
+# its protocol has (protocol 1.0: Sync Write for all, Bulk Read on MX only - e-manual "Protocol
+# 1.0"; DynamixelSDK protocol1_packet_handler.bulkReadTx: "Available only on Dynamixel MX / X series").
+UNLISTED_INSTRUCTIONS: dict[float, tuple[str, ...]] = {
+    1.0: ("sync_write",), 2.0: ("sync_read", "sync_write", "bulk_read", "bulk_write")}
 
 
 @dataclass(frozen=True)
@@ -145,6 +150,13 @@ class DeviceProfile:
     sensors: dict[str, Any] = field(default_factory=dict)
     baud_rates: tuple[int, ...] = ()  # [bit/s] the rates it can be set to (empty: not listed)
     instructions: tuple[str, ...] = ()  # what its firmware answers, names of INSTRUCTIONS (empty: not listed)
+
+    def has(self, instruction: str) -> bool:
+        """Whether the firmware answers ``instruction`` (a name in :data:`INSTRUCTIONS`): as the
+        profile lists, else as every model of its protocol does (:data:`UNLISTED_INSTRUCTIONS`)."""
+        if self.instructions:
+            return instruction in self.instructions
+        return instruction in _BASIC_INSTRUCTIONS + UNLISTED_INSTRUCTIONS[self.protocol]
 
     def register(self, name: str) -> Register:
         try:

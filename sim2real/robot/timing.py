@@ -3,10 +3,11 @@
 Seed 000 updates its networks every 0.07 s for a human-sized character.  A smaller
 robot moves faster: by dynamic similarity (Froude scaling, time ~ sqrt(length / g)) its
 tick is ``0.07 * sqrt(L_robot / L_human)`` with L the leg length (hip joint to sole).
-The tick can never be shorter than one bus cycle - the sync write of every goal, the
-sync read of every present position and the read of the sensor board at the configured
-baud (10 bits a byte, Return Delay Time 0) - and it is rounded to a whole number of
-physics steps.  Within one tick a goal may move at most the servo's no-load speed times
+The tick can never be shorter than one tick's bus time - the reads of every present
+position, the read of the sensor board and the writes of every goal, grouped by protocol and
+control table (:mod:`sim2real.robot.bus_plan`), at the configured baud (10 bits a byte,
+Return Delay Time 0), plus the host's turnaround for each exchange that waits for replies -
+and it is rounded to a whole number of physics steps.  Within one tick a goal may move at most the servo's no-load speed times
 the tick.
 """
 
@@ -17,13 +18,11 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 from sim2real.robot import RobotSpec, load_robot
+from sim2real.robot.bus_plan import BITS_PER_BYTE, bus_time, tick_exchanges
 
 HUMAN_TICK_S = 0.07  # seed 000 section 8: spinal reflex delay
 REFERENCE_HUMAN = "human:male_50"  # whose leg length the 0.07 s belongs to
 PHYSICS_DT_S = 0.002  # MuJoCo timestep [s], unless the robot config sets physics_dt_s
-BITS_PER_BYTE = 10  # start + 8 data + stop bits
-POSITION_BYTES = 4  # Present/Goal Position on protocol 2.0 servos
-SENSOR_BLOCK_BYTES = 8  # foot switches + up-vector on the sensor board
 
 
 @dataclass(frozen=True)
@@ -33,8 +32,10 @@ class ControlTiming:
     human_tick_s: float
     leg_length_m: float
     human_leg_length_m: float
-    bus_cycle_s: float  # wire time of one read-activate-write cycle [s]
+    bus_cycle_s: float  # wire time of one tick's packets [s]
     bus_bytes: int
+    bus_time_s: float  # the wire time plus the host's turnaround per exchange awaiting replies [s]
+    bus_packets: int  # instruction packets a tick
     physics_dt_s: float
     substeps: int  # physics steps a tick
     rule: str  # how tick_s was chosen, in words
@@ -42,20 +43,7 @@ class ControlTiming:
 
 def bus_cycle_bytes(robot: RobotSpec) -> int:
     """Bytes on the wire for one control cycle (instructions and status packets)."""
-    servos = [j.servo for j in robot.joints if j.servo is not None]
-    n = len(servos)
-    if n == 0:
-        return 0
-    if servos[0].profile.protocol == 1.0:
-        # SYNC_WRITE of 2-byte goals; READ each servo (no sync read in protocol 1.0)
-        write = 8 + 3 * n
-        read = n * (8 + 8)
-        board = 8 + 6 + SENSOR_BLOCK_BYTES
-    else:
-        write = 14 + n * (1 + POSITION_BYTES)  # header 7, inst, addr 2, len 2, CRC 2
-        read = (14 + n) + n * (11 + POSITION_BYTES)  # SYNC_READ + one status each
-        board = 14 + 11 + SENSOR_BLOCK_BYTES  # READ + status
-    return write + read + (board if robot.sensor_board is not None else 0)
+    return sum(e.out_bytes() + e.in_bytes() for e in tick_exchanges(robot))
 
 
 def bus_cycle_s(robot: RobotSpec) -> float:
@@ -63,6 +51,13 @@ def bus_cycle_s(robot: RobotSpec) -> float:
     if robot.bus is None:
         return 0.0
     return bus_cycle_bytes(robot) * BITS_PER_BYTE / robot.bus.baud
+
+
+def tick_bus_s(robot: RobotSpec) -> float:
+    """One control tick's whole bus time [s]: its wire time and the host's turnaround for each
+    exchange that waits for replies (:class:`sim2real.robot.bus_plan.BusTime`); 0 without a bus."""
+    time = bus_time(robot)
+    return 0.0 if time is None else time.total_s
 
 
 @lru_cache(maxsize=1)
@@ -76,24 +71,28 @@ def control_timing(robot: RobotSpec, physics_dt_s: float | None = None) -> Contr
     leg = robot.leg_length
     human_leg = human_leg_length_m()
     scaled = HUMAN_TICK_S * math.sqrt(leg / human_leg)
-    cycle = bus_cycle_s(robot)
+    cycle = tick_bus_s(robot)
     if robot.control_tick_s is not None:
         wanted, rule = robot.control_tick_s, "fixed by the robot config (control_tick_s)"
     elif scaled < cycle:
-        wanted, rule = cycle, "raised to the bus cycle time"
+        wanted, rule = cycle, "raised to the bus cycle time (the tick's reads and writes)"
     else:
         wanted, rule = scaled, "0.07 s * sqrt(leg length / human leg length)"
     substeps = max(1, round(wanted / physics_dt_s))
     if substeps * physics_dt_s < cycle:
         substeps = math.ceil(cycle / physics_dt_s)
+        if robot.control_tick_s is not None:
+            rule += f", raised to the bus cycle time ({cycle * 1e3:.2f} ms)"
     return ControlTiming(
         tick_s=substeps * physics_dt_s,
         scaled_tick_s=scaled,
         human_tick_s=HUMAN_TICK_S,
         leg_length_m=leg,
         human_leg_length_m=human_leg,
-        bus_cycle_s=cycle,
+        bus_cycle_s=bus_cycle_s(robot),
         bus_bytes=bus_cycle_bytes(robot),
+        bus_time_s=cycle,
+        bus_packets=len(tick_exchanges(robot)),
         physics_dt_s=physics_dt_s,
         substeps=substeps,
         rule=rule + f", rounded to {substeps} physics steps of {physics_dt_s * 1e3:g} ms",

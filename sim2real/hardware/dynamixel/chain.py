@@ -1,7 +1,8 @@
 """A robot's devices on a bus: named registers, signed values, retries, the sensor board.
 
 The middle layer between the real-time loop and any :class:`Bus`: it maps register names to
-addresses from each device's profile, decodes signed fields, retries missing replies
+addresses from each device's profile, groups an access to many servos by protocol and
+control table (:mod:`sim2real.robot.bus_plan`), decodes signed fields, retries missing replies
 (``retries`` more times, then one :class:`CommunicationError` naming the servos), and reads
 the foot switches and up-vector from the sensor board.
 """
@@ -16,6 +17,7 @@ import numpy as np
 from sim2real.hardware.bus import Bus, CommunicationError, ServoError
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.robot import RobotSpec
+from sim2real.robot.bus_plan import BULK_READ, SYNC_READ, SYNC_WRITE, Exchange, board_span, plan_reads, plan_writes, span
 from sim2real.robot.profiles import DeviceProfile, Register
 
 T = TypeVar("T")
@@ -111,40 +113,62 @@ class ServoChain:
         raw = encode(reg, value)
         self.with_retries(lambda: self.bus.write(dxl_id, reg.address, reg.size, raw), attempts, patience_s)
 
-    def _common(self, ids: list[int], name: Reg) -> Register:
-        regs = {(r.address, r.size) for r in (self.register(i, name) for i in ids)}
-        if len(regs) != 1:
-            raise ValueError(f"{name} differs in address or size between servos {ids}: no sync access")
-        return self.register(ids[0], name)
+    def _exchange(self, exchange: Exchange) -> dict[int, int]:
+        """One planned read on the bus -> raw value per device."""
+        if exchange.kind == SYNC_READ:
+            _, address, size = exchange.items[0]
+            return self.bus.sync_read(list(exchange.ids), address, size)
+        if exchange.kind == BULK_READ:
+            return self.bus.bulk_read({i: (address, size) for i, address, size in exchange.items})
+        (dxl_id, address, size), = exchange.items
+        return {dxl_id: self.bus.read(dxl_id, address, size)}
+
+    def _read_span(self, names: list[Reg], ids: list[int], attempts: int | None,
+                   patience_s: float) -> dict[int, int]:
+        """The raw bytes ``names`` span on each device of ``ids``, read in the exchanges
+        :func:`~sim2real.robot.bus_plan.plan_reads` groups them into (by protocol and layout);
+        each exchange is tried ``attempts`` times."""
+        raw: dict[int, int] = {}
+        for exchange in plan_reads(self.devices, names, ids):
+            raw.update(self.with_retries(lambda e=exchange: self._exchange(e), attempts, patience_s))
+        return raw
 
     def sync_read(self, name: Reg, ids: list[int] | None = None, attempts: int | None = None,
                   patience_s: float = 0.0) -> np.ndarray:
-        """Decoded values in ``ids`` order (default: every servo in joint order)."""
+        """Decoded values in ``ids`` order (default: every servo in joint order): a sync read,
+        bulk read or single reads for each group of servos, as their protocols and models have
+        them (:mod:`sim2real.robot.bus_plan`)."""
         ids = self.servo_ids if ids is None else ids
-        reg = self._common(ids, name)
-        raw = self.with_retries(lambda: self.bus.sync_read(ids, reg.address, reg.size), attempts, patience_s)
-        return np.array([decode(reg, raw[i]) for i in ids], dtype=np.int64)
+        raw = self._read_span([name], ids, attempts, patience_s)
+        return np.array([decode(self.register(i, name), raw[i]) for i in ids], dtype=np.int64)
 
     def sync_read_span(self, names: list[Reg], ids: list[int] | None = None,
                        attempts: int | None = None) -> dict[Reg, np.ndarray]:
-        """Several registers that lie next to each other in one sync read of the bytes they
-        span -> decoded values per register, in ``ids`` order.  One exchange instead of one
-        each, and a reply length no single register has (a late reply cannot pass for the
-        answer to another read)."""
+        """Several registers that lie next to each other, read in one go of the bytes they
+        span -> decoded values per register, in ``ids`` order.  One exchange a group instead
+        of one each, and a reply length no single register has (a late reply cannot pass for
+        the answer to another read).  ``ValueError`` if they are apart on some servo."""
         ids = self.servo_ids if ids is None else ids
-        regs = {name: self._common(ids, name) for name in names}
-        start = min(r.address for r in regs.values())
-        size = max(r.address + r.size for r in regs.values()) - start
-        if size != sum(r.size for r in regs.values()):
-            raise ValueError(f"{', '.join(names)} do not lie next to each other: read them one by one")
-        raw = self.with_retries(lambda: self.bus.sync_read(ids, start, size), attempts)
-        return {name: np.array([decode(r, (raw[i] >> (8 * (r.address - start))) & ((1 << (8 * r.size)) - 1))
-                                for i in ids], dtype=np.int64) for name, r in regs.items()}
+        raw = self._read_span(names, ids, attempts, 0.0)
+        starts = {i: span(self.devices[i], names)[0] for i in ids}
+
+        def field(dxl_id: int, name: Reg) -> int:
+            reg = self.register(dxl_id, name)
+            return decode(reg, (raw[dxl_id] >> (8 * (reg.address - starts[dxl_id]))) & ((1 << (8 * reg.size)) - 1))
+
+        return {name: np.array([field(i, name) for i in ids], dtype=np.int64) for name in names}
 
     def sync_write(self, name: Reg, values: np.ndarray, ids: list[int] | None = None) -> None:
+        """One sync write per protocol and layout (:func:`~sim2real.robot.bus_plan.plan_writes`),
+        without replies; a single write for a servo without sync write."""
         ids = self.servo_ids if ids is None else ids
-        reg = self._common(ids, name)
-        self.bus.sync_write(reg.address, reg.size, {i: encode(reg, v) for i, v in zip(ids, values)})
+        raw = {i: encode(self.register(i, name), v) for i, v in zip(ids, values)}
+        for exchange in plan_writes(self.devices, name, ids):
+            _, address, size = exchange.items[0]
+            if exchange.kind == SYNC_WRITE:
+                self.bus.sync_write(address, size, {i: raw[i] for i in exchange.ids})
+            else:
+                self.bus.write(exchange.ids[0], address, size, raw[exchange.ids[0]])
 
     def torque(self, on: bool, ids: list[int] | None = None, attempts: int | None = None,
                patience_s: float = 0.0) -> None:
@@ -169,16 +193,13 @@ class ServoChain:
             raise ValueError(f"robot {self.robot.name} has no sensor board")
         profile = self.devices[self.board_id]
         has_heading, has_gyro = (board_reports(self.robot, sensor) for sensor in ("heading", "gyro"))
-        first = profile.register(Reg.FOOT_SWITCH_LEFT)
-        present = [Reg.UP_VECTOR_Z] + [Reg.HEADING] * has_heading + [Reg.GYRO_X, Reg.GYRO_Y, Reg.GYRO_Z] * has_gyro
-        last = max((profile.register(r) for r in present), key=lambda reg: reg.address)
-        size = last.address + last.size - first.address
-        raw = self.with_retries(lambda: self.bus.read(self.board_id, first.address, size), attempts)
+        first, size = board_span(profile)  # the bytes the tick's bus time counts
+        raw = self.with_retries(lambda: self.bus.read(self.board_id, first, size), attempts)
         block = raw.to_bytes(size, "little")
 
         def field(name: Reg) -> int:
             reg = profile.register(name)
-            offset = reg.address - first.address
+            offset = reg.address - first
             return decode(reg, int.from_bytes(block[offset:offset + reg.size], "little"))
 
         touching = profile.sensors.get("foot_switch", {}).get("touching", 1)

@@ -9,8 +9,14 @@ Works around the SDK 4.1.0 pitfalls listed in DESIGN.md section 6, in this layer
 * per-servo error bytes: sync reads go through ``syncReadTx`` + ``readRx`` per servo, so
   each status's error byte (and its hardware-alert bit) is kept, and one silent servo is
   named instead of failing the whole read anonymously;
-* protocol 1.0 (AX-12A): no sync read exists and the SDK's protocol-1.0 bulk read is
-  broken, so reads go servo by servo;
+* servos of both protocols on one port: one ``PortHandler``, one ``PacketHandler`` per
+  protocol, each instruction sent with the handler of the servos it addresses.  A sync read
+  exists only in protocol 2.0; a bulk read in 2.0 and on MX servos in 1.0, where the SDK's
+  ``GroupBulkRead`` raises ``TypeError`` (it passes the 2.0 handler's ``fast_option`` to the
+  1.0 handler's ``bulkReadTx``), so bulk reads call ``bulkReadTx`` and collect the status
+  packets here; which servos get which instruction is planned above the bus
+  (:mod:`sim2real.robot.bus_plan`), and an instruction that cannot reach every servo it
+  names is refused before it is sent (``ValueError``);
 * a reply is the status packet of the servo asked *with the expected number of bytes*: the
   SDK takes the first packet with the right ID, so a late status of an exchange given up on
   (a sync read repeated under load) was read as the answer to the next question - a 4-byte
@@ -33,9 +39,12 @@ import dynamixel_sdk as sdk
 from sim2real.hardware.bus import Bus, CommunicationError
 from sim2real.hardware.dynamixel.errors import ERROR_NUMBER_MASK, status_error
 from sim2real.robot import RobotSpec
+from sim2real.robot.bus_plan import BULK_READ, SYNC_READ, SYNC_WRITE, check_group
+from sim2real.robot.profiles import DeviceProfile
 
-P2 = sdk.protocol2_packet_handler
+P1, P2 = sdk.protocol1_packet_handler, sdk.protocol2_packet_handler
 STATUS_OVERHEAD = 4  # protocol 2.0: LENGTH counts instruction, error and the 2 CRC bytes besides the data
+STATUS_OVERHEAD_P1 = 2  # protocol 1.0: LENGTH counts the error byte and the checksum besides the data
 LATENCY_MS = 1.0  # the USB adapter's latency timer, once set to 1 ms (start-up warns otherwise)
 MARGIN_MS = 2.0  # scheduling slack on the host
 
@@ -89,14 +98,41 @@ def _exchange(method):
 
 
 class DynamixelBus(Bus):
+    """The official SDK on one serial port.  With ``robot``, each device is addressed in its
+    own profile's protocol (a chain may mix 1.0 and 2.0); ``protocol`` (default: the first
+    servo's, else 2.0) is that of IDs the robot does not name."""
+
     def __init__(self, port: str, baud: int, robot: RobotSpec | None = None, protocol: float | None = None,
                  return_delay_us: float = 0.0):
+        self.profiles: dict[int, DeviceProfile] = {}
+        if robot is not None:
+            self.profiles = {j.servo.id: j.servo.profile for j in robot.joints if j.servo is not None}
+            if robot.sensor_board is not None:
+                self.profiles[robot.sensor_board.id] = robot.sensor_board.profile
         if protocol is None:
             protocol = next((j.servo.profile.protocol for j in robot.joints if j.servo), 2.0) if robot else 2.0
         self.protocol = protocol
         self.port_name, self.baud = port, baud
         self.port = _Port(port, return_delay_us)
-        self.packets = sdk.PacketHandler(protocol)
+        self.handlers = {p: sdk.PacketHandler(p) for p in sorted({protocol, *(d.protocol for d in self.profiles.values())})}
+        self.packets = self.handlers[protocol]
+
+    def protocol_of(self, dxl_id: int) -> float:
+        """The protocol device ``dxl_id`` speaks."""
+        profile = self.profiles.get(dxl_id)
+        return self.protocol if profile is None else profile.protocol
+
+    def _group(self, kind: str, items: list[tuple[int, int, int]]) -> float:
+        """The protocol of one group instruction to ``items`` ((id, address, size) each), refused
+        (``ValueError``) unless it can reach all of them."""
+        protocols = {self.protocol_of(i) for i, _, _ in items}
+        check_group(kind, self.profiles, items)
+        if len(protocols) > 1:  # IDs the robot does not name, of another protocol than those it does
+            raise ValueError(f"one {kind.replace('_', ' ')} cannot reach servos of protocols 1.0 and 2.0")
+        protocol = protocols.pop()
+        if kind == SYNC_READ and protocol == 1.0:
+            raise ValueError("protocol 1.0 has no sync read: read each servo, or bulk-read MX servos")
+        return protocol
 
     def open(self) -> None:
         if self.port.is_open:
@@ -116,13 +152,14 @@ class DynamixelBus(Bus):
         if result == sdk.COMM_RX_CORRUPT:
             raise CommunicationError(ids, f"{what}: corrupt reply (CRC error)", corrupt=True)
         if result != sdk.COMM_SUCCESS:
-            raise CommunicationError(ids, f"{what}: {self.packets.getTxRxResult(result)}")
+            handler = self.handlers[self.protocol_of(ids[0])]
+            raise CommunicationError(ids, f"{what}: {handler.getTxRxResult(result)}")
         if error:
             raise status_error(ids[0], error, value)
 
     @_exchange
     def ping(self, dxl_id: int) -> int:
-        model, result, error = self.packets.ping(self.port, dxl_id)
+        model, result, error = self.handlers[self.protocol_of(dxl_id)].ping(self.port, dxl_id)
         self._check([dxl_id], result, error & ERROR_NUMBER_MASK, "ping")
         return model
 
@@ -130,7 +167,7 @@ class DynamixelBus(Bus):
         """Protocol 2.0: the status packet of ``dxl_id`` carrying ``size`` data bytes, skipping
         any other that comes first (see the module docstring) -> (data, result, error)."""
         while True:
-            packet, result = self.packets.rxPacket(self.port, False)
+            packet, result = self.handlers[2.0].rxPacket(self.port, False)
             if result != sdk.COMM_SUCCESS:
                 return [], result, 0
             length = sdk.DXL_MAKEWORD(packet[P2.PKT_LENGTH_L], packet[P2.PKT_LENGTH_H])
@@ -140,10 +177,12 @@ class DynamixelBus(Bus):
 
     @_exchange
     def read(self, dxl_id: int, address: int, size: int) -> int:
-        if self.protocol == 1.0:
-            data, result, error = self.packets.readTxRx(self.port, dxl_id, address, size)
+        protocol = self.protocol_of(dxl_id)
+        handler = self.handlers[protocol]
+        if protocol == 1.0:
+            data, result, error = handler.readTxRx(self.port, dxl_id, address, size)
         else:
-            result = self.packets.readTx(self.port, dxl_id, address, size)
+            result = handler.readTx(self.port, dxl_id, address, size)
             data, error = [], 0
             if result == sdk.COMM_SUCCESS:
                 data, result, error = self._status(dxl_id, size)
@@ -154,10 +193,12 @@ class DynamixelBus(Bus):
     @_exchange
     def write(self, dxl_id: int, address: int, size: int, value: int) -> None:
         data = list(int(value).to_bytes(size, "little"))
-        if self.protocol == 1.0:
-            result, error = self.packets.writeTxRx(self.port, dxl_id, address, size, data)
+        protocol = self.protocol_of(dxl_id)
+        handler = self.handlers[protocol]
+        if protocol == 1.0:
+            result, error = handler.writeTxRx(self.port, dxl_id, address, size, data)
         else:
-            result, error = self.packets.writeTxOnly(self.port, dxl_id, address, size, data), 0
+            result, error = handler.writeTxOnly(self.port, dxl_id, address, size, data), 0
             if result == sdk.COMM_SUCCESS:
                 self.port.setPacketTimeout(11)  # the shortest status packet
                 _, result, error = self._status(dxl_id, 0)
@@ -165,38 +206,62 @@ class DynamixelBus(Bus):
 
     @_exchange
     def sync_read(self, ids: list[int], address: int, size: int) -> dict[int, int]:
-        if self.protocol == 1.0:  # no SYNC_READ in protocol 1.0
-            return {i: self.read(i, address, size) for i in ids}
-        result = self.packets.syncReadTx(self.port, address, size, list(ids), len(ids), False)
+        self._group(SYNC_READ, [(i, address, size) for i in ids])
+        result = self.handlers[2.0].syncReadTx(self.port, address, size, list(ids), len(ids), False)
         if result != sdk.COMM_SUCCESS:
-            raise CommunicationError(ids, f"sync read: {self.packets.getTxRxResult(result)}")
-        # One status packet per servo, in any order; the SDK's readRx would swallow the
-        # packets of the servos after a silent one while it waits for that one.
-        values, errors, pending, corrupt = {}, [], set(ids), 0
+            raise CommunicationError(ids, f"sync read: {self.handlers[2.0].getTxRxResult(result)}")
+        return self._collect(2.0, {i: size for i in ids}, "sync read")
+
+    @_exchange
+    def bulk_read(self, items: dict[int, tuple[int, int]]) -> dict[int, int]:
+        protocol = self._group(BULK_READ, [(i, *where) for i, where in items.items()])
+        handler = self.handlers[protocol]
+        param = []
+        for dxl_id, (address, size) in items.items():
+            if protocol == 1.0:  # e-manual, Protocol 1.0 Bulk Read: length, ID, address per device
+                param += [size, dxl_id, address]
+            else:
+                param += [dxl_id, sdk.DXL_LOBYTE(address), sdk.DXL_HIBYTE(address), sdk.DXL_LOBYTE(size),
+                          sdk.DXL_HIBYTE(size)]
+        result = (handler.bulkReadTx(self.port, param, len(param)) if protocol == 1.0
+                  else handler.bulkReadTx(self.port, param, len(param), False))
+        if result != sdk.COMM_SUCCESS:
+            raise CommunicationError(list(items), f"bulk read: {handler.getTxRxResult(result)}")
+        return self._collect(protocol, {i: size for i, (_, size) in items.items()}, "bulk read")
+
+    def _collect(self, protocol: float, sizes: dict[int, int], what: str) -> dict[int, int]:
+        """The status packets of a sync or bulk read, one per device (``sizes``: id -> data
+        bytes), in any order; the SDK's ``readRx`` would swallow the packets of the devices
+        after a silent one while it waits for that one."""
+        handler = self.handlers[protocol]
+        values, errors, pending, corrupt = {}, [], dict(sizes), 0
         while pending:
-            packet, result = self.packets.rxPacket(self.port, False)
+            packet, result = handler.rxPacket(self.port) if protocol == 1.0 else handler.rxPacket(self.port, False)
             if result == sdk.COMM_RX_CORRUPT:  # one bad packet; the others may still come
                 corrupt += 1
                 continue
             if result != sdk.COMM_SUCCESS:
                 break
-            dxl_id = packet[sdk.protocol2_packet_handler.PKT_ID]
-            length = sdk.DXL_MAKEWORD(packet[P2.PKT_LENGTH_L], packet[P2.PKT_LENGTH_H])
-            if dxl_id not in pending or length != size + STATUS_OVERHEAD:  # a late reply to another question
+            if protocol == 1.0:
+                dxl_id, length, error = packet[P1.PKT_ID], packet[P1.PKT_LENGTH], packet[P1.PKT_ERROR]
+                overhead, first = STATUS_OVERHEAD_P1, P1.PKT_PARAMETER0
+            else:
+                dxl_id, error = packet[P2.PKT_ID], packet[P2.PKT_ERROR]
+                length = sdk.DXL_MAKEWORD(packet[P2.PKT_LENGTH_L], packet[P2.PKT_LENGTH_H])
+                overhead, first = STATUS_OVERHEAD, P2.PKT_PARAMETER0 + 1
+            if dxl_id not in pending or length != pending[dxl_id] + overhead:  # a late reply to another question
                 continue
-            pending.discard(dxl_id)
-            first = sdk.protocol2_packet_handler.PKT_PARAMETER0 + 1
+            size = pending.pop(dxl_id)
             values[dxl_id] = int.from_bytes(bytes(packet[first:first + size]), "little")
-            error = packet[sdk.protocol2_packet_handler.PKT_ERROR]
             if error:
                 errors.append((dxl_id, error))
-        missing = [i for i in ids if i in pending]
+        missing = [i for i in sizes if i in pending]
         self.port.is_using = False
         if missing:
             if corrupt:
-                raise CommunicationError(missing, f"sync read: {corrupt} corrupt repl{'ies' if corrupt > 1 else 'y'} "
+                raise CommunicationError(missing, f"{what}: {corrupt} corrupt repl{'ies' if corrupt > 1 else 'y'} "
                                          "(CRC error)", corrupt=True)
-            raise CommunicationError(missing, "no status packet in sync read")
+            raise CommunicationError(missing, f"no status packet in {what}")
         if errors:
             dxl_id, error = errors[0]
             raise status_error(dxl_id, error, values[dxl_id])
@@ -204,15 +269,16 @@ class DynamixelBus(Bus):
 
     @_exchange
     def sync_write(self, address: int, size: int, values: dict[int, int]) -> None:
-        group = sdk.GroupSyncWrite(self.port, self.packets, address, size)  # both protocols have it
+        protocol = self._group(SYNC_WRITE, [(i, address, size) for i in values])
+        group = sdk.GroupSyncWrite(self.port, self.handlers[protocol], address, size)  # both protocols have it
         for dxl_id, value in values.items():
             group.addParam(dxl_id, list(int(value).to_bytes(size, "little")))
         result = group.txPacket()
         if result != sdk.COMM_SUCCESS:
-            raise CommunicationError(list(values), f"sync write: {self.packets.getTxRxResult(result)}")
+            raise CommunicationError(list(values), f"sync write: {self.handlers[protocol].getTxRxResult(result)}")
 
     @_exchange
     def reboot(self, dxl_id: int) -> None:
-        result, error = self.packets.reboot(self.port, dxl_id)
+        result, error = self.handlers[self.protocol_of(dxl_id)].reboot(self.port, dxl_id)
         self._check([dxl_id], result, error & ERROR_NUMBER_MASK, "reboot")
         time.sleep(0.5)  # the servo boots before it answers again

@@ -9,6 +9,7 @@ from sim2real.simulation.simbus.framing import SKIP, Packet, StreamParser
 HEADER = b"\xff\xff"
 BROADCAST = 0xFE
 PING, READ, WRITE, SYNC_WRITE = 0x01, 0x02, 0x03, 0x83
+BULK_READ = 0x92  # MX firmware only: 0x00, then (length, ID, address) per device
 # status error flags
 INSTRUCTION_ERROR, CHECKSUM_ERROR, RANGE_ERROR = 0x40, 0x10, 0x08
 

@@ -12,13 +12,14 @@ turn.  (Physics-backed servos and wire timing are the simulated bus's business.)
 
 from __future__ import annotations
 
+import contextlib
 import os
 import random
 import select
 import threading
 import time
 import tty
-from typing import Callable
+from typing import Callable, Iterator
 
 from sim2real.hardware.dynamixel.errors import (
     DATA_LENGTH_ERROR,
@@ -29,6 +30,7 @@ from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockDevice
 from sim2real.simulation.simbus import protocol1 as p1
 from sim2real.simulation.simbus import protocol2 as p2
+from sim2real.simulation.simbus.mixed import MixedParser
 
 
 class EmulatedChain:
@@ -42,6 +44,7 @@ class EmulatedChain:
         self.devices = devices
         self._custom_advance = advance
         self.protocol = next(iter(devices.values())).profile.protocol
+        self.protocols = {d.profile.protocol for d in devices.values()}  # both: one port for servos of each
         self.silent: set[int] = set()
         self.registered: dict[int, tuple[int, bytes]] = {}  # REG_WRITE held for ACTION
         self.clock = clock
@@ -69,6 +72,8 @@ class EmulatedChain:
             self._advance()
 
     def parser(self):
+        if len(self.protocols) > 1:
+            return MixedParser()
         return p2.Parser() if self.protocol == 2.0 else p1.Parser()
 
     def checksum_error(self, dxl_id: int) -> bytes:
@@ -76,18 +81,20 @@ class EmulatedChain:
         (2.0) was wrong; nothing from a broadcast, a missing or a silent ID."""
         if dxl_id not in self.devices or dxl_id in self.silent:
             return b""
-        if self.protocol == 1.0:
+        if self.devices[dxl_id].profile.protocol == 1.0:
             return p1.status(dxl_id, p1.CHECKSUM_ERROR)
         return p2.status(dxl_id, p2.CRC_ERROR)
 
-    def handle(self, dxl_id: int, inst: int, params: bytes) -> bytes:
-        """Replies (status packets, concatenated) to one instruction packet."""
-        with self.lock:
+    def handle(self, dxl_id: int, inst: int, params: bytes, protocol: float | None = None) -> bytes:
+        """Replies (status packets, concatenated) to one instruction packet of ``protocol``
+        (default: the chain's own; a :class:`MixedParser` tags each packet with its own)."""
+        protocol = self.protocol if protocol is None else protocol
+        with self.lock, self._heard_by(protocol):
             # every servo on the wire hears every packet; the e-manual's watchdog counts "all the
             # Instruction Packet" and does not say whether another ID's feed it: here they do
             self.heard_at = self.clock()
             self._advance()
-            if self.protocol == 1.0:
+            if protocol == 1.0:
                 return self._handle_p1(dxl_id, inst, params)
             if inst in (p2.SYNC_READ, p2.BULK_READ, p2.FAST_SYNC_READ, p2.FAST_BULK_READ):
                 wanted = _read_targets(inst, params)
@@ -154,7 +161,32 @@ class EmulatedChain:
                 return p2.status(dxl_id, 0)
             return p2.status(dxl_id, INSTRUCTION_ERROR)
 
+    @contextlib.contextmanager
+    def _heard_by(self, protocol: float) -> Iterator[None]:
+        """While a packet of ``protocol`` is handled: a device of the other protocol cannot parse
+        it, so for this packet it is as silent as a disconnected one (it neither answers nor
+        applies anything)."""
+        deaf = {i for i, d in self.devices.items() if d.profile.protocol != protocol}
+        if not deaf:
+            yield
+            return
+        silent = self.silent
+        self.silent = silent | deaf
+        try:
+            yield
+        finally:
+            self.silent = silent
+
     def _handle_p1(self, dxl_id: int, inst: int, params: bytes) -> bytes:
+        if inst == p1.BULK_READ:  # each device whose firmware has it answers in turn (e-manual, Protocol 1.0)
+            replies = []
+            for k in range(1, len(params) - 2, 3):
+                size, target, address = params[k], params[k + 1], params[k + 2]
+                device = self.devices.get(target)
+                if device is not None and target not in self.silent and device.profile.has("bulk_read"):
+                    value, _ = device.read(address, size)
+                    replies.append(p1.status(target, 0, value.to_bytes(size, "little")))
+            return b"".join(replies)
         if inst == p1.SYNC_WRITE:
             address, size = params[0], params[1]
             for k in range(2, len(params) - size, 1 + size):
@@ -267,8 +299,8 @@ class PtyServer:
             for dxl_id in parser.bad_crc_ids:  # the addressed servo says so
                 os.write(self.master, self.chain.checksum_error(dxl_id))
             parser.bad_crc_ids.clear()
-            for dxl_id, inst, params in packets:
-                reply = self.chain.handle(dxl_id, inst, params)
+            for packet in packets:  # (id, instruction, params), and the protocol on a mixed chain
+                reply = self.chain.handle(*packet)
                 if reply and self.drop_rate and self._rng.random() < self.drop_rate:
                     continue
                 if reply and self.corrupt_rate and self._rng.random() < self.corrupt_rate:
@@ -283,7 +315,7 @@ class PtyServer:
         """Sleep as long as the replies would take on the wire: bytes at the baud plus each
         replying device's Return Delay Time (2 us units) [s]."""
         delay = len(reply) * 10.0 / self.baud
-        for dxl_id, _, _ in self.chain.parser().feed(reply):
+        for dxl_id, *_ in self.chain.parser().feed(reply):
             device = self.chain.devices.get(dxl_id)
             if device is not None and Reg.RETURN_DELAY_TIME in device.profile.control_table:
                 delay += 2e-6 * device.get_named(Reg.RETURN_DELAY_TIME)

@@ -39,11 +39,12 @@ if TYPE_CHECKING:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from sim2real.arg_types import (
         baud_rate,
-        non_negative_finite_float,
+        float_within,
         reality_name,
         robot_name,
         seed,
     )
+    from sim2real.hardware.trace import MAX_TIME_S
     from sim2real.robot import DEFAULT_ROBOT
 
     parser.add_argument("--robot", type=robot_name, default=DEFAULT_ROBOT,
@@ -57,7 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--suspended", action="store_true",
                         help="hang the robot by its pelvis, feet off the floor (as for `biped excite`)")
     add_realtime_arguments(parser)
-    parser.add_argument("--fault-delay", type=non_negative_finite_float, default=0.0, help=argparse.SUPPRESS)  # dry runs: the ramp
+    parser.add_argument("--fault-delay", type=float_within(0.0, MAX_TIME_S), default=0.0, help=argparse.SUPPRESS)  # dry runs: the ramp
     parser.add_argument("--exit-on-stdin-eof", action="store_true",
                         help="also stop when standard input closes (for a parent process)")
     parser.add_argument("--report", action="store_true",
