@@ -15,8 +15,8 @@ home with bent knees and leg ranges centred on it.  The chain from evolve to com
 * ``darwin--x-spine3-leg6-hinge``: facing -x, a 3-joint spine, 6-joint legs;
 * ``words--y-spine3-leg5-hinge-wrist``: plain words, facing -y;
 * ``numbered-+x-spine3-leg6-hinge-mixed``: MX-28(2.0) legs (protocol 2.0) and an AX-12A neck
-  (protocol 1.0) on one bus, XM430-W350 elsewhere.  Expected to fail at `run --bus mock` until
-  the mixed-protocol bus lands (issue 48 item 3).
+  (protocol 1.0) on one bus, XM430-W350 elsewhere: reads grouped by protocol and layout
+  (sim2real/robot/bus_plan.py).
 
 Every variant has a 2-joint neck (pan, tilt).
 """
@@ -39,11 +39,15 @@ from sim2real.simulation.stand_check import check_stand
 from sim2real.simulation.stand_home import needs_home
 
 CHAIN = [VARIANTS[0], VARIANTS[6], VARIANTS[1], VARIANTS[4], VARIANTS[5]]
-MIXED_BUS = pytest.mark.xfail(strict=True, reason="a bus of protocol 1.0 and 2.0 servos (issue 48 item 3, branch "
-                              "s48-bus) has not landed: `run --bus mock` stops with 'present_position differs in "
-                              "address or size between servos: no sync access'")
+DRY_RUN_ATTEMPTS = 3  # a dry run whose simulated bus this computer starved is run again (see _held_up)
 EVOLVE_TINY = ["--set", "neat.population_size=8", "--set", "neat.target_species=2", "--set", "task.episode_s=2",
                "--generations", "1", "--threads", "1", "--quiet"]
+
+
+def _held_up(dry: dict) -> bool:
+    """Whether a dry run lost its simulated bus because this computer held the bus up, as the
+    dry run itself says (a shared, loaded test machine): tried again, up to DRY_RUN_ATTEMPTS."""
+    return dry["stop_reason"].startswith("lost communication") and dry["simbus_stalls"]["count"] > 0
 
 
 def _cli(*args: str) -> tuple[int, str]:
@@ -88,8 +92,7 @@ def test_each_humanoid_of_the_class_stands_from_the_home_its_import_proposes(imp
                 joint.name
 
 
-@pytest.mark.parametrize("variant", [pytest.param(v, marks=MIXED_BUS) if v.get("mixed_servos") else v
-                                     for v in CHAIN], ids=variant_id)
+@pytest.mark.parametrize("variant", CHAIN, ids=variant_id)
 def test_each_class_evolves_exports_runs_dry_runs_and_compares(imported, variant, tmp_path):
     path, _ = imported(variant)
     robot = load_robot(path)
@@ -110,10 +113,14 @@ def test_each_class_evolves_exports_runs_dry_runs_and_compares(imported, variant
     assert ran["ticks"] > 0 and ran["torque_off"]["confirmed"] == ids and not ran["torque_off"]["unconfirmed"]
 
     trace = tmp_path / "dry.csv"
-    status, out = _cli("dry-run", controller, "--duration", "1", "--trace", trace, *where)
+    for attempt in range(DRY_RUN_ATTEMPTS):
+        status, out = _cli("dry-run", controller, "--duration", "1", "--trace", trace, *where)
+        dry = json.loads(out.strip().splitlines()[-1])
+        if status == 0 or not _held_up(dry):
+            break
     assert status == 0, out
-    dry = json.loads(out.strip().splitlines()[-1])
-    assert dry["ticks"] >= 25 and dry["unstable"] is None and dry["torque_off"]["confirmed"] == ids
+    assert dry["stop_reason"] == "duration reached" and dry["ticks"] >= 25 and dry["unstable"] is None
+    assert dry["torque_off"]["confirmed"] == ids and not dry["torque_off"]["unconfirmed"]
 
     status, out = _cli("compare", trace, "--robot", path, "--json")
     assert status == 0, out
