@@ -241,10 +241,13 @@ def test_robot_import_writes_the_yaml_of_the_humanoid(tmp_path, capsys):
     for left, right, sign in files.pairs:
         assert joints[left]["sign"] * joints[right]["sign"] == sign
     assert [j["servo"]["id"] for j in doc["joints"]] == list(range(1, 21))
-    assert joints["r_knee_joint"]["range_deg"] == [0, 130] == joints["l_knee_joint"]["range_deg"]
+    # the URDF's knee range [0, 130] deg, centred on the stance the stand check proposed (knees at 30 deg)
+    assert joints["r_knee_joint"]["range_deg"] == [0, 60] == joints["l_knee_joint"]["range_deg"]
+    assert joints["r_knee_joint"]["home_deg"] == 30 == joints["l_knee_joint"]["home_deg"]
     assert joints["head_pan"]["range_deg"] == [-90, 90]  # continuous in the URDF
     assert len(doc["control_sets"]["legs"]) == 12 and len(doc["control_sets"]["all"]) == 20
     text = out.read_text()
+    assert "the model's [0, 130] centred on it" in text
     assert "guessed: check" in text and "unlimited in the model" in text
     assert "r_gripper_finger1_joint: a slide (prismatic) joint" in text
     assert "9 mirror pairs" in report and "l_knee_joint <-> r_knee_joint: opposed (-1)" in report
@@ -308,12 +311,23 @@ def test_a_model_facing_along_y_is_noted(tmp_path, humanoid):
 
 def test_robot_import_of_an_mjcf_reads_its_home_keyframe(tmp_path, humanoid, capsys):
     path = humanoid_mjcf(humanoid, tmp_path, home={"r_knee_joint": 0.5, "l_knee_joint": -0.5})
-    assert main(["robot", "import", str(path), "-o", str(tmp_path / "m.yaml")]) == 0
+    assert main(["robot", "import", str(path), "--no-stand", "-o", str(tmp_path / "m.yaml")]) == 0
+    assert "stand check" not in capsys.readouterr().out
     doc = load_yaml(tmp_path / "m.yaml")
     joints = {j["name"]: j for j in doc["joints"]}
     assert joints["r_knee_joint"]["home_deg"] == joints["l_knee_joint"]["home_deg"] == 28.6
     assert doc["model"]["file"] == "humanoid.xml" and doc["model"]["root"] == "base_link"
     assert "package_dirs" not in doc["model"]
+    # knees bent with the hips and ankles straight: the shins lean back and it falls; the stand check
+    # says so and proposes a home that stands, which replaces the keyframe's
+    assert main(["robot", "import", str(path), "-o", str(tmp_path / "s.yaml")]) == 0
+    report = capsys.readouterr().out
+    assert "at the imported home: falls: " in report and "the home pose falls (it fell after" in report
+    assert "as the YAML holds it: stands:" in report
+    stood = {j["name"]: j for j in load_yaml(tmp_path / "s.yaml")["joints"]}
+    assert stood["r_knee_joint"]["home_deg"] == stood["l_knee_joint"]["home_deg"] == 30
+    assert main(["robot", "stand", str(tmp_path / "m.yaml")]) == 1  # the keyframe's home falls
+    assert main(["robot", "stand", str(tmp_path / "s.yaml")]) == 0
 
 
 def test_robot_import_of_a_model_facing_backwards_turns_it(tmp_path, humanoid, capsys):

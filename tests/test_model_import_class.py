@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
-from robots.urdf_humanoid import MIXED_SERVOS, write_humanoid
+from robots.urdf_humanoid import VARIANTS, servo_args, variant_id, write_humanoid
 
 from evolve.cli import main
 from sim2real.controller.channels import angle_names
@@ -27,29 +27,12 @@ from sim2real.robot.validation import load_yaml
 from sim2real.simulation.model_builder import build_model
 from sim2real.simulation.robot_model import IMU_SITE
 
-# each option value at least once, each facing with more than one other option
-VARIANTS = [
-    dict(names="numbered", forward="+y", spine=5, leg=5, gripper="hinge", wrist=True),
-    dict(names="darwin", forward="-x", spine=3, leg=6, gripper="hinge", wrist=False),
-    dict(names="numbered", forward="-y", spine=0, leg=6, gripper="slide", wrist=True),
-    dict(names="darwin", forward="+y", spine=5, leg=6, gripper="slide", wrist=True, mixed_servos=True),
-    dict(names="words", forward="-y", spine=3, leg=5, gripper="hinge", wrist=True),
-    dict(names="numbered", forward="+x", spine=3, leg=6, gripper="hinge", wrist=False, mixed_servos=True),
-    dict(names="darwin", forward="+x", spine=0, leg=5, gripper="slide", wrist=False),
-]
 
-
-def _id(v: dict) -> str:
-    return "-".join(f"{v[k]}" for k in ("names", "forward")) + f"-spine{v['spine']}-leg{v['leg']}-{v['gripper']}" \
-        + ("-wrist" if v["wrist"] else "") + ("-mixed" if v.get("mixed_servos") else "")
-
-
-@pytest.mark.parametrize("variant", VARIANTS, ids=_id)
+@pytest.mark.parametrize("variant", VARIANTS, ids=variant_id)
 def test_each_humanoid_of_the_class_imports_with_its_roles_and_loads(tmp_path, capsys, variant):
     files = write_humanoid(tmp_path, **variant)
     out = tmp_path / "robot.yaml"
-    servos = ["--servo", "XM430-W350"] + [a for w, m in MIXED_SERVOS.items() for a in ("--servo", f"{w}={m}")
-                                          if variant.get("mixed_servos")]
+    servos = servo_args(variant)
     assert main(["robot", "import", str(files.urdf), *servos, "-o", str(out)]) == 0
     report = capsys.readouterr().out
     assert f"facing {files.forward} (from the geometry)" in report and "AGAINST" not in report
@@ -254,7 +237,13 @@ def test_a_joint_without_its_twin_is_held(tmp_path, capsys):
     files.urdf.write_text(files.urdf.read_text().replace('<joint name="l_ankle_roll_joint" type="revolute">',
                                                          '<joint name="l_ankle_roll_joint" type="fixed">'))
     assert main(["robot", "import", str(files.urdf), "-o", str(tmp_path / "t.yaml")]) == 0
-    assert "held (not mapped): r_ankle_roll_joint: " in capsys.readouterr().out
+    report = capsys.readouterr().out
+    assert "held (not mapped): r_ankle_roll_joint: " in report
     assert "no left twin of this right ankle roll" in (tmp_path / "t.yaml").read_text()
     robot = load_robot(tmp_path / "t.yaml")  # loads: the right ankle roll is welded
     assert "r_ankle_roll_joint" not in robot.joint_names and len(robot.joints) == 18
+    # welded, the right foot fuses into the ankle as a URDF compiles: the foot is the ankle link, and it builds
+    assert "the right foot r_foot_link has no mapped joint left, so the model's compile fuses it into " \
+           "r_ankle_link" in report
+    assert load_yaml(tmp_path / "t.yaml")["model"]["feet"]["right"] == {"body": "r_ankle_link"}
+    assert "as the YAML holds it: stands" in report and build_model(robot).nu == 18

@@ -1,6 +1,7 @@
 """Does it stand? `biped robot stand` (sim2real/simulation/stand_check.py) on the shipped robots
 and on homes that fall, and the home :func:`propose_home` (stand_home.py) gives a robot whose
-home falls, checked on the generated URDF humanoid imported as a user would."""
+home falls, checked on the generated URDF humanoid imported as a user would; and the importer's
+stand step (import_stand.py) where no home stands or the robot does not load yet."""
 
 import json
 import math
@@ -33,11 +34,12 @@ def _pitch_home(robot_doc: dict, hip: float, knee: float, ankle: float) -> dict:
 
 @pytest.fixture(scope="module")
 def imported(tmp_path_factory):
-    """The generated humanoid imported by `biped robot import`: its YAML (home: the zero pose)."""
+    """The generated humanoid imported by `biped robot import --no-stand`: its YAML (home: the
+    zero pose, ranges the model's)."""
     folder = tmp_path_factory.mktemp("kit")
     files = write_humanoid(folder)
     out = folder / "kit.yaml"
-    assert main(["robot", "import", str(files.urdf), "-o", str(out)]) == 0
+    assert main(["robot", "import", str(files.urdf), "--no-stand", "-o", str(out)]) == 0
     return out
 
 
@@ -230,3 +232,35 @@ def test_a_bad_robot_file_is_refused_with_the_file_named(tmp_path):
     bad.write_text("name: x\ndescription: y\nbody: {}\njoints: []\ncontrol_sets: {}\nwings: 2\n")
     assert main(["robot", "stand", str(bad)]) == 2
     assert main(["robot", "stand", str(tmp_path / "none.yaml")]) == 2
+
+
+# -- the importer's stand step (sim2real/simulation/import_stand.py) ----------------------------
+def test_an_import_whose_knees_cannot_bend_to_a_stance_keeps_its_home_and_says_why(tmp_path, capsys):
+    files = write_humanoid(tmp_path)
+    text = files.urdf.read_text()
+    assert text.count('2.26893"') == 2  # the knees' 130 deg
+    narrow = text.replace('upper="2.26893"', 'upper="0.174533"').replace('lower="-2.26893"', 'lower="-0.174533"')
+    files.urdf.write_text(narrow)
+    out = tmp_path / "stiff.yaml"
+    assert main(["robot", "import", str(files.urdf), "-o", str(out)]) == 0  # the YAML is written all the same
+    report = capsys.readouterr().out
+    assert "straight knees: a walker starts from bent ones; NO HOME PROPOSED: robot stiff: no home found" in report
+    assert "knees 30 deg: " in report and "outside the joint's limits" in report
+    assert "as the YAML holds it" not in report and "NO HOME PROPOSED" in out.read_text()
+    knees = [j for j in load_yaml(out)["joints"] if j["location"] == "knee"]  # 10 deg: less than any bend tried
+    assert [(j["home_deg"], j["range_deg"]) for j in knees] == [(0, [0, 10])] * 2  # the model's, as imported
+
+
+def test_an_import_that_does_not_load_yet_is_written_without_its_stand_check(tmp_path):
+    from sim2real.robot.import_yaml import write_robot_yaml
+    from sim2real.robot.importer import import_robot
+    from sim2real.simulation.import_stand import stand_imported
+
+    files = write_humanoid(tmp_path)
+    result = import_robot(files.urdf, tmp_path / "footless.yaml")
+    result.feet.pop("left")  # as when no left leg was recognised: the user names the foot
+    result = stand_imported(result)
+    assert result.stand.before is None and result.stand.verdict is None
+    assert result.report()[-1].startswith("stand check: not run (") and "model.feet" in result.report()[-1]
+    write_robot_yaml(result)
+    assert "# STAND CHECK NOT RUN: " in (tmp_path / "footless.yaml").read_text()

@@ -324,6 +324,11 @@ what it infers (at the model's zero pose; every guess is commented "guessed: che
                            (a spine), and anatomical angle = sign * model angle
   range, home              the model's range made anatomical and cut to the servo's reach
                            (+-90 deg if unlimited); a keyframe 'home' or 0
+  stand                    the robot stands 5 s from that home (as `biped robot stand`); if it
+                           falls or its knees are straight, a home with the knees bent that
+                           stands is proposed and written, each leg range centred on it (the
+                           networks use the central 80 %); the report gives both verdicts
+                           (--no-stand: skip it)
   servo ids                1, 2, ... in model order: set them to your servos' IDs
   root, imu, feet, hands   the floating body (a URDF's base), the IMU at its origin, the end
                            of each leg, the end of each arm
@@ -367,6 +372,10 @@ def _add_import(rsub: argparse._SubParsersAction) -> None:
     imp.add_argument("--recompute-inertias", action="store_true",
                      help="write 'inertias: from_geometry': each body's inertia from its collision "
                      "geometry, its mass kept (for a model whose inertias are wrong)")
+    imp.add_argument("--no-stand", action="store_true",
+                     help="skip the stand check (5 s from home, as `biped robot stand`) and the home it "
+                     "proposes when the model's home falls or has straight knees: home and ranges stay the "
+                     "model's")
     imp.set_defaults(func=cmd_robot_import)
 
 
@@ -400,6 +409,10 @@ def cmd_robot_import(args: argparse.Namespace) -> int:
                           servos={where: model for where, model in args.servo if where is not None},
                           package_dirs=args.package_dir, recompute_inertias=args.recompute_inertias,
                           forward=args.forward)
+    if not args.no_stand:  # on the simulation side: sim2real.robot does not import it to write a YAML
+        from sim2real.simulation.import_stand import stand_imported
+
+        result = stand_imported(result)
     print("\n".join(result.report()))
     write_robot_yaml(result)
     print(f"wrote {args.output}: check every line marked 'guessed: check' (servo ids, signs, feet, IMU) "

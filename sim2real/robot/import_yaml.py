@@ -75,6 +75,8 @@ def robot_yaml(result: ImportResult) -> str:
         out.append(f"# NOTE: {len(r.missing_visual_meshes)} visual mesh file(s) are missing (the collision "
                    "geometry is whole): loading with visuals needs them")
         out += [f"#   {m}" for m in r.missing_visual_meshes]
+    if r.stand is not None:
+        out += [f"# {line}" for line in r.stand.yaml_comments()]
     if r.held:
         out.append("# Not mapped, so held (welded) at their home pose:")
         out += [f"#   {name}: {why}" for name, why in r.held]

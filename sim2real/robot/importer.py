@@ -14,8 +14,9 @@ What it infers, at the model's zero pose (``qpos0``), from the robot's structure
   anatomical frame, its index among hinges of one role along the chain, and its sign,
   anatomical angle = sign * model angle: :mod:`.roles`;
 * its range from the model's (turned anatomical by the sign, cut to its servo's reach), or
-  +-90 deg where the model sets none; its home from a keyframe named ``home``, else 0; servo IDs
-  1, 2, ... in model order;
+  +-90 deg where the model sets none; its home from a keyframe named ``home``, else 0 (``biped
+  robot import`` then checks that it stands and proposes a home that does, with leg ranges
+  centred on it: :mod:`sim2real.simulation.import_stand`); servo IDs 1, 2, ... in model order;
 * the root (the body with the free joint, or a URDF's base), the IMU at the root's origin, each
   foot as the end of its leg, each hand as the end of its arm.
 
@@ -57,6 +58,7 @@ from sim2real.robot.roles import (  # noqa: F401 - the constants, JointGuess and
 from sim2real.robot.structure import Body, Hinge
 
 if TYPE_CHECKING:  # pragma: no cover
+    from sim2real.simulation.import_stand import ImportStand
     from sim2real.simulation.model_inertias import InertiaProblem
     from sim2real.simulation.model_mirror import MirrorInference
 
@@ -102,6 +104,7 @@ class ImportResult:
     notes: list[str] = field(default_factory=list)  # anything else a person must read
     facing: "Facing | None" = None
     contradictions: list[str] = field(default_factory=list)  # limits against the geometry, one sentence each
+    stand: "ImportStand | None" = None  # the stand check and the home it proposed (simulation.import_stand)
 
     @property
     def forward(self) -> str:
@@ -138,6 +141,8 @@ class ImportResult:
             lines.append(f"missing visual mesh (the model loads without it): {m}")
         lines += [f"LIMIT AGAINST THE GEOMETRY: {c}" for c in self.contradictions]
         lines += self.notes
+        if self.stand is not None:
+            lines += self.stand.report()
         return lines
 
 
@@ -238,11 +243,21 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     if not joints:
         raise ConfigError(str(model_file), "", "no hinge could be given a role: " + "; ".join(
             f"{name}: {why}" for name, why in held[:6]) + ("; ..." if len(held) > 6 else ""))
+    fused_notes = []
+    if spec.compiler.fusestatic:  # as a URDF compiles: a body left with no mapped joint fuses into its parent
+        mapped = {j.name for j in joints}
+        for ends, what in ((feet, "foot"), (hands, "hand")):
+            for side, body in list(ends.items()):
+                ends[side] = _kept_body(tree, body, mapped, root)
+                if ends[side] != body:
+                    fused_notes.append(f"the {side} {what} {body} has no mapped joint left, so the model's compile "
+                                       f"fuses it into {ends[side]}: the {what} is {ends[side]}")
     order = {h.name: i for i, h in enumerate(hinges)}
     held = sorted(held, key=lambda item: order.get(item[0], len(order))) + others
     result = ImportResult(model_file, output, kind, servo_model, dirs, root, joints, held, feet, hands, mirror,
                           problems, inertias, why, mf.missing_meshes(model_file, dirs), list(upper.notes), facing)
     result.notes += [f"facing: {n}" for n in facing.notes]
+    result.notes += fused_notes
     if not any(j.location == "knee" for j in joints):
         result.notes.append("no knee was found on the legs: check the leg chains in the report")
     result.contradictions += _contradictions(joints, facing)
@@ -254,7 +269,8 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
         if left is not None and right is not None and (left.location, left.axis) != (right.location, right.axis):
             result.notes.append(f"{GUESSED}: the mirror pairs {left.name} ({left.location} {left.axis}) with "
                                 f"{right.name} ({right.location} {right.axis})")
-    # s48-stand: a standing check of the imported robot and its home pose go here, on ``result``
+    # the stand check and a home that stands: sim2real.simulation.import_stand.stand_imported(result), which
+    # the command line calls (it needs the simulation, which this module does not import to build a YAML)
     return result
 
 
@@ -265,6 +281,15 @@ def _foot(tree: structure.Tree, leg: structure.Chain, places: dict[str, structur
     if toes and tree.hinges[toes[0]].body == leg.end:
         return tree.bodies[leg.end].parent or leg.end
     return leg.end
+
+
+def _kept_body(tree: structure.Tree, body: str, mapped: set[str], root: str) -> str:
+    """The body ``body`` ends up in once the joints not in ``mapped`` are held and the model
+    compiles with ``fusestatic`` (a URDF's default): itself if a mapped hinge moves it, else
+    the nearest ancestor that one moves (or the root)."""
+    while body != root and not set(tree.on_body.get(body, ())) & mapped and tree.bodies[body].parent in tree.bodies:
+        body = tree.bodies[body].parent
+    return body
 
 
 def _placed(tree: structure.Tree, chain: structure.Chain, name: str, side: str,

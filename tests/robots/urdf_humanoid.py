@@ -238,6 +238,29 @@ DARWIN = {"hip_yaw_joint": "j_pelvis", "hip_roll_joint": "j_thigh1", "hip_pitch_
           "head_pan": "j_pan", "head_tilt": "j_tilt"}
 MIXED_SERVOS = {"legs": "MX-28(2.0)", "neck": "AX-12A"}  # and XM430-W350 elsewhere: --servo WHERE=MODEL
 FACING_YAW_DEG = {"+x": 0.0, "+y": 90.0, "-x": 180.0, "-y": -90.0}
+# The class of humanoids the tests import (write_humanoid's options): each option value at
+# least once, each facing with more than one other option
+VARIANTS = [
+    dict(names="numbered", forward="+y", spine=5, leg=5, gripper="hinge", wrist=True),
+    dict(names="darwin", forward="-x", spine=3, leg=6, gripper="hinge", wrist=False),
+    dict(names="numbered", forward="-y", spine=0, leg=6, gripper="slide", wrist=True),
+    dict(names="darwin", forward="+y", spine=5, leg=6, gripper="slide", wrist=True, mixed_servos=True),
+    dict(names="words", forward="-y", spine=3, leg=5, gripper="hinge", wrist=True),
+    dict(names="numbered", forward="+x", spine=3, leg=6, gripper="hinge", wrist=False, mixed_servos=True),
+    dict(names="darwin", forward="+x", spine=0, leg=5, gripper="slide", wrist=False),
+]
+
+
+def variant_id(v: dict) -> str:
+    """A variant's test id: ``numbered-+y-spine5-leg5-hinge-wrist``."""
+    return "-".join(f"{v[k]}" for k in ("names", "forward")) + f"-spine{v['spine']}-leg{v['leg']}-{v['gripper']}" \
+        + ("-wrist" if v["wrist"] else "") + ("-mixed" if v.get("mixed_servos") else "")
+
+
+def servo_args(variant: dict) -> list[str]:
+    """The ``--servo`` flags a user of this variant passes to ``biped robot import``."""
+    mixed = [a for where, model in MIXED_SERVOS.items() for a in ("--servo", f"{where}={model}")]
+    return ["--servo", "XM430-W350"] + (mixed if variant.get("mixed_servos") else [])
 
 
 def _names(scheme: str, links: list[_Link], joints: list[_Joint]) -> tuple[dict[str, str], dict[str, str]]:
