@@ -208,10 +208,10 @@ class PtyServer:
     """Serves an :class:`EmulatedChain` on a new pseudo-terminal; ``port`` is its path.
 
     ``drop_rate`` and ``corrupt_rate`` lose replies or flip one of their bytes, at random
-    (seeded).  With ``baud``, replies keep the wire's pace: each status packet leaves after the
-    device's Return Delay Time and the time its bytes take at that baud (10 bits a byte);
-    without it they leave at once.  Between instructions the chain is ticked every
-    ``idle_s``.  One thread does all of it: a second thread stepping the physics would hold
+    (seeded).  With ``baud``, replies keep the wire's pace: each status packet leaves the
+    device's Return Delay Time and the time its bytes take at that baud (10 bits a byte) after
+    the request was heard, the time spent answering included; without it they leave at once.
+    Between instructions the chain is ticked every ``idle_s`` (at once while it is behind).  One thread does all of it: a second thread stepping the physics would hold
     Python's GIL for milliseconds and make replies late.
 
     ``stalls`` lists each time the serving loop was held up longer than :data:`STALL_S`
