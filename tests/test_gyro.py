@@ -82,13 +82,26 @@ def test_the_gyro_drives_evolution_and_the_runtime_alike_bias_and_noise_included
 
     evaluator.evaluate([genome], 1.0, harness=1.0, perturbation=p, on_tick=record)
     policy = Policy(controller, ROBOT)
+    seen, activate = [], policy.networks.activate
+    policy.networks.activate = lambda x: activate(seen.append(x.copy()) or x)  # what the two networks read
     goal = policy.reset()
     for k, simulated in enumerate(goals):
         goal = policy.step(np.zeros(len(goal)), np.array([True, True]), np.array([0.0, 0.0, 1.0]), goal,
                            gyro=rates[k])
         assert np.array_equal(goal[policy.driven], simulated[policy.driven]), k
+    # Against the convention itself, not the other path: the right network reads the rates over
+    # the scale, the left (the mirror image) the roll and yaw rates negated, the pitch rate as it is.
+    names = symmetric_layout(ROBOT, ROBOT.control_sets["walk"], TASK.inputs).input_names
+    gyro = [names.index(name) for name in ("gyro_roll", "gyro_pitch", "gyro_yaw")]
+    assert len(seen) == len(rates) and np.abs(rates).min(axis=0).min() > 0  # every axis turns: each sign is seen
+    for x, rate in zip(seen, rates):
+        right, left = x[0, gyro], x[1, gyro]
+        assert right == pytest.approx(np.clip(rate / np.radians(90.0), -1, 1), abs=1e-12)
+        assert left == pytest.approx(right * [-1.0, 1.0, -1.0], abs=1e-12)
     hips = np.array(goals)[:, [ROBOT.joint_names.index("right_hip_roll"), ROBOT.joint_names.index("left_hip_roll")]]
     assert np.ptp(hips) > 0.01  # the rates moved the hips
+    moved = hips - hips[0]
+    assert np.corrcoef(moved[:, 0], moved[:, 1])[0, 1] < -0.9  # in opposite directions: a roll is odd
     with pytest.raises(ValueError, match="gyro"):
         Policy(controller, ROBOT).step(np.zeros(len(goal)), np.array([True, True]), np.array([0.0, 0.0, 1.0]), goal)
 

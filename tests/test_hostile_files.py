@@ -47,7 +47,9 @@ from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError, UsageError
 from sim2real.hardware.trace import Trace, TraceWriter
 from sim2real.robot import load_robot
-from tests.test_cli_errors import assert_usage_error, biped, write_trace
+from evolve.cli import main
+from tests.test_cli_errors import Result, assert_usage_error, biped, write_trace
+from tests.unprivileged import as_unprivileged, captured, open_folder
 
 ROBOT = load_robot()
 AS_ROOT = os.geteuid() == 0
@@ -192,17 +194,47 @@ CASES = [pytest.param(argv, name, kind, good, id=f"{label} x {kind}")
 @pytest.mark.parametrize("argv, name, kind, good", CASES)
 def test_a_file_argument_that_is_not_a_readable_regular_file_is_refused_at_once(argv, name, kind, good, tmp_path,
                                                                                   controller, trace, run_dir, capsys):
-    if kind == "unreadable" and AS_ROOT:
-        pytest.skip("root reads a file whatever its mode")
+    if kind == "unreadable" and AS_ROOT:  # root reads a file whatever its mode: the command runs as nobody
+        with open_folder() as folder:
+            refused_at_once(argv, name, kind, good, folder, *copied_to(folder, controller, trace, run_dir),
+                            run=lambda args: Result(*as_unprivileged(lambda: captured(lambda: main(args)))))
+        return
+    refused_at_once(argv, name, kind, good, tmp_path, controller, trace, run_dir,
+                    run=lambda args: biped(args, capsys))
+
+
+def copied_to(folder: Path, *paths: Path) -> list[Path]:
+    """Copies of the good files and folders in ``folder`` (one that ``nobody`` can read)."""
+    copies = []
+    for path in paths:
+        copy = folder / "good" / path.name
+        copy.parent.mkdir(exist_ok=True)
+        if path.is_dir():
+            copy.mkdir()
+            for f in path.iterdir():
+                (copy / f.name).write_bytes(f.read_bytes())
+        else:
+            copy.write_bytes(path.read_bytes())
+        copies.append(copy)
+    for path in folder.rglob("*"):
+        path.chmod(0o755 if path.is_dir() else 0o644)
+    return copies
+
+
+def refused_at_once(argv, name, kind, good, tmp_path: Path, controller: Path, trace: Path, run_dir: Path,
+                    run) -> None:
+    """``biped argv`` (by ``run``) with the hostile file refuses it at once, naming it."""
     if name.startswith("run/"):  # a file inside a run folder: a copy of the good one, one file spoiled
         (tmp_path / "run").mkdir()
+        (tmp_path / "run").chmod(0o777)  # run as nobody, a command may take the folder's lock before it reads
         for f in run_dir.iterdir():
             (tmp_path / "run" / f.name).write_bytes(f.read_bytes())
+            (tmp_path / "run" / f.name).chmod(0o644)
     goods = {"controller": controller, "trace": trace, "checkpoint": run_dir / "checkpoint.json.gz"}
     path = make(kind, tmp_path / name, goods.get(good))
-    argv = [a.format(f=path, c=controller, trace=trace, tmp=tmp_path, dir=path.parent) for a in argv]
+    argv = [str(a).format(f=path, c=controller, trace=trace, tmp=tmp_path, dir=path.parent) for a in argv]
     start = time.monotonic()
-    result = biped(argv, capsys)
+    result = run(argv)
     assert_usage_error(result, str(path.parent) if name.startswith("run/") else str(path))
     assert time.monotonic() - start < 10
     assert not (tmp_path / "q").exists()  # nothing started

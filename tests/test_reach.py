@@ -515,6 +515,13 @@ def test_a_shipped_reacher_reaches_three_times_in_10_s_and_stands_without_its_re
 
     reached = evaluate_controller(path, seconds=10.0)
     assert reached["reaches"] >= 3 and not reached["fell"], reached
+    # Every goal the phase rule leaves room for (README: "reaches 9 times in 10 s"), and no more:
+    # a state that toggled the moment the hand arrived, without waiting out reach_phase_s,
+    # gave 4 (human_arms) and 34 (op3) here.
+    controller = Controller.load(path)
+    phase_s = controller.to_dict()["task"]["reach_phase_s"]
+    assert reached["reaches"] == ReachCycle.max_goals(int(round(10.0 / controller.tick_s)), controller.tick_s,
+                                                       phase_s) == 9, reached
     assert reached["other_arm_deg"] < 5.0  # one-handed: the left arm keeps its rest
     standing = evaluate_controller(path, seconds=10.0, disabled_modules=("reach",))
     assert standing["reaches"] == 0 and not standing["fell"]

@@ -14,6 +14,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import queue
 import random
 import signal
 import subprocess
@@ -32,6 +33,7 @@ from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import load_robot
 from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
 
+ROOT = Path(__file__).resolve().parent.parent
 ROBOT = load_robot()
 SERVOS = [j.servo.id for j in ROBOT.joints]
 TORQUE_ENABLE = ROBOT.joints[0].servo.profile.register("torque_enable").address
@@ -75,25 +77,45 @@ def test_every_stop_signal_ends_in_a_safe_stop(served_chain, controller, signum)
     assert_all_off(chain, report)
 
 
-def test_sigints_at_random_moments_while_tracing_always_end_with_torque_off(served_chain, controller, tmp_path):
+def test_sigints_at_random_moments_while_tracing_always_end_with_torque_off(controller_file, tmp_path):
     """The reported failure: a SIGINT that landed inside an SDK exchange left the port flagged
     busy, every later packet was refused and all 11 servos stayed powered (2 in 6 traced
-    runs).  Signals now land anywhere - start-up, ramp, loop, trace write, final ramp."""
-    chain, port = served_chain
+    runs).  Signals now land anywhere - start-up, ramp, loop, trace write, final ramp - of runs
+    in a child process (``tests/sigint_child.py``), at moments from a seeded generator after
+    each run's start.  Never in this process: here, one that came after a run had ended was a
+    KeyboardInterrupt that stopped pytest."""
     rng = random.Random(31)
-    stop_reasons = set()
-    for k in range(RANDOM_SIGINTS):
-        delay = rng.uniform(0.0, 0.9)  # the run lasts about 0.8 s: some land after its end, in the stop
-        timer = threading.Timer(delay, os.kill, (os.getpid(), signal.SIGINT))
-        timer.start()
-        try:
-            report = run(port, controller, trace_path=tmp_path / f"t{k}.csv")
-        finally:
-            timer.join()
-        assert_all_off(chain, report)
-        stop_reasons.add(report.stop_reason)
-        chain.devices[SERVOS[0]].get_named("torque_enable")  # the chain still answers for the next run
+    moments = [rng.uniform(0.0, 0.9) for _ in range(RANDOM_SIGINTS)]  # a run lasts about 0.8 s: some land after it
+    child = subprocess.Popen([sys.executable, "-m", "tests.sigint_child", str(controller_file), str(tmp_path)],
+                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    lines: queue.Queue[str] = queue.Queue()
+    threading.Thread(target=lambda: [lines.put(line) for line in child.stdout] and None, daemon=True).start()
+    stop_reasons = []
+    try:
+        for k, delay in enumerate(moments):
+            child.stdin.write(f"run {k}\n")
+            child.stdin.flush()
+            assert read_line(child, lines) == f"start {k}"
+            time.sleep(delay)
+            child.send_signal(signal.SIGINT)
+            result = json.loads(read_line(child, lines))
+            assert result["confirmed"] == SERVOS and result["unconfirmed"] == [], result
+            assert result["torque"] == [0] * len(SERVOS), result  # read straight from the emulated servos
+            stop_reasons.append(result["stop_reason"])
+    finally:
+        child.stdin.close()
+        child.wait(timeout=30)
+    assert child.returncode == 0
     assert "interrupted (Ctrl-C)" in stop_reasons  # most land in the loop
+
+
+def read_line(child: subprocess.Popen, lines: "queue.Queue[str]", timeout_s: float = 30.0) -> str:
+    """The child's next line of output (``lines``, fed by a thread); an assertion if none comes
+    within ``timeout_s``."""
+    try:
+        return lines.get(timeout=timeout_s).strip()
+    except queue.Empty:
+        raise AssertionError(f"no line from the child in {timeout_s:.0f} s (exit {child.poll()})") from None
 
 
 def test_a_second_signal_during_the_stop_only_cuts_the_ramp_short(served_chain, controller):

@@ -60,6 +60,7 @@ from sim2real.robot import RobotSpec
 RAMP_S = 2.0  # start-up and shutdown ramps [s]
 RAMP_TICK_S = 0.02
 SPIN_S = 0.0005  # the loop spins this long before each deadline instead of sleeping (5 % of a 10 ms tick)
+# The retry budget of the loop's reads (said in one line at the start, :func:`read_budget`):
 LOST_AFTER_S = 0.1  # communication is lost after this long without one good read [s]
 READ_BUDGET = 0.6  # a tick's reads are retried until this share of the tick has passed
 TICK_ATTEMPTS = 4  # ... and at most this often each (a failing mock bus answers at once)
@@ -165,6 +166,14 @@ def ramp(chain: ServoChain, mapping: ServoMapping, start: np.ndarray, target: np
     return True
 
 
+def read_budget(tick_s: float, lost_after_s: float) -> str:
+    """The loop's retry budget in words: how often and for how long a read is tried within a
+    tick [s], and when communication counts as lost [s]."""
+    return (f"bus reads: each tried up to {TICK_ATTEMPTS} times within the first {READ_BUDGET * tick_s * 1e3:.3g} ms "
+            f"({READ_BUDGET:.0%}) of the {tick_s * 1e3:.3g} ms tick, a tick without a good read holds its goals; "
+            f"communication counts as lost after {lost_after_s * 1e3:.3g} ms without one")
+
+
 class RealTimeLoop:
     def __init__(self, chain: ServoChain, mapping: ServoMapping, policy: GoalSource, tick_s: float,
                  trace: TraceWriter | None = None, clock: Callable[[], float] = time.monotonic,
@@ -176,6 +185,7 @@ class RealTimeLoop:
         self.check_stop = check_stop  # raises StopRequested once a signal came: called between ticks
         self.goal = policy.hold.copy()
         self.goal_ticks = mapping.ticks(self.goal)
+        self.failed_tries = 0  # reads failed since the last good one (said if communication is lost)
 
     def policy_values(self) -> tuple[float, ...]:
         """What the policy adds to a trace row (a reaching controller's state and hand error)."""
@@ -242,7 +252,7 @@ class RealTimeLoop:
         board = self._attempt(lambda: self.chain.read_board(attempts=1), give_up_at, report)
         if board is None:
             return None
-        self.failing_since = None
+        self.failing_since, self.failed_tries = None, 0
         return angles, board
 
     def _attempt(self, read: Callable[[], Any], give_up_at: float, report: RunReport) -> Any:
@@ -255,10 +265,13 @@ class RealTimeLoop:
                 # Timed from the first failure, not the last success: a host that stalled
                 # between two good reads has not lost its bus.
                 if self.failing_since is None:
-                    self.failing_since = now
+                    self.failing_since, self.failing_tick = now, report.ticks
+                self.failed_tries += 1
                 failing_s = now - self.failing_since
                 if failing_s >= self.lost_after_s:
-                    raise CommunicationError(exc.ids, f"{exc.what} (no good reply for {failing_s * 1e3:.0f} ms)",
+                    ticks = report.ticks - self.failing_tick + 1
+                    raise CommunicationError(exc.ids, f"{exc.what} (no good reply for {failing_s * 1e3:.0f} ms: "
+                                             f"{self.failed_tries} tries failed over {ticks} tick{'s' * (ticks > 1)})",
                                              exc.corrupt) from exc
                 if now >= give_up_at or attempt == TICK_ATTEMPTS - 1:
                     return None
@@ -448,6 +461,7 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
                     raise TraceWriteError(f"cannot start the trace: {exc}") from exc
             loop = RealTimeLoop(chain, mapping, policy, policy.tick_s, trace, clock, sleep, lost_after_s,
                                 motion if trace is not None else None, check_stop=signals.check)
+            log(read_budget(policy.tick_s, lost_after_s))
             # The collector's last pass before torque goes on: between the start ramp and the
             # loop it took 130-170 ms on a large heap, the wire fell silent longer than the
             # servos' 100 ms Bus Watchdog, and they refused every goal of the run.

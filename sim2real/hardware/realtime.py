@@ -69,6 +69,16 @@ def request_realtime(request: RealtimeRequest) -> RealtimeGrant:
     """Apply what ``request`` asks to the calling thread (scheduling, affinity) and process
     (memory); never raises for a refusal."""
     grant = RealtimeGrant()
+    # Memory first, while still ordinarily scheduled: mlockall faults in every mapped page
+    # (tens to hundreds of MB once NumPy or MuJoCo is loaded), and done under SCHED_FIFO that
+    # work held a core from every other real-time thread of the same priority - another
+    # run's simulated bus then went unserved for 100-200 ms (issue 47).
+    if request.lock_memory:
+        problem = _lock_memory()
+        if problem is None:
+            grant.memory_locked = True
+        else:
+            grant.refused.append(f"memory lock: {problem}")
     if request.cpu is not None:
         try:
             os.sched_setaffinity(0, {request.cpu})
@@ -81,12 +91,6 @@ def request_realtime(request: RealtimeRequest) -> RealtimeGrant:
             grant.priority = request.priority
         except (OSError, AttributeError, ValueError) as exc:
             grant.refused.append(f"SCHED_FIFO priority {request.priority}: {_why(exc)}")
-    if request.lock_memory:
-        problem = _lock_memory()
-        if problem is None:
-            grant.memory_locked = True
-        else:
-            grant.refused.append(f"memory lock: {problem}")
     return grant
 
 

@@ -41,6 +41,11 @@ from sim2real.simulation.robot_model import RobotModel, imu_between
 from sim2real.simulation.reality import EFFECTS, NOMINAL, Reality, perturbed_model
 
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
+# The simulated bus steps at most this much simulated time [s] between two looks at the
+# wire (5 steps of 2 ms, 0.2-0.6 ms of compute): after a stall it catches up in such chunks
+# between instructions, and a late reply is not made later still by the physics it missed
+# (up to MAX_CATCH_UP_S, 5-10 ms of compute, before issue 47)
+REPLY_CATCH_UP_S = 0.01
 FALL_HEIGHT = 0.7  # as in evolution: the root (pelvis) below 70 % of its start height
 FALL_TILT_DEG = 60.0
 
@@ -123,15 +128,16 @@ class PhysicsChain:
             on[k] = bool(device.get_named(Reg.TORQUE_ENABLE))
         return self.mapping.angles(goal), on
 
-    def advance(self) -> None:
-        """Catch the simulation up with the wall clock (called before every instruction)."""
+    def advance(self, max_s: float = MAX_CATCH_UP_S) -> bool:
+        """Catch the simulation up with the wall clock, by at most ``max_s`` of simulated time
+        [s] (called before every instruction, and between them); True while it is still behind."""
         with self.lock:
             target = self.clock() - self._started
             # the small epsilon: a sum of 2 ms steps lands a hair short of a whole number of them
-            steps = int((target - self.data.time) / self.model.opt.timestep + 1e-6)
-            steps = min(steps, int(MAX_CATCH_UP_S / self.model.opt.timestep))
+            behind = int((target - self.data.time) / self.model.opt.timestep + 1e-6)
+            steps = min(behind, max(1, int(max_s / self.model.opt.timestep + 1e-6)))
             if steps <= 0:
-                return
+                return False
             goal, on = self._goals()
             # torque off: limp (kp 0 below), the goal at the motor's own angle (no stale goal
             # waits in the latency history for torque on)
@@ -147,6 +153,7 @@ class PhysicsChain:
                 if self._imu_history is not None:
                     self._imu_history.append((self.data.time, self.parts.imu(self.data.sensordata)))
             self._publish()
+            return steps < behind
 
     def _check_overload(self, on: np.ndarray) -> None:
         force = np.abs(self.data.actuator_force)

@@ -34,11 +34,13 @@ from sim2real.simulation.simbus.mixed import MixedParser
 
 
 class EmulatedChain:
-    """Devices behind a wire.  ``advance`` moves them on before each instruction (default: each
-    servo toward its goal at its no-load speed; a :class:`PhysicsChain` passes its own)."""
+    """Devices behind a wire.  ``advance`` moves them on before each instruction and while
+    none arrives (default: each servo toward its goal at its no-load speed; a
+    :class:`PhysicsChain` passes its own, which returns True while it is still behind the
+    clock: the serving loop then comes back to it at once instead of waiting for the wire)."""
 
     def __init__(self, devices: dict[int, MockDevice], clock: Callable[[], float] = time.monotonic,
-                 advance: Callable[[], None] | None = None):
+                 advance: Callable[[], bool | None] | None = None):
         if not devices:
             raise ValueError("an emulated chain needs at least one device")
         self.devices = devices
@@ -52,24 +54,26 @@ class EmulatedChain:
         self.heard_at = clock()  # the last instruction packet, for the servos' Bus Watchdog
         self.lock = threading.Lock()
 
-    def _advance(self) -> None:
+    def _advance(self) -> bool:
         if self._custom_advance is not None:
-            return self._custom_advance()
+            return bool(self._custom_advance())
         now = self.clock()
         dt, self._last = now - self._last, now
         for device in self.devices.values():
             device.advance(dt)
+        return False
 
-    def tick(self) -> None:
+    def tick(self) -> bool:
         """Move the devices on while no instruction arrives (the simulated bus keeps its
-        physics in step with the wall clock this way, on the serving thread).  A servo whose
+        physics in step with the wall clock this way, on the serving thread); True while
+        they are still behind it.  A servo whose
         Bus Watchdog expires stops first (:meth:`MockDevice.watch`): checked here only, when
         the wire has been idle, so that the simulator's own stall never trips it."""
         with self.lock:
             silent_s = self.clock() - self.heard_at
             for device in self.devices.values():
                 device.watch(silent_s)
-            self._advance()
+            return self._advance()
 
     def parser(self):
         if len(self.protocols) > 1:
@@ -236,10 +240,10 @@ class PtyServer:
     """Serves an :class:`EmulatedChain` on a new pseudo-terminal; ``port`` is its path.
 
     ``drop_rate`` and ``corrupt_rate`` lose replies or flip one of their bytes, at random
-    (seeded).  With ``baud``, replies keep the wire's pace: each status packet leaves after the
-    device's Return Delay Time and the time its bytes take at that baud (10 bits a byte);
-    without it they leave at once.  Between instructions the chain is ticked every
-    ``idle_s``.  One thread does all of it: a second thread stepping the physics would hold
+    (seeded).  With ``baud``, replies keep the wire's pace: each status packet leaves the
+    device's Return Delay Time and the time its bytes take at that baud (10 bits a byte) after
+    the request was heard, the time spent answering included; without it they leave at once.
+    Between instructions the chain is ticked every ``idle_s`` (at once while it is behind).  One thread does all of it: a second thread stepping the physics would hold
     Python's GIL for milliseconds and make replies late.
 
     ``stalls`` lists each time the serving loop was held up longer than :data:`STALL_S`
@@ -282,19 +286,21 @@ class PtyServer:
     def _serve(self) -> None:
         parser = self.chain.parser()
         start = last = time.monotonic()
+        behind = False  # the devices lag the clock (after a stall): catch up between instructions
         while not self._stop.is_set():
             now = time.monotonic()
             if now - last > STALL_S + self.idle_s:
                 self.stalls.append((last - start, now - last))
             last = now
-            ready, _, _ = select.select([self.master], [], [], self.idle_s)
+            ready, _, _ = select.select([self.master], [], [], 0.0 if behind else self.idle_s)
             if not ready:
-                self.chain.tick()
+                behind = self.chain.tick()
                 continue
             try:
                 data = os.read(self.master, 4096)
             except OSError:
                 return
+            heard = time.monotonic()  # the request's last byte, near enough: replies are paced from here
             packets = parser.feed(data)
             for dxl_id in parser.bad_crc_ids:  # the addressed servo says so
                 os.write(self.master, self.chain.checksum_error(dxl_id))
@@ -308,15 +314,22 @@ class PtyServer:
                     reply = reply[:k] + bytes([reply[k] ^ 0x5A]) + reply[k + 1:]
                 if reply:
                     if self.baud:
-                        self._pace(reply)
+                        heard = self._pace(reply, heard)
                     os.write(self.master, reply)
 
-    def _pace(self, reply: bytes) -> None:
-        """Sleep as long as the replies would take on the wire: bytes at the baud plus each
-        replying device's Return Delay Time (2 us units) [s]."""
+    def _pace(self, reply: bytes, since: float) -> float:
+        """Sleep until the replies would have left the wire, counted from ``since`` (the
+        request heard, or the previous reply sent) [s, monotonic]: bytes at the baud plus each
+        replying device's Return Delay Time (2 us units).  Time this side already spent (the
+        physics, a stall) counts toward it instead of adding to it - a servo answers on its
+        own clock, not after the host's.  Returns when the replies left."""
         delay = len(reply) * 10.0 / self.baud
         for dxl_id, *_ in self.chain.parser().feed(reply):
             device = self.chain.devices.get(dxl_id)
             if device is not None and Reg.RETURN_DELAY_TIME in device.profile.control_table:
                 delay += 2e-6 * device.get_named(Reg.RETURN_DELAY_TIME)
-        time.sleep(delay)
+        due = since + delay
+        wait = due - time.monotonic()
+        if wait > 0:
+            time.sleep(wait)
+        return max(due, time.monotonic())
