@@ -340,7 +340,7 @@ when the facing rests on cues or --forward, written turned to its flexion side).
 examples:
   biped robot import op3.xml --servo XM430-W350 -o configs/robots/op3.yaml
   biped robot import robot.urdf --package-dir ~/ws/src -o robot.yaml
-  biped robot import poppy.urdf --forward +y --servo MX-28 --servo neck=AX-12A -o poppy.yaml
+  biped robot import poppy.urdf --forward=-y --servo MX-28 --servo neck=AX-12A -o poppy.yaml
 """
 
 
