@@ -334,12 +334,13 @@ what it infers (at the model's zero pose; every guess is commented "guessed: che
                            of each leg, the end of each arm
 joints on no chain (grippers, fingers), with an axis far from x, y and z, without a twin on
 the other side, and slide and ball joints are left out, so the model builder holds them at
-their home pose; a knee or elbow whose limits let it bend only the wrong way is named.
+their home pose; a knee or elbow whose limits let it bend only the wrong way is named (and,
+when the facing rests on cues or --forward, written turned to its flexion side).
 
 examples:
   biped robot import op3.xml --servo XM430-W350 -o configs/robots/op3.yaml
   biped robot import robot.urdf --package-dir ~/ws/src -o robot.yaml
-  biped robot import poppy.urdf --forward +y --servo MX-28 --servo neck=AX-12A -o poppy.yaml
+  biped robot import poppy.urdf --forward=-y --servo MX-28 --servo neck=AX-12A -o poppy.yaml
 """
 
 

@@ -9,7 +9,8 @@ The line between the feet is the lateral axis; forward is one of the two horizon
 directions square to it.  Each cue votes for one (+1, -1) or abstains:
 
 * **foot**: a sole reaches farther ahead of the ankle (its last hinge, which carries the foot)
-  than behind it (the heel is short);
+  than behind it (the heel is short); the foot is all that hinge carries (sensor pads or toes
+  on hinges of their own included);
 * **knee bend**: a knee bent at the zero pose (or in the ``home`` keyframe) sits ahead of
   the line from the hip to the ankle;
 * **knee limits**: a knee flexes far more than it extends, and flexion moves the foot back;
@@ -31,7 +32,7 @@ import numpy as np
 
 from sim2real.robot.anatomy import FORWARDS
 from sim2real.robot.joint_names import side_of
-from sim2real.robot.structure import Legs, Place, Tree, _centre, _vec
+from sim2real.robot.structure import Legs, Place, Tree, _vec
 
 FOOT_SHARE = 0.05  # a sole centred within this share of its length on the ankle gives no vote
 BEND_SHARE = 0.02  # a knee within this share of the leg of the hip-ankle line is straight
@@ -85,13 +86,16 @@ def infer_facing(tree: Tree, legs: Legs, places: dict[str, Place], forward: str 
         # the ankle hinge that carries the foot (OP3's roll axis sits 24 mm behind its pitch axis,
         # and the sole 24 mm ahead of the roll axis: ROBOTIS's op3_kinematics_dynamics.cpp)
         ankle_h = next((h for h in reversed(leg.hinges) if places.get(h) and places[h].location == "ankle"), None)
-        foot = tree.bodies[leg.end]
+        # the foot: all the ankle hinge carries (a sole with sensor pads or toes on hinges of
+        # their own is one foot: the lowest of its bodies alone may be a pad at one end)
+        foot_body = tree.hinges[ankle_h].body if ankle_h else leg.end
+        foot = _extent(tree, foot_body)
         ankle = _vec(tree.hinges[ankle_h].anchor) if ankle_h else None
-        if ankle is not None and foot.low is not None:
-            ahead = float((_centre(foot) - ankle) @ axis)
-            length = float(abs((_vec(foot.high) - _vec(foot.low)) @ axis))
+        if ankle is not None and foot is not None:
+            ahead = float((0.5 * (foot[0] + foot[1]) - ankle) @ axis)
+            length = float(abs((foot[1] - foot[0]) @ axis))
             if abs(ahead) > FOOT_SHARE * length:
-                cues.append(Cue(f"foot {leg.end}", _sign(ahead), f"its sole's centre {abs(ahead) * 1e3:.0f} mm "
+                cues.append(Cue(f"foot {foot_body}", _sign(ahead), f"its sole's centre {abs(ahead) * 1e3:.0f} mm "
                                 f"from the ankle toward {_name(axis * _sign(ahead))}"))
         if knee_h is None or ankle is None:
             continue
@@ -153,6 +157,15 @@ def infer_facing(tree: Tree, legs: Legs, places: dict[str, Place], forward: str 
                      "are taken from it as nearly as they go")
     against = tuple(c for c in cues if c.vote != sign)
     return Facing(forward, sign > 0, decided, tuple(cues), tuple(float(v) for v in axis), against, tuple(notes))
+
+
+def _extent(tree: Tree, body: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """(low, high) [m] the world bounding box of the collision geometry of ``body`` and all
+    below it, or None without any."""
+    boxes = [tree.bodies[b] for b in tree.subtree(body) if tree.bodies[b].low is not None]
+    if not boxes:
+        return None
+    return (np.min([_vec(b.low) for b in boxes], axis=0), np.max([_vec(b.high) for b in boxes], axis=0))
 
 
 def _name(vector: np.ndarray) -> str:

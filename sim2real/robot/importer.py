@@ -26,7 +26,8 @@ chain (a gripper, fingers, a tail), one whose axis is far from every principal o
 no twin on the other side, and slide or ball joints are left out of ``joints`` and so held at
 their home pose by the model builder; the report and the YAML's comments say which and why.
 A knee or elbow whose limits let it bend only the wrong way is named as a limit against the
-geometry.
+geometry and, where the facing rests on cues (or ``--forward``), written turned to its flexion
+side (a robot no home makes stand otherwise); the note says so.
 
 Only :func:`import_robot` needs MuJoCo (imported inside it): the rest is plain data, so this
 package still imports without MuJoCo.
@@ -262,8 +263,7 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
         result.notes.append("no knee was found on the legs: check the leg chains in the report")
     result.contradictions += _contradictions(joints, facing)
     wrong = {text.split(":")[0] for text in result.contradictions}
-    result.joints = [with_note(j, f"LIMIT AGAINST THE GEOMETRY: {GUESSED} (see the header)") if j.name in wrong else j
-                     for j in result.joints]
+    result.joints = [_flexion_side(j, facing) if j.name in wrong else j for j in result.joints]
     for pair in mirror.pairs:
         left, right = (next((j for j in joints if j.name == n), None) for n in (pair.left, pair.right))
         if left is not None and right is not None and (left.location, left.axis) != (right.location, right.axis):
@@ -305,6 +305,31 @@ def _with_servo(j: JointGuess, where: dict[str, str], default: str) -> JointGues
     return replace(j, servo_model=model if model != default else "")
 
 
+def _limits_fixed(facing: Facing) -> bool:
+    """Whether a knee's or an elbow's limits against the geometry are replaced by their
+    flexion side in the YAML: when the facing rests on cues (or --forward), not on a guess."""
+    return facing.decided_by in ("geometry", "--forward")
+
+
+def _flexion_side(j: JointGuess, facing: Facing) -> JointGuess:
+    """A joint whose limits are against the geometry: with its range turned to the flexion
+    side (as the report's fix says) where the facing is sure, else as the model has it; noted.
+    A URDF whose two knees share an axis direction but not their limits (Poppy's) is fixed so,
+    instead of leaving a knee that cannot bend and a robot that no home makes stand."""
+    if not _limits_fixed(facing):
+        return with_note(j, f"LIMIT AGAINST THE GEOMETRY: {GUESSED} (see the header)")
+    lo, hi = _flexion_range(j)
+    return replace(j, range_deg=(lo, hi), home_deg=min(max(j.home_deg, lo), hi) + 0.0,
+                   notes=(*j.notes, f"LIMIT AGAINST THE GEOMETRY: the model's [{number_text(j.range_deg[0])}, "
+                          f"{number_text(j.range_deg[1])}] turned to the flexion side, {GUESSED} (see the header)"))
+
+
+def _flexion_range(j: JointGuess) -> tuple[float, float]:
+    """[deg] a backward-bending joint's range mirrored to the flexion side (from 0)."""
+    lo, hi = j.range_deg
+    return max(0.0, -float(hi)), -float(lo)
+
+
 def _contradictions(joints: Sequence[JointGuess], facing: Facing) -> list[str]:
     """A knee or an elbow whose limits let it bend only the wrong way: named as a limit
     against the geometry (the facing and the cues it rests on), with the fix."""
@@ -315,10 +340,12 @@ def _contradictions(joints: Sequence[JointGuess], facing: Facing) -> list[str]:
             way = "forward" if j.location == "knee" else "backward"
             cues = ", ".join(c.what for c in facing.cues if c.joint != j.name and c not in facing.against)
             basis = f"from {cues}" if cues else f"{facing.decided_by}"
+            fixed = "; the YAML has it" if _limits_fixed(facing) else ""
+            flex_lo, flex_hi = (number_text(a) for a in _flexion_range(j))
             out.append(f"{j.name}: its limits in the model, [{lo}, {hi}] deg anatomical, let this {j.side} {j.location} "
                        f"bend only {way}, against the geometry (facing {facing.forward}, {basis}): the model's limits "
-                       f"are wrong for this joint (fix: range_deg [{number_text(max(0.0, -float(hi)))}, "
-                       f"{number_text(-float(lo))}], the flexion side, as its twin's)")
+                       f"are wrong for this joint (fix: range_deg [{flex_lo}, {flex_hi}], the flexion side, as its "
+                       f"twin's{fixed})")
     return out
 
 

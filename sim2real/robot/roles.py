@@ -13,7 +13,8 @@ hinge's :class:`~sim2real.robot.structure.Place`.  For each hinge:
   (a spine's second pitch joint is ``index: 1``);
 * its **sign** (anatomical angle = sign * model angle) is the dot of its axis with the role's
   anatomical axis (:mod:`sim2real.robot.anatomy`); an elbow's is the sense that folds the
-  forearm forward when it hangs, down when it is held out sideways, up when it points ahead;
+  forearm forward when it hangs, down when it is held out sideways (unless its limits let it
+  bend one way only: then that way), up when it points ahead;
 * its **range** is the model's made anatomical, cut to its servo's reach, or +-90 deg where the
   model sets none; its home the ``home`` keyframe's, else 0.
 
@@ -35,6 +36,7 @@ from sim2real.robot.joint_names import axis_of, location_of
 from sim2real.robot.structure import Hinge, Place
 
 MAX_AXIS_OFF_DEG = 30.0  # a hinge farther than this from every principal axis has no role
+ONE_SIDED = 4.0  # an elbow whose limits reach this many times farther one way bends that way
 UNLIMITED_RANGE_DEG = 90.0  # the range guessed for a joint the model leaves unlimited
 GUESSED = "guessed: check"
 _PRINCIPAL = {"roll": (1.0, 0.0, 0.0), "pitch": (0.0, 1.0, 0.0), "yaw": (0.0, 0.0, 1.0)}
@@ -153,16 +155,22 @@ def _elbow_flexion(p: Placed, forward: str) -> tuple[int, str]:
     r = np.array(to_anatomical(p.far_end, forward)) - anchor
     r /= max(float(np.linalg.norm(r)), 1e-12)
     moves = np.cross(np.array(to_anatomical(p.hinge.axis, forward)), r)  # the hand's way for a positive turn
+    rng = p.hinge.range_rad
     if abs(r[2]) >= 0.7:
         want, how = np.array([-np.sign(r[2]), 0.0, 0.0]), "forward (the forearm hangs)" if r[2] < 0 else "back"
     elif abs(r[1]) >= abs(r[0]):
         want, how = np.array([0.0, 0.0, -1.0]), "down (the forearm is held out sideways)"
+        # Held out sideways, the elbow folds down or up as the upper arm is turned: the owner's
+        # limits, where they let it bend one way only, say which (Poppy's URDF holds its arms so,
+        # its elbows folding up: poppy-project/poppy-humanoid, hardware/URDF/robots)
+        if rng is not None and max(abs(rng[0]), abs(rng[1])) >= ONE_SIDED * min(abs(rng[0]), abs(rng[1])) + 1e-9:
+            return (1 if rng[1] > -rng[0] else -1), ("+ is the side its limits reach (held out sideways, it may "
+                                                     f"fold down or up) ({GUESSED})")
     else:
         want, how = np.array([0.0, 0.0, 1.0]), "up (the forearm points ahead)"
     along = float(moves @ want)
     if abs(along) > 0.3:
         return (1 if along > 0 else -1), f"+ folds the forearm {how}"
-    rng = p.hinge.range_rad
     if rng is not None and abs(rng[0] + rng[1]) > 1e-6:
         return (1 if rng[1] > -rng[0] else -1), f"+ is the side its limits reach farther ({GUESSED})"
     return 1, f"flexion's sense not decided: + as the model turns ({GUESSED})"

@@ -273,7 +273,10 @@ def _resolve_meshes(spec: mujoco.MjSpec, kind: str, folder: Path, dirs: list[Pat
             hint = f"; there is {near} (names differ in case or extension)" if near else ""
             problems.lines.append(f"{mesh.file}{where}: {why} (looked for {tried}){hint}")
         elif kind == "urdf":
-            mesh.file = str(found)
+            # absolute: a package folder given relative to the working directory (a robot YAML
+            # read as `robot.yaml`, `--package-dir ../src`) would be read by MuJoCo from the
+            # model's own folder, and not be found there
+            mesh.file = str(found.absolute())
     return problems
 
 

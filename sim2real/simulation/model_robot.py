@@ -16,7 +16,9 @@ does (:func:`~sim2real.simulation.model_builder.finished_spec`).
 * A joint the map does not name (a gripper, a spare hinge) is removed: its child body is held
   fixed to its parent at the model's zero pose.
 * The sole site of a foot is a box over the bottom of the foot's collision geoms (bounding box
-  in the foot's frame) reaching a little below them, where contact points lie.
+  in the foot's frame) reaching a little below them, where contact points lie; the bottom is
+  along the foot frame's axis nearest world down at the zero pose (a URDF link's frame may
+  have its z forward, as Darwin-OP's ankle links do).
 * Links that touch at the model's zero pose (CAD meshes overlapping at a joint) never collide.
 * A model drawn facing another way than +x (``model.forward``) has its root turned about z to
   face +x, and the IMU site turned back by as much on its body, so that the IMU's x is still
@@ -137,11 +139,18 @@ def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False
         imu.add_site(name=IMU_SITE, pos=list(source.imu_pos))
     model = compile_model(spec, where)
     _exclude_touching_links(spec, model)
+    zero = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, zero)  # the zero pose, the robot standing as drawn
     for side in FEET:
         low, high = _foot_box(model, robot, side)
-        top = low[2] + max(SOLE_SLAB_M, SOLE_SLAB_SHARE * (high[2] - low[2]))  # the sole, not the ankle above it
-        low[2] -= SOLE_BELOW_M
-        high[2] = min(high[2], top)
+        up, sign = _up_axis(zero.xmat[model.body(source.feet[side].body).id])
+        slab = max(SOLE_SLAB_M, SOLE_SLAB_SHARE * (high[up] - low[up]))  # the sole, not the ankle above it
+        if sign > 0:
+            high[up] = min(high[up], low[up] + slab)
+            low[up] -= SOLE_BELOW_M
+        else:  # the foot's frame points this axis down (a URDF's link frames follow its joints)
+            low[up] = max(low[up], high[up] - slab)
+            high[up] += SOLE_BELOW_M
         centre = 0.5 * (low + high)
         half = 0.5 * (high - low) + np.array([SOLE_MARGIN_M, SOLE_MARGIN_M, 0.0])
         spec.body(source.feet[side].body).add_site(name=sole_site(side), type=mujoco.mjtGeom.mjGEOM_BOX,
@@ -248,6 +257,14 @@ def _corners_in_body(model: mujoco.MjModel, geom: int) -> np.ndarray:
     mujoco.mju_quat2Mat(rot, model.geom_quat[geom])
     local = np.array([centre + np.array(c) * half for c in itertools.product((-1, 1), repeat=3)])
     return _rotated(rot, local, model.geom_pos[geom])
+
+
+def _up_axis(xmat: np.ndarray) -> tuple[int, int]:
+    """The axis (0, 1, 2) of a body's frame nearest world up, from its world orientation
+    ``xmat`` (9,), and +1 if it points up, -1 if down."""
+    up_row = np.asarray(xmat).reshape(3, 3)[2]  # world z of the body's axes
+    axis = int(np.argmax(np.abs(up_row)))
+    return axis, 1 if up_row[axis] > 0 else -1
 
 
 def _foot_box(model: mujoco.MjModel, robot: RobotSpec, side: str) -> tuple[np.ndarray, np.ndarray]:
