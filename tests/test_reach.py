@@ -256,7 +256,7 @@ def test_a_reach_target_out_of_reach_is_refused_before_anything_moves(reacher_fi
     assert "arm lengths from the right shoulder" in capsys.readouterr().err
     with pytest.raises(SystemExit) as exit_:
         main(args + ["0,0"])
-    assert exit_.value.code == 2 and "three finite numbers" in capsys.readouterr().err
+    assert exit_.value.code == 2 and "three numbers X,Y,Z in metres" in capsys.readouterr().err
 
 
 def test_a_walker_takes_no_reach_target(capsys):
