@@ -345,3 +345,26 @@ def test_the_simulated_bus_answers_each_protocol_only_from_its_own_servos(robot)
         assert one.readTxRx(bus.port, 5, 30, 2)[0] == [0x58, 0x02]  # the AX-12A took its goal, 600
         assert two.read4ByteTxRx(bus.port, 1, 116)[0] == 2048  # the XL430 kept its own
         bus.close()
+
+
+def test_a_late_reply_of_the_wrong_length_in_protocol_1_is_a_failed_exchange_not_a_value(monkeypatch):
+    """Protocol 1.0 matches a status packet to its request by ID alone: after a host stall, the
+    late reply of an earlier exchange (a ping's, with no data) can arrive in place of a read's.
+    The SDK then indexes past its end (ping) or returns fewer bytes (read); either is a failed
+    exchange, retried, with the port cleared - never a crash, never a value read as 0."""
+    import dynamixel_sdk as sdk
+
+    from sim2real.hardware.bus import CommunicationError
+    from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
+
+    bus = DynamixelBus("/dev/null", 1_000_000, protocol=1.0)
+    cleared = []
+    monkeypatch.setattr(bus.port, "clearPort", lambda: cleared.append(True))
+    handler = bus.handlers[1.0]
+    monkeypatch.setattr(handler, "readTxRx", lambda port, dxl_id, address, size: ([], sdk.COMM_SUCCESS, 0))
+    with pytest.raises(CommunicationError, match="wrong length"):
+        bus.read(7, 36, 2)
+    monkeypatch.setattr(handler, "ping", lambda port, dxl_id: [][0])  # what the SDK does with an empty reply
+    with pytest.raises(CommunicationError, match="ping: a reply of the wrong length"):
+        bus.ping(7)
+    assert len(cleared) == 2 and not bus.port.is_using

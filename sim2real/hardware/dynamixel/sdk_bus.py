@@ -159,9 +159,19 @@ class DynamixelBus(Bus):
 
     @_exchange
     def ping(self, dxl_id: int) -> int:
-        model, result, error = self.handlers[self.protocol_of(dxl_id)].ping(self.port, dxl_id)
+        try:
+            model, result, error = self.handlers[self.protocol_of(dxl_id)].ping(self.port, dxl_id)
+        except IndexError:  # protocol 1.0: the SDK indexes a reply to its model-number read unchecked
+            raise self._stale([dxl_id], "ping") from None
         self._check([dxl_id], result, error & ERROR_NUMBER_MASK, "ping")
         return model
+
+    def _stale(self, ids: list[int], what: str) -> CommunicationError:
+        """A reply of the wrong length where protocol 1.0 matches replies by ID alone: a late
+        status packet of an earlier exchange (the host stalled past its timeout) taken for this
+        one's.  The port is cleared and the exchange counts as failed, to be tried again."""
+        self.port.clearPort()
+        return CommunicationError(ids, f"{what}: a reply of the wrong length (a late one of an earlier exchange?)")
 
     def _status(self, dxl_id: int, size: int) -> tuple[list[int], int, int]:
         """Protocol 2.0: the status packet of ``dxl_id`` carrying ``size`` data bytes, skipping
@@ -181,6 +191,8 @@ class DynamixelBus(Bus):
         handler = self.handlers[protocol]
         if protocol == 1.0:
             data, result, error = handler.readTxRx(self.port, dxl_id, address, size)
+            if result == sdk.COMM_SUCCESS and len(data) != size:
+                raise self._stale([dxl_id], f"read {size} bytes at {address}")
         else:
             result = handler.readTx(self.port, dxl_id, address, size)
             data, error = [], 0
