@@ -44,7 +44,7 @@ def trained(imported, tmp_path_factory) -> tuple[Path, str, str]:
     """A training cut by SIGINT in its polish stage, then resumed to the end: (folder, the first
     run's stderr, the resumed run's stdout + stderr)."""
     out = tmp_path_factory.mktemp("train") / "run"
-    cmd = [sys.executable, "-m", "evolve.cli", "train", str(imported), "--out", str(out), "--minutes", "3",
+    cmd = [sys.executable, "-m", "evolve.cli", "train", str(imported), "--out", str(out), "--minutes", "2",
            "--seed", "3", "--threads", "2"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -60,7 +60,7 @@ def trained(imported, tmp_path_factory) -> tuple[Path, str, str]:
     first.append(rest_err)
     assert proc.returncode == 130, "".join(first)
     assert "--resume" in rest_err
-    resumed = biped("train", str(imported), "--out", str(out), "--minutes", "3", "--seed", "3", "--resume",
+    resumed = biped("train", str(imported), "--out", str(out), "--minutes", "2", "--seed", "3", "--resume",
                     timeout=900)
     assert resumed.returncode == 0, resumed.stderr
     return out, "".join(first), resumed.stdout + resumed.stderr
