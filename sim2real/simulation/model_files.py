@@ -45,7 +45,14 @@ import mujoco
 
 from sim2real.errors import ConfigError
 from sim2real.input_files import read_regular_bytes, regular_file_problem
-from sim2real.simulation.model_guard import MAX_MODEL_BYTES, XmlDocument, check_model_files, near_match, parse_model_xml
+from sim2real.simulation.model_guard import (
+    MAX_MODEL_BYTES,
+    XmlDocument,
+    check_model_files,
+    mesh_candidates,
+    near_match,
+    parse_model_xml,
+)
 from sim2real.simulation.model_roles import check_unique_names
 from sim2real.simulation.robot_model import is_collision_geom
 
@@ -258,7 +265,7 @@ def _resolve_meshes(spec: mujoco.MjSpec, kind: str, folder: Path, dirs: list[Pat
             continue  # vertices given inline
         where = f" (used by {users[mesh.name]})" if mesh.name in users else ""
         package = mesh.file[len("package://"):].split("/", 1)[0] if mesh.file.startswith("package://") else None
-        candidates = _candidates(mesh.file, folder, meshdir, spec.strippath, dirs)
+        candidates = mesh_candidates(mesh.file, folder, meshdir, spec.strippath, dirs)
         if not candidates:  # package:// and no --package-dir
             problems.packages.add(package)
             problems.lines.append(f"{mesh.file}{where}: a package:// path, and no package folder was given")
@@ -278,18 +285,6 @@ def _resolve_meshes(spec: mujoco.MjSpec, kind: str, folder: Path, dirs: list[Pat
             # model's own folder, and not be found there
             mesh.file = str(found.absolute())
     return problems
-
-
-def _candidates(file: str, folder: Path, meshdir: Path, strippath: bool, dirs: list[Path]) -> list[Path]:
-    if file.startswith("package://"):
-        package, _, rest = file[len("package://"):].partition("/")
-        return [c for d in dirs for c in (d / package / rest, d / rest)]
-    if file.startswith("file://"):
-        file = file[len("file://"):]
-    name = Path(file).name if strippath else file
-    if Path(name).is_absolute():
-        return [Path(name)]
-    return [folder / meshdir / name]  # MuJoCo's rule for MJCF and for URDF alike
 
 
 def _package_guess(folder: Path, packages: set[str]) -> str:

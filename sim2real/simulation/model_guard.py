@@ -325,7 +325,7 @@ class _Walk:
                 self.geoms += 1
             elif element.tag == "mesh" and element.get("filename"):
                 self._existing(element, place, "filename", element.get("filename"),
-                               _urdf_candidates(element.get("filename"), self.model_dir, folder, strip,
+                               mesh_candidates(element.get("filename"), self.model_dir, folder, strip,
                                                 self.package_dirs), MAX_ASSET_BYTES, missing_is_error=False)
             name = element.get("name")
             around = f"<{element.tag} name={name!r}>" if name else place.around
@@ -428,8 +428,11 @@ def _repeats(element: ET.Element, walk: _Walk, place: _Place) -> int:
     return product
 
 
-def _urdf_candidates(file: str, folder: Path, meshdir: str, strippath: bool, dirs: list[Path]) -> list[Path]:
-    """Where a URDF mesh is looked for (as :mod:`.model_files` resolves it)."""
+def mesh_candidates(file: str, folder: Path, meshdir: Path | str, strippath: bool, dirs: list[Path]) -> list[Path]:
+    """Where a mesh file is looked for: a ``package://`` path in each package folder ``dirs``
+    (as ``PKG/rest`` and as ``rest``), an absolute path as itself, anything else in
+    ``folder / meshdir`` (MuJoCo's rule for MJCF and for URDF alike; ``strippath`` keeps the
+    file name only)."""
     if file.startswith("package://"):
         package, _, rest = file[len("package://"):].partition("/")
         return [c for d in dirs for c in (d / package / rest, d / rest)]
