@@ -1,7 +1,7 @@
 """``biped train``: every stage on a robot with no config of its own, Ctrl-C and resume, the
 provenance of what it ships, and bad input refused before anything runs.
 
-The smoke training is small (a budget of 1.5 min, far too short for a walker): it checks the
+The smoke training is small (a budget of 3 min, far too short for a walker, long enough on a slow machine for its polish to begin before the cut): it checks the
 machinery - stages, resume, provenance, progress - not the walker, which the benchmark
 (``python -m benchmarks.robust_walk``) measures.
 """
@@ -44,7 +44,7 @@ def trained(imported, tmp_path_factory) -> tuple[Path, str, str]:
     """A training cut by SIGINT in its polish stage, then resumed to the end: (folder, the first
     run's stderr, the resumed run's stdout + stderr)."""
     out = tmp_path_factory.mktemp("train") / "run"
-    cmd = [sys.executable, "-m", "evolve.cli", "train", str(imported), "--out", str(out), "--minutes", "2",
+    cmd = [sys.executable, "-m", "evolve.cli", "train", str(imported), "--out", str(out), "--minutes", "3",
            "--seed", "3", "--threads", "2"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -60,7 +60,7 @@ def trained(imported, tmp_path_factory) -> tuple[Path, str, str]:
     first.append(rest_err)
     assert proc.returncode == 130, "".join(first)
     assert "--resume" in rest_err
-    resumed = biped("train", str(imported), "--out", str(out), "--minutes", "2", "--seed", "3", "--resume",
+    resumed = biped("train", str(imported), "--out", str(out), "--minutes", "3", "--seed", "3", "--resume",
                     timeout=900)
     assert resumed.returncode == 0, resumed.stderr
     return out, "".join(first), resumed.stdout + resumed.stderr
