@@ -1,8 +1,9 @@
 """``biped train``: every stage on a robot with no config of its own, Ctrl-C and resume, the
 provenance of what it ships, and bad input refused before anything runs.
 
-The smoke training is small (a budget of 3 min, far too short for a walker, long enough on a slow machine for its polish to begin before the cut): it checks the
-machinery - stages, resume, provenance, progress - not the walker, which the benchmark
+The smoke training is small (a budget of 3 min: far too short for a walker, long enough on a
+slow machine for its polish to begin before the cut): it checks the machinery - stages,
+resume, provenance, progress - not the walker, which the benchmark
 (``python -m benchmarks.robust_walk``) measures.
 """
 
