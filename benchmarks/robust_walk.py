@@ -39,7 +39,9 @@ def seed_record(folder: Path) -> dict[str, Any]:
     return {
         "seed": state["settings"]["seed"], "folder": str(folder), "controller": str(folder / CONTROLLER),
         "wall_minutes": state["elapsed_s"] / 60.0,
-        "cpu_minutes": sum(stage["cpu_minutes"] for stage in state["stages"].values()),
+        # every session's CPU, every stage and the measuring (a training from before cpu_s: its stages')
+        "cpu_minutes": state["cpu_s"] / 60.0 if "cpu_s" in state else sum(
+            stage["cpu_minutes"] for stage in state["stages"].values()),
         "stage_minutes": {name: round(stage["wall_minutes"], 2) for name, stage in state["stages"].items()},
         "neat_robust": state["stages"]["neat"]["robust"], "neat_generations": state["stages"]["neat"]["generations"],
         "walk_rate": m["rate"]["share"], "transfer": kept(measure["transfer"]),

@@ -103,7 +103,6 @@ class Budget:
         return share * self.minutes * 60.0 - self.elapsed_s
 
 
-
 def neat_config(robot_name: str, settings: TrainSettings) -> "EvolveConfig":
     """The NEAT stage's config: ``settings.config`` for ``robot_name`` (its ``phase_period_s: auto``
     sets the gait clock from the robot's leg length), the training's seed and threads, the
@@ -148,12 +147,14 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
     with RunLock.acquire(out, what="biped train"):
         state = _load_state(out, robot_name, settings) if resume else _new_state(robot_name, settings, command)
         budget = Budget(settings.minutes, spent_s=state.get("elapsed_s", 0.0))
+        cpu_before, cpu_at_start = state.get("cpu_s", 0.0), _cpu_s()  # CPU seconds of earlier sessions, and now
         progress = Progress(budget, quiet) if log is None else log
         if isinstance(progress, Progress):
             progress.stage = "start"
 
         def save() -> None:
             state["elapsed_s"] = budget.elapsed_s
+            state["cpu_s"] = cpu_before + _cpu_s() - cpu_at_start
             state["settings"]["minutes"], state["settings"]["threads"] = settings.minutes, settings.threads
             write_json_atomic(out / STATE, state)
 
@@ -398,7 +399,7 @@ def _stage_summary(record: dict[str, Any]) -> dict[str, Any]:
 
 def _new_state(robot_name: str, settings: TrainSettings, command: str | None) -> dict[str, Any]:
     return {"version": STATE_VERSION, "robot": robot_name, "command": command or "biped train",
-            "settings": dataclasses.asdict(settings), "stages": {}, "elapsed_s": 0.0}
+            "settings": dataclasses.asdict(settings), "stages": {}, "elapsed_s": 0.0, "cpu_s": 0.0}
 
 
 def _load_state(out: Path, robot_name: str, settings: TrainSettings) -> dict[str, Any]:
