@@ -35,7 +35,8 @@ SELECTION_WEIGHT_WHY = "past it the term drowns all others"
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
     ev = sub.add_parser("evolve", help="evolve walking controllers in MuJoCo",
-                        description="Evolve controllers with NEAT on the locomotion task of seed 000. "
+                        description="Evolve controllers with NEAT on the locomotion task of Allen & Faloutsos (2009), "
+                        "Evolved Controllers for Simulated Locomotion. "
                         "Writes a run folder: config.yaml, checkpoints, stats.csv, fitness.png, controller.json.")
     ev.add_argument("config", nargs="?", default=None,
                     help="evolution config: a name from configs/evolve/ or a YAML path (default: walk)")
@@ -54,7 +55,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                     help=f"simulation threads, 0 = all cores, at most {MAX_THREADS} (overrides the config)")
     ev.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
     ev.add_argument("--backend", choices=("local", "ray"), default="local",
-                    help="where simulations run: this machine, or a Ray cluster (pip install '.[cluster]')")
+                    help="where simulations run: local (this machine) or ray (a Ray cluster: pip install '.[cluster]'; default: %(default)s)")
     ev.add_argument("--address", type=cluster_address, help="Ray cluster address, HOST:PORT, e.g. 10.0.0.1:6379, "
                     "or auto (default: start a local Ray); checked to answer within a few seconds before the run")
     ev.add_argument("--quiet", action="store_true", help="no progress lines")
@@ -62,7 +63,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
 
     ex = sub.add_parser("export", help="write a run's best controller as JSON",
                         description="Write the best controller of a run folder as controller JSON.")
-    ex.add_argument("run_dir", type=Path)
+    ex.add_argument("run_dir", type=Path, help="run folder of biped evolve (holding checkpoint.json.gz)")
     ex.add_argument("-o", "--output", type=output_file(".json"), default="controller.json",
                     help="controller file to write (default: controller.json)")
     ex.add_argument("--stage", help="a staged run's finished stage (default: the latest best)")
@@ -71,7 +72,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ea = sub.add_parser("eval", help="measure a controller: distance, time upright, falls",
                         description="Run a controller on its robot in MuJoCo (no harness) and report "
                         "distance walked, time upright and whether it fell.")
-    ea.add_argument("controller", type=Path)
+    ea.add_argument("controller", type=Path, help="controller JSON to replay")
     ea.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
     ea.add_argument("--seconds", type=positive_float_at_most(MAX_EPISODE_S, "memory and time grow with it"),
                     help=f"episode length, at most {MAX_EPISODE_S:g} s (default: the controller's task)")
@@ -81,7 +82,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ea.add_argument("--randomize", type=reality_name, nargs="?", const="randomize", metavar="RANGES",
                     help="randomize every episode with these ranges (default configs/reality/randomize.yaml)")
     ea.add_argument("--reality", type=reality_name, metavar="PROFILE", help="a fixed reality profile (configs/reality/ name or path)")
-    ea.add_argument("--seed", type=seed, default=0, help="seed of the randomized draws")
+    ea.add_argument("--seed", type=seed, default=0, help="seed of the randomized draws (default: %(default)s)")
     ea.add_argument("--ablate", action="store_true",
                     help="with --reality/--randomize: measure each perturbation alone too, to see which "
                     "one breaks the controller (default 3 episodes)")
@@ -101,7 +102,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         "few updates on fixed validation robots, the best kept; at the end the kept weights and "
                         "the original are judged on fresh robots.  Writes OUT/polished.json and OUT/result.json, and "
                         "OUT/checkpoint.json after every update (--resume continues a cut polish).")
-    po.add_argument("controller", type=Path)
+    po.add_argument("controller", type=Path, help="the walker whose weights to polish (controller JSON)")
     po.add_argument("--out", type=output_dir, required=True, help="folder for polished.json and result.json")
     po.add_argument("--updates", type=int_within(1, 100_000), default=60, help="CMA-ES updates (default 60)")
     # the defaults are biped train's walk-rate polish (evolve.train.POLISH)
@@ -120,7 +121,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                     help="ranges the robots are drawn from (default configs/reality/randomize.yaml); given "
                     "more than once, the robots of every draw take turns at them (wide ranges for the walk "
                     "rate, narrow ones for a walk near the model)")
-    po.add_argument("--seed", type=seed, default=0, help="seed of the search and every draw")
+    po.add_argument("--seed", type=seed, default=0, help="seed of the search and every draw (default: %(default)s)")
     po.add_argument("--episode-s", type=positive_float_at_most(MAX_EPISODE_S), metavar="S",
                     help="episodes of this length [s] (default: the controller's task's); longer ones show circling")
     po.add_argument("--straight", type=float_within(0.0, MAX_SELECTION_WEIGHT, SELECTION_WEIGHT_WHY), metavar="C",
@@ -154,20 +155,24 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         "chosen on validation robots), until --generations or --minutes; then judge the champion on "
                         "fresh robots around it and with the transfer check through the simulated bus on the "
                         "identified profile.  The loop: excite -> sysid -> adapt -> dry-run -> run.")
-    ad.add_argument("controller", type=Path)
+    ad.add_argument("controller", type=Path, help="the walker to adapt (controller JSON)")
     ad.add_argument("--reality", type=reality_name, required=True, metavar="IDENTIFIED",
-                    help="the identified robot: a reality file of fixed values, as `biped sysid` writes")
+                    help="the identified robot: a reality file of fixed values, as biped sysid writes")
     ad.add_argument("--out", type=output_dir, required=True, help="run folder (controller.json, adapt.json)")
     ad.add_argument("--ranges", type=reality_name, default="narrow",
                     help="ranges drawn around the identified robot (default configs/reality/narrow.yaml)")
-    ad.add_argument("--generations", type=int_within(1, MAX_GENERATIONS), default=100)
-    ad.add_argument("--minutes", type=positive_float_at_most(7 * 24 * 60, "a week"), help="stop after this long")
-    ad.add_argument("--population", type=int_within(2, MAX_POPULATION, "memory grows with it"), default=64)
-    ad.add_argument("--episodes", type=int_within(1, 64), default=3, help="robots each genome meets a generation")
+    ad.add_argument("--generations", type=int_within(1, MAX_GENERATIONS), default=100,
+                    help="generations to evolve, unless --minutes ends it first (default %(default)s)")
+    ad.add_argument("--minutes", type=positive_float_at_most(7 * 24 * 60, "a week"), help="stop after this many minutes of evolution (default: no limit but --generations)")
+    ad.add_argument("--population", type=int_within(2, MAX_POPULATION, "memory grows with it"), default=64,
+                    help="population size, grown from the walker and mutated copies of it (default %(default)s)")
+    ad.add_argument("--episodes", type=int_within(1, 64), default=3,
+                    help="robots each genome meets a generation (default %(default)s)")
     ad.add_argument("--validation", type=int_within(1, 1000), default=20, help="validation robots (default 20)")
     ad.add_argument("--test", type=int_within(1, 10_000), default=50, help="fresh robots to judge on (default 50)")
-    ad.add_argument("--seed", type=seed, default=1)
-    ad.add_argument("--threads", type=int_within(0, MAX_THREADS, "each holds a simulation's memory"), default=0)
+    ad.add_argument("--seed", type=seed, default=1, help="seed of the evolution and every draw (default %(default)s)")
+    ad.add_argument("--threads", type=int_within(0, MAX_THREADS, "each holds a simulation's memory"), default=0,
+                    help="simulation threads, 0 = all cores (default %(default)s)")
     ad.add_argument("--json", action="store_true", help="print the result as one JSON object")
     ad.set_defaults(func=cmd_adapt)
 

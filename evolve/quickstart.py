@@ -30,7 +30,7 @@ from sim2real.cli.args import (
 
 def add_command(sub: argparse._SubParsersAction) -> None:
     q = sub.add_parser("quickstart", help="evolve, export, film, dry-run and compare, once, in a few minutes",
-                       description=__doc__.split("\n\n")[1].replace("\n", " "))
+                       description=__doc__.split("\n\n")[1].replace("\n", " ").replace("``", ""))
     q.add_argument("--out", type=output_dir, default="runs/quickstart",
                    help="folder for everything (default: runs/quickstart)")
     q.add_argument("--generations", type=int_within(1, MAX_GENERATIONS), default=12,
@@ -38,7 +38,7 @@ def add_command(sub: argparse._SubParsersAction) -> None:
     q.add_argument("--population", type=int_within(2, MAX_POPULATION, "memory grows with it"), default=48,
                    help="population size (default 48)")
     q.add_argument("--reality", type=reality_name, default="default", help="reality profile of the dry run (default: default)")
-    q.add_argument("--seed", type=seed, default=1)
+    q.add_argument("--seed", type=seed, default=1, help="seed of the short evolution (default 1)")
     q.add_argument("--no-video", action="store_true", help="skip the video (no offscreen GL here)")
     q.set_defaults(func=cmd_quickstart, check=check_quickstart)
 

@@ -142,7 +142,7 @@ def test_the_checker_sees_what_it_must():
     """The checker itself: a missing picture, a missing anchor, and links it must leave alone."""
     assert broken("README.md", "docs/no_such_picture.png") == "docs/no_such_picture.png is not in the repository"
     assert broken("README.md", "#no-such-section") == "README.md has no heading whose anchor is #no-such-section"
-    assert broken("docs/servo_model.md", "../README.md#rendering") is None
+    assert broken("docs/servo_model.md", "../README.md#install") is None
     assert broken("README.md", "https://example.org/x.png") is None
     assert broken("README.md", "../outside.md") == "points outside the repository"
     assert slug("The firmware's D term") == "the-firmwares-d-term"

@@ -47,7 +47,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     run = sub.add_parser("run", help="drive a robot with a controller (real bus or mock)",
                          description="Drive the robot with a controller: start-up checks, a slow ramp, "
                          "the real-time loop, and a safe stop (ramp to rest, torque off) however it ends.")
-    run.add_argument("controller", type=Path)
+    run.add_argument("controller", type=Path, help="controller JSON (biped export, biped train or configs/controllers/)")
     run.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
     where = run.add_mutually_exclusive_group()
     where.add_argument("--port", help="serial port of the real bus, e.g. /dev/ttyUSB0")
@@ -74,16 +74,16 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
 def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
     dry = sub.add_parser("dry-run", help="run a controller through the real loop on the simulated bus",
                          description="Start the simulated Dynamixel bus (MuJoCo physics behind a pseudo-terminal) "
-                         "and run the same runtime as `biped run` on it, through the official SDK.  Distance and "
+                         "and run the same runtime as biped run on it, through the official SDK.  Distance and "
                          "falls come from the simulator's ground truth.")
-    dry.add_argument("controller", type=Path)
+    dry.add_argument("controller", type=Path, help="controller JSON (biped export, biped train or configs/controllers/)")
     dry.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
     dry.add_argument("--duration", type=RUN_SECONDS, default=10.0, help="seconds of the loop (default 10)")
     dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE "
                      "or a YAML file of them")
     dry.add_argument("--reality", type=reality_name, metavar="PROFILE",
                      help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
-    dry.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts")
+    dry.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts (default: %(default)s)")
     dry.add_argument("--trace", type=TRACE_FILE, help="trace CSV (+ JSON sidecar)")
     dry.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                      help="switch a control module off (repeatable)")
@@ -107,13 +107,13 @@ def add_compare_command(sub: argparse._SubParsersAction) -> None:
                           "--controller, run the controller closed-loop) and report per joint the RMSE and MAE "
                           "[deg] and the lag [ms] of the real joint behind the simulated one, and foot-contact "
                           "agreement.")
-    cmp_.add_argument("trace", type=Path)
+    cmp_.add_argument("trace", type=Path, help="trace CSV of biped run, dry-run or excite (with its JSON sidecar)")
     cmp_.add_argument("--controller", type=Path, help="simulate this controller closed-loop instead")
     cmp_.add_argument("--robot", type=robot_name, help="robot (default: the trace's)")
     cmp_.add_argument("--reality", type=reality_name, metavar="PROFILE",
-                      help="simulate the robot of this reality file (e.g. one `biped sysid` wrote) instead of the "
+                      help="simulate the robot of this reality file (e.g. one biped sysid wrote) instead of the "
                       "nominal one")
-    cmp_.add_argument("--json", action="store_true")
+    cmp_.add_argument("--json", action="store_true", help="print the comparison as one JSON object")
     cmp_.add_argument("--plot", type=output_file(".png", ".pdf", ".svg"),
                       help="PNG overlaying real and simulated angles per joint")
     cmp_.set_defaults(func=cmd_compare, check=check_compare)

@@ -27,13 +27,14 @@ PICTURE_SUFFIXES = (".png", ".svg", ".pdf")
 
 def add_commands(sub: argparse._SubParsersAction,
                  replay: Mapping[str, Callable[..., Any]] | None = None) -> None:
-    plot = sub.add_parser("plot", help="pictures: a walk's joint angles and phase portraits, a network",
-                          description="Draw seed 000's pictures: a walk's joint angles over time and its "
-                          "hip-knee phase portraits (gait), or an evolved network (network).")
+    plot = sub.add_parser("plot", help="pictures: a walk's joint angles and phase portraits, a network, a reach",
+                          description="Draw a walk's joint angles over time and its hip-knee phase portraits "
+                          "(gait, as figures 2-3 of Allen & Faloutsos 2009), an evolved network (network), or a "
+                          "reach: the hand's distance to its goal over time (reach).")
     psub = plot.add_subparsers(dest="plot_command", required=True, metavar="{gait,network,reach}")
 
     gait = psub.add_parser(
-        "gait", help="joint angles over a walk and hip-knee phase portraits (seed 000, figures 2-3)",
+        "gait", help="joint angles over a walk and hip-knee phase portraits (Allen & Faloutsos 2009, figures 2-3)",
         description="Hip, knee and ankle pitch of both legs over time, the feet's contacts, and each leg's "
         "knee-against-hip phase portrait: from a simulated episode of CONTROLLER (no harness, until the "
         "episode ends or the robot falls) or from a recorded trace (--trace: a real robot's or a dry run's), "
@@ -66,7 +67,7 @@ def add_commands(sub: argparse._SubParsersAction,
     net.set_defaults(func=cmd_plot_network, check=check_plot_network)
 
     reach = psub.add_parser(
-        "reach", help="a reach over time: the hand's distance to its goal, reaching and returning (seed 002)",
+        "reach", help="a reach over time: the hand's distance to its goal, reaching and returning",
         description="The hand's distance to its goal over time with the reach state machine's phases shaded: "
         "from a simulated episode of a reaching CONTROLLER or from a trace (--trace: a real robot's or a dry "
         "run's, which records reach_state and hand_error).")

@@ -100,8 +100,8 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
     render.add_argument("--seconds", type=positive_float_at_most(MAX_VIDEO_S, "a video is held in memory"),
                         help=f"replay length for a controller, at most {MAX_VIDEO_S:g} s (default: its episode)")
     render.add_argument("--strip", nargs="+", type=Path, metavar="CONTROLLER",
-                        help="a picture of these controllers' replays side by side over time (seed 000's "
-                        "figure 1): one row each, filmed from the right at --frames moments, all from the "
+                        help="a picture of these controllers' replays side by side over time (as figure 1 of "
+                        "Allen & Faloutsos 2009): one row each, filmed from the right at --frames moments, all from the "
                         "same distance so that sizes compare (default output strip.png)")
     render.add_argument("--frames", type=int_within(1, MAX_STRIP_FRAMES),
                         help=f"moments of a --strip (default {STRIP_FRAMES}, at most {MAX_STRIP_FRAMES})")
@@ -324,7 +324,7 @@ what it infers (at the model's zero pose; every guess is commented "guessed: che
                            (a spine), and anatomical angle = sign * model angle
   range, home              the model's range made anatomical and cut to the servo's reach
                            (+-90 deg if unlimited); a keyframe 'home' or 0
-  stand                    the robot stands 5 s from that home (as `biped robot stand`); if it
+  stand                    the robot stands 5 s from that home (as biped robot stand); if it
                            falls or its knees are straight, a home with the knees bent that
                            stands is proposed and written, each leg range centred on it (the
                            networks use the central 80 %); the report gives both verdicts
@@ -357,7 +357,7 @@ def _add_import(rsub: argparse._SubParsersAction) -> None:
         epilog=IMPORT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     imp.add_argument("model", type=Path, metavar="MODEL",
                      help="the robot's MJCF or URDF file (told apart by its root element; expand a "
-                     ".xacro first: `xacro robot.urdf.xacro > robot.urdf`, or `pip install xacrodoc`)")
+                     ".xacro first: xacro robot.urdf.xacro > robot.urdf, or pip install xacrodoc)")
     imp.add_argument("-o", "--output", type=output_file(".yaml", ".yml"), required=True,
                      help="the robot YAML to write (its name is the file's stem; paths in it are relative to it)")
     imp.add_argument("--servo", type=_servo_choice, action="append", default=[], metavar="[WHERE=]MODEL",
@@ -374,7 +374,7 @@ def _add_import(rsub: argparse._SubParsersAction) -> None:
                      help="write 'inertias: from_geometry': each body's inertia from its collision "
                      "geometry, its mass kept (for a model whose inertias are wrong)")
     imp.add_argument("--no-stand", action="store_true",
-                     help="skip the stand check (5 s from home, as `biped robot stand`) and the home it "
+                     help="skip the stand check (5 s from home, as biped robot stand) and the home it "
                      "proposes when the model's home falls or has straight knees: home and ranges stay the "
                      "model's")
     imp.set_defaults(func=cmd_robot_import)

@@ -44,8 +44,8 @@ MAX_ITERS = 10_000  # the optimizer's iterations: 30 is the default, a few hundr
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
     ex = sub.add_parser(
-        "excite", help="move the servos through chirps and steps and trace them (for `biped sysid`)",
-        description="Drive an excitation program through the same bus layer and safety as `biped run` (start-up "
+        "excite", help="move the servos through chirps and steps and trace them (for biped sysid)",
+        description="Drive an excitation program through the same bus layer and safety as biped run (start-up "
         "checks, ramp, real-time loop, ramp to rest and torque off, read back): per joint or symmetric pair, a "
         "chirp (0.2-10 Hz) and steps of a few amplitudes around the home pose, every goal inside the joint "
         "limits.  Suspended (the default) means the robot hangs by its pelvis with both feet free of the floor: "
@@ -69,7 +69,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     ex.add_argument("--trace", type=TRACE_FILE, required=True, help="trace CSV to write (+ JSON sidecar)")
     ex.add_argument("--reality", type=reality_name, metavar="PROFILE",
                     help="simulated bus only: the robot behind it, a configs/reality/ name or a path")
-    ex.add_argument("--seed", type=seed, default=0, help="simulated bus only: seed of the reality's random parts")
+    ex.add_argument("--seed", type=seed, default=0, help="simulated bus only: seed of the reality's random parts (default: %(default)s)")
     ex.add_argument("--json", action="store_true", help="print the report as one JSON object")
     add_realtime_arguments(ex)
     ex.set_defaults(func=cmd_excite, check=check_excite)
@@ -78,10 +78,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         "sysid", help="fit the servo model to excitation traces; write a reality file",
         description="Replay the traces' goals in the hung robot's model and fit, per servo model (or per joint), "
         "the gain, torque, damping, Coulomb friction, armature and backlash, and the bus's latency, with "
-        "mujoco.sysid.  Reports each with its 95 %% interval, says which the traces cannot identify, and the "
-        "per-joint RMSE before and after.  The output is a reality file: use it with `biped eval --reality`, "
-        "`biped dry-run --reality`, `biped compare --reality` and evolution.")
-    fit.add_argument("traces", nargs="+", type=Path, metavar="TRACE", help="trace CSVs from `biped excite`")
+        "mujoco.sysid.  Reports each with its 95 % interval, says which the traces cannot identify, and the "
+        "per-joint RMSE before and after.  The output is a reality file: use it with biped eval --reality, "
+        "biped dry-run --reality, biped compare --reality and evolution.")
+    fit.add_argument("traces", nargs="+", type=Path, metavar="TRACE", help="trace CSVs from biped excite")
     fit.add_argument("--robot", type=robot_name, help="robot (default: the traces')")
     fit.add_argument("-o", "--output", type=output_file(".yaml", ".yml"), help="reality file to write")
     fit.add_argument("--report", type=output_dir, metavar="DIR",

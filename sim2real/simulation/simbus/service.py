@@ -56,9 +56,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "drop:RATE,corrupt:RATE or a YAML file of them")
     parser.add_argument("--reality", type=reality_name, metavar="PROFILE",
                         help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
-    parser.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts")
+    parser.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts (default: %(default)s)")
     parser.add_argument("--suspended", action="store_true",
-                        help="hang the robot by its pelvis, feet off the floor (as for `biped excite`)")
+                        help="hang the robot by its pelvis, feet off the floor (as for biped excite)")
     add_realtime_arguments(parser)
     parser.add_argument("--fault-delay", type=float_within(0.0, MAX_TIME_S), default=0.0, help=argparse.SUPPRESS)  # dry runs: the ramp
     parser.add_argument("--exit-on-stdin-eof", action="store_true",
