@@ -348,11 +348,11 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
               "physics_steps": judge.steps, "search_minutes": search_s / 60,
               "minutes": (time.monotonic() - started) / 60}
     write_json_atomic(out / "result.json", result)
-    gates = "" if heading_deg is None and min_speed_m_s is None else \
-        f", any heading and speed {judged['original']['walk_rate_any']:.2f} -> {judged['polished']['walk_rate_any']:.2f}"
     if not test:
         log(f"kept the weights of update {best['update']}; wrote {out / 'polished.json'}")
         return result
+    gates = "" if heading_deg is None and min_speed_m_s is None else \
+        f", any heading and speed {judged['original']['walk_rate_any']:.2f} -> {judged['polished']['walk_rate_any']:.2f}"
     log(f"test on {test} fresh robots: walk rate {test_rates['original']:.2f} -> {test_rates['polished']:.2f}{gates}"
         f" ({'lifted' if result['lifted'] else 'not lifted: keep the original'}); wrote {out / 'polished.json'}")
     return result

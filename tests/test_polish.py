@@ -203,3 +203,17 @@ def test_ctrl_c_leaves_a_checkpoint_that_resume_continues(tmp_path):
                               text=True, timeout=900, env={**os.environ, "PYTHONPATH": os.getcwd()})
     assert finished.returncode == 0, finished.stderr
     assert [e["update"] for e in json.loads(finished.stdout)["history"]] == list(range(done + 2))
+
+
+def test_a_polish_without_a_final_test_stops_on_its_plateau_or_when_told(tmp_path):
+    """biped train's polish stages: no final test (``test=0``, the training measures its walker
+    itself), a speed gate, a plateau and a time stop; the result says there was no test."""
+    from evolve.polish import polish
+
+    settings = dict(popsize=2, robots=1, validation=1, test=0, every=1, episode_s=1.0, seed=2, min_speed_m_s=0.1,
+                    log=lambda line: None)
+    r = polish(Path(WALKER), tmp_path / "told", updates=50, should_stop=lambda: True, **settings)
+    assert [e["update"] for e in r["history"]] == [0, 1] and r["lifted"] is None
+    assert r["test"]["polished"]["walk_rate"] is None and (tmp_path / "told" / "polished.json").exists()
+    flat = polish(Path(WALKER), tmp_path / "flat", updates=50, patience=2, **settings)
+    assert len(flat["history"]) - 1 - flat["kept_update"] == 2, "stopped two validations after its last keep"
