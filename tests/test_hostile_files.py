@@ -34,6 +34,8 @@ import numpy as np
 import pytest
 import yaml
 
+from hang_guard import fails_after
+
 import sim2real.atomic_json as atomic_json
 import sim2real.hardware.trace as trace_module
 from evolve.locomotion.evaluator import neat_layout
@@ -60,21 +62,11 @@ SMALL_RUN = {  # a run folder's config: generations of 10 robots for 1 s each
 }
 
 
-class Hung(Exception):
-    pass
-
-
 @pytest.fixture(autouse=True)
 def no_hang():
     """An in-process command that blocks (a FIFO opened for reading) fails after 30 s."""
-    def hung(*_):
-        raise Hung("blocked for 30 s")
-
-    previous = signal.signal(signal.SIGALRM, hung)
-    signal.alarm(30)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, previous)
+    with fails_after(30):
+        yield
 
 
 @pytest.fixture(scope="module")

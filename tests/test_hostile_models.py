@@ -18,12 +18,13 @@ process under an alarm.
 """
 
 import os
-import signal
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+from hang_guard import fails_after
 from robots.urdf_humanoid import write_humanoid, write_prism_stl
 
 from evolve.cli import main
@@ -76,21 +77,11 @@ URDF = """<robot name="r">
 BOX = '<box size="0.04 0.04 0.2"/>'
 
 
-class Hung(Exception):
-    pass
-
-
 @pytest.fixture(autouse=True)
 def no_hang():
     """An in-process load that blocks fails after 30 s instead of hanging the suite."""
-    def hung(*_):
-        raise Hung("blocked for 30 s")
-
-    previous = signal.signal(signal.SIGALRM, hung)
-    signal.alarm(30)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, previous)
+    with fails_after(30):
+        yield
 
 
 def mjcf(folder: Path, head: str = "", body: str = "", tail: str = "", name: str = "robot.xml") -> Path:

@@ -18,10 +18,11 @@ items 1, 3 and 7; issue 48 item 6).
 import json
 import os
 import shutil
-import signal
 from pathlib import Path
 
 import pytest
+
+from hang_guard import fails_after
 import yaml
 from robots.urdf_humanoid import write_humanoid
 
@@ -45,14 +46,8 @@ TOKEN = "TOKEN-5f3a9c-never-printed"  # the content of files a name points at
 @pytest.fixture(autouse=True)
 def no_hang():
     """A command that blocks (a FIFO opened as a robot file) fails after 60 s instead."""
-    def hung(*_):
-        raise TimeoutError("blocked for 60 s")
-
-    previous = signal.signal(signal.SIGALRM, hung)
-    signal.alarm(60)
-    yield
-    signal.alarm(0)
-    signal.signal(signal.SIGALRM, previous)
+    with fails_after(60):
+        yield
 
 
 @pytest.fixture(scope="module")
