@@ -15,7 +15,8 @@ measuring counted):
    budget is spent;
 3. **speed** - the same search paying a faster straight walk, ranked on each candidate's worst
    quarter of robots, then once more from what it kept with a fresh CMA-ES (a restart), until a
-   plateau or the budget less ``MEASURE_SHARE``;
+   plateau or the budget less ``MEASURE_SHARE``; skipped when the walker's 60 s walks on the
+   nominal and ``default.yaml`` robots already beat the goal's speed by ``SPEED_MARGIN``;
 4. **measure** - the walk rate on 50 unseen robots, 60 s walks on the nominal and
    ``default.yaml`` robots, the transfer check through the simulated bus, the 90 deg turn
    (:func:`evolve.walk_measures.measure_walker`), and ``DIR/controller.json`` written with the
@@ -64,6 +65,7 @@ MEASURE_SHARE = 0.08  # kept for the measuring: 50 robots, 60 s walks, 3 dry run
 POLISH = {"popsize": 16, "robots": 16, "sigma": 0.1, "validation": 30, "worst": 1.0}
 SPEED = {"popsize": 16, "robots": 32, "sigma": 0.05, "validation": 100, "worst": 0.25, "speed_leg_s": 0.8}
 SPEED_GOAL_M_S = 0.15  # the straight-walk goal's speed: the speed polish counts no slower walk than this
+SPEED_MARGIN = 1.1  # a walker this much faster than the goal on both 60 s walks skips the speed polish
 MAX_UPDATES = 100_000  # a stage's update cap; the budget ends it long before
 PATIENCE = 4  # validations (5 updates each) without a kept walker before a polish stage stops
 STAGES = ("neat", "polish", "speed", "measure")
@@ -152,10 +154,22 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
         if isinstance(progress, Progress):
             progress.stage = "start"
 
+        # the stage under way: its seconds in earlier sessions (a cut stage's minutes count them too)
+        current: dict[str, Any] = {"stage": None, "t0": 0.0, "cpu0": 0.0, "wall_s": 0.0, "cpu_s": 0.0}
+
+        def stage_s() -> tuple[float, float]:
+            return (current["wall_s"] + time.monotonic() - current["t0"],
+                    current["cpu_s"] + _cpu_s() - current["cpu0"])
+
         def save() -> None:
             state["elapsed_s"] = budget.elapsed_s
             state["cpu_s"] = cpu_before + _cpu_s() - cpu_at_start
             state["settings"]["minutes"], state["settings"]["threads"] = settings.minutes, settings.threads
+            if current["stage"] is not None:
+                wall_s, cpu_s = stage_s()
+                state["cut"] = {"stage": current["stage"], "wall_s": wall_s, "cpu_s": cpu_s}
+            else:
+                state.pop("cut", None)
             write_json_atomic(out / STATE, state)
 
         try:
@@ -164,10 +178,14 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
                     continue
                 if isinstance(progress, Progress):
                     progress.stage = stage
-                t0, cpu0 = time.monotonic(), _cpu_s()
+                cut = state.get("cut") or {}
+                earlier = (cut["wall_s"], cut["cpu_s"]) if cut.get("stage") == stage else (0.0, 0.0)
+                current.update(stage=stage, t0=time.monotonic(), cpu0=_cpu_s(), wall_s=earlier[0], cpu_s=earlier[1])
                 record = STAGE_FUNCTIONS[stage](robot_name, out, settings, state, budget, progress)
-                record.update(wall_minutes=(time.monotonic() - t0) / 60.0, cpu_minutes=(_cpu_s() - cpu0) / 60.0)
+                wall_s, cpu_s = stage_s()
+                record.update(wall_minutes=wall_s / 60.0, cpu_minutes=cpu_s / 60.0)
                 state["stages"][stage] = record
+                current["stage"] = None
                 save()
         finally:
             if "measure" not in state["stages"]:
@@ -263,6 +281,10 @@ def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str,
     # start-up included) may reach, leaving validation nothing to keep walkers by
     own = [wm.sustained(source, reality, episodes, threads=settings.threads, robot=robot_name)["speed_m_s"]
            for reality, episodes in ((None, 1), ("default", 3))]
+    if min(own) >= SPEED_GOAL_M_S * SPEED_MARGIN:  # fast enough: the minutes are the user's
+        log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s, at least the goal's "
+            f"{SPEED_GOAL_M_S:g} m/s with a margin: no speed polish")
+        return {"runs": [], "walker": None, "skipped": "fast enough", "speeds_m_s": own}
     min_speed = min(SPEED_GOAL_M_S, *own)
     log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s; the speed polish counts walks from "
         f"{min_speed:.3f} m/s")

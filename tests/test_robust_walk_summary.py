@@ -102,12 +102,17 @@ def test_the_speed_polish_starts_from_the_newest_robust_walker_no_slower_than_it
     assert calls[1]["source"] == tmp_path / "speed" / "walker.json", "the restart starts from what it kept"
     assert calls[1]["out"] == tmp_path / "speed_restart1"
     assert record["walker"] == str(tmp_path / "speed_restart1" / "walker.json")
-    # a fast walker's gate stays at the goal's speed
-    speeds = iter([0.3, 0.25])
+    # a walker a little faster than the goal: the gate stays at the goal's speed
+    speeds = iter([0.16, 0.155])
     calls.clear()
     shutil.rmtree(tmp_path / "speed"), shutil.rmtree(tmp_path / "speed_restart1")
     tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     assert calls[0]["min_speed_m_s"] == tr.SPEED_GOAL_M_S
+    # one faster than the goal by the margin on both walks: no speed polish, no minutes spent
+    speeds = iter([0.3, tr.SPEED_GOAL_M_S * tr.SPEED_MARGIN])
+    calls.clear()
+    record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
+    assert calls == [] and record["walker"] is None and record["skipped"] == "fast enough"
 
 
 def test_no_speed_polish_without_a_robust_walker(tmp_path, monkeypatch, budget):

@@ -76,9 +76,11 @@ def test_a_cut_training_resumes_without_redoing_a_finished_stage(trained):
     assert "[polish" in resumed and ("resumed at update" in resumed or "weights," in resumed)
     for name in STAGES:
         assert state["stages"][name]["wall_minutes"] >= 0 and state["stages"][name]["cpu_minutes"] >= 0
-    assert state["elapsed_s"] > 0
-    # both sessions' CPU: at least the stages' own (which count only the session that finished each)
+    assert state["elapsed_s"] > 0 and "cut" not in state
+    # the cut polish's minutes count both sessions: at least the polish's own clock, which resumes
+    assert state["stages"]["polish"]["wall_minutes"] >= state["stages"]["polish"]["minutes"] * 0.99
     assert state["cpu_s"] / 60 >= sum(state["stages"][name]["cpu_minutes"] for name in STAGES) * 0.99
+    assert state["elapsed_s"] / 60 >= sum(state["stages"][name]["wall_minutes"] for name in STAGES) * 0.99
 
 
 def test_the_trained_controller_carries_its_command_stages_and_measures(trained, imported):
