@@ -71,18 +71,6 @@ def map_runs(function: Callable[[T], R], items: Sequence[T], workers: int = 1,
     return results  # type: ignore[return-value]
 
 
-def ship_controller(walker: os.PathLike | str, path: os.PathLike | str, made: dict[str, Any]) -> str:
-    """Write the controller file ``walker`` as ``path`` with ``made`` (the command that made it,
-    its measures) added to its provenance; the evolution's local run folder is left out."""
-    from sim2real.controller.file import Controller
-
-    data = Controller.load(walker).to_dict()
-    provenance = {k: v for k, v in data["provenance"].items() if k != "run"}
-    data["provenance"] = {**provenance, **made}
-    Controller.from_dict(data, str(path)).save(path)
-    return str(path)
-
-
 def command_line(module: str, argv: Sequence[str] | None) -> str:
     """The shell command that ran benchmark ``module`` with ``argv`` (None: this process's)."""
     import shlex

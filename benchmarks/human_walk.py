@@ -30,7 +30,7 @@ from pathlib import Path
 
 import mujoco
 
-from benchmarks.common import command_line, parser, progress, report, ship_controller
+from benchmarks.common import command_line, parser, progress, report
 from evolve.config import config_path
 from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
@@ -38,6 +38,7 @@ from evolve.replay import evaluate_controller
 from evolve.run import Run
 from sim2real.atomic_json import read_json, write_json_atomic
 from sim2real.controller.activation import exp_fingerprint
+from sim2real.controller.file import Controller
 
 PRESETS = ("female_5", "female_50", "female_95", "male_5", "male_50", "male_95",
            "male_heavy_short", "female_heavy_short")
@@ -209,7 +210,7 @@ def ship(runs: list[dict], out: Path, robot: str, into: Path, argv: list[str] | 
         if here:
             best, walker = max(here, key=lambda pair: pair[0]["sustained_m"])
             path = into / f"human_{preset}.json"
-            ship_controller(walker, path, {"made_by": made_by, "human_walk": best, **numerics})
+            Controller.ship(walker, path, {"made_by": made_by, "human_walk": best, **numerics})
             shipped.append(str(path))
     return shipped
 

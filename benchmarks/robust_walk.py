@@ -24,11 +24,12 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from benchmarks.common import command_line, parser, progress, report, ship_controller
+from benchmarks.common import command_line, parser, progress, report
 from evolve.train import CONTROLLER, STATE, TrainSettings, train
 from evolve.walk_measures import heading_deg_per_min, is_robust, kept, measure_walker, meets_bar, robustness
 from sim2real.arg_types import int_within, positive_float_at_most
 from sim2real.atomic_json import read_json
+from sim2real.controller.file import Controller
 
 
 def seed_record(folder: Path) -> dict[str, Any]:
@@ -98,7 +99,7 @@ def main(argv=None) -> None:
                     "transfer_ratio": measured["transfer"]["ratio"], "bar": measured["bar"],
                     "sustained": {k: {x: y for x, y in s.items() if x != "per_episode"}
                                   for k, s in measured["sustained"].items()}}
-            measured["shipped"] = ship_controller(args.measure, args.ship, made)
+            measured["shipped"] = Controller.ship(args.measure, args.ship, made)
         report(measured, args.json)
         return
     out = args.out or Path(tempfile.mkdtemp(prefix="train-bench-"))
@@ -120,7 +121,7 @@ def main(argv=None) -> None:
     result = summary(runs)
     if args.ship:
         best = max(runs, key=lambda r: (r["met_bar"], r["walk_rate"], r["transfer"]))
-        result["shipped"] = ship_controller(best["controller"], args.ship, {
+        result["shipped"] = Controller.ship(best["controller"], args.ship, {
             "made_by": read_json(Path(best["folder"]) / STATE)["command"],
             "benchmark": command_line("benchmarks.robust_walk", argv)})
     report(result, args.json)

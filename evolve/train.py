@@ -330,9 +330,7 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
         "sustained": {where: {k: v for k, v in s.items() if k != "per_episode"}
                       for where, s in measured["sustained"].items()},
         "steering": measured["steering"], "bar": bar}
-    data = Controller.load(walker).to_dict()
-    data["provenance"] = {**{k: v for k, v in data["provenance"].items() if k != "run"}, **made}
-    Controller.from_dict(data, str(out / CONTROLLER)).save(out / CONTROLLER)
+    Controller.ship(walker, out / CONTROLLER, made)
     log(f"wrote {out / CONTROLLER}: walks on {measured['rate']['walked']}/{measured['rate']['robots']} unseen "
         f"robots, keeps {measured['transfer']['ratio']:.2f} through the simulated bus; bar "
         + ", ".join(f"{k} {'met' if v else 'missed'}" for k, v in bar.items()))

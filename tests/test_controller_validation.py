@@ -716,3 +716,18 @@ def test_a_broken_input_option_is_refused_by_name(valid, extend, mutate, expecte
     mutate(data)
     with pytest.raises(ConfigError, match=expected):
         Controller.from_dict(data, "inputs.json", ROBOT)
+
+
+def test_a_shipped_controller_carries_what_made_it_and_not_the_trainers_run_folder(tmp_path):
+    source = tmp_path / "walker.json"
+    data = Controller.load(Path("configs/controllers/xl430_biped.json")).to_dict()
+    data["provenance"] = {**data["provenance"], "run": "/home/someone/runs/seed1"}
+    Controller.from_dict(data, str(source)).save(source)
+    made = {"made_by": "biped train xl430_biped", "walk_rate": {"robots": 50, "walked": 49}}
+    shipped = Controller.ship(source, tmp_path / "shipped.json", made)
+    provenance = json.loads(Path(shipped).read_text())["provenance"]
+    assert "run" not in provenance and provenance["made_by"] == made["made_by"]
+    assert provenance["walk_rate"] == made["walk_rate"]
+    again = Controller.load(shipped).to_dict()  # the network is the source's, bit for bit
+    assert {k: v for k, v in again.items() if k != "provenance"} == \
+        {k: v for k, v in Controller.load(source).to_dict().items() if k != "provenance"}

@@ -256,6 +256,16 @@ class Controller:
         """Write atomically, one top-level key a line (:func:`dumps`)."""
         write_text_atomic(path, dumps(self.to_dict()))
 
+    @classmethod
+    def ship(cls, source: Path | str, path: Path | str, made: dict[str, Any]) -> str:
+        """Write the controller file ``source`` as ``path`` with ``made`` (the command that made it,
+        its measures) added to its provenance.  The evolution's run folder (``run``) is left out:
+        it names a folder on the machine that trained it.  Returns ``path`` as a string."""
+        data = cls.load(source).to_dict()
+        data["provenance"] = {**{k: v for k, v in data["provenance"].items() if k != "run"}, **made}
+        cls.from_dict(data, str(path)).save(path)
+        return str(path)
+
     # -- wiring ----------------------------------------------------------------------------------
     def layout(self, robot: RobotSpec) -> SymmetricLayout:
         """The wiring of the symmetry block on ``robot``, checked to be the one the robot
