@@ -22,12 +22,18 @@ SETUPTOOLS = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setup
 DATA_ROOT = PurePosixPath("share/biped")  # sim2real/robot/paths.py: sys.prefix / "share" / "biped"
 
 
+def globbed(path: str, pattern: str) -> bool:
+    """Whether setuptools' glob ``pattern`` names ``path`` (a ``*`` stays within one folder)."""
+    parts, wanted = path.split("/"), pattern.split("/")
+    return len(parts) == len(wanted) and all(map(fnmatch.fnmatchcase, parts, wanted))
+
+
 def unshipped(files: list[str], data_files: dict[str, list[str]]) -> list[str]:
-    """The files no data-files entry installs under DATA_ROOT at their own relative path."""
+    """The files no data-files entry installs under DATA_ROOT at their own relative path (an
+    entry puts every file it names straight into its target folder)."""
     return [f for f in files
             if not any(PurePosixPath(target) == DATA_ROOT / PurePosixPath(f).parent
-                       and any(fnmatch.fnmatch(f, pattern) and "/" not in f[len(pattern.rpartition("/")[0]) + 1:]
-                               for pattern in patterns)
+                       and any(globbed(f, pattern) for pattern in patterns)
                        for target, patterns in data_files.items())]
 
 
@@ -54,5 +60,7 @@ def test_the_check_sees_a_file_left_out():
     assert unshipped(files, {"share/biped/configs/robots": ["configs/robots/*.yaml", "configs/robots/op3/*"]}) == [
         "configs/robots/op3/op3.xml"]
     assert unshipped(files, {"share/biped/configs/robots": ["configs/robots/*"]}) == ["configs/robots/op3/op3.xml"]
+    assert unshipped(files, {"share/biped/configs/robots": ["configs/robots/*.yaml"],
+                             "share/biped/configs/robots/op3": ["configs/*"]}) == ["configs/robots/op3/op3.xml"]
     assert unshipped(files, {"share/biped/configs/robots": ["configs/robots/*.yaml"],
                              "share/biped/configs/robots/op3": ["configs/robots/op3/*"]}) == []
