@@ -439,12 +439,13 @@ def test_a_stats_row_the_disk_refuses_half_way_is_taken_back(tmp_path, monkeypat
     path.write_text("generation,best_fitness\r\n0,1.5\r\n")
     before = path.read_bytes()
     written = []
+    write = os.write  # the real one: os.write is patched below, and would call itself
 
     def half_then_full(fd, data):
         if written:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         written.append(bytes(data[:1]))
-        return os.write(fd, bytes(data[:1]))
+        return write(fd, bytes(data[:1]))
 
     monkeypatch.setattr(evolve.run_stats.os, "write", half_then_full)
     stats = StatsFile(path, ("generation", "best_fitness"))
