@@ -26,7 +26,8 @@ from benchmarks.common import parser, progress, report
 from evolve.config import config_path
 from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
-from evolve.run import Run, read_stats
+from evolve.run import Run
+from evolve.run_stats import read_stats
 from sim2real.robot import load_robot
 from sim2real.robot.paths import data_root
 from sim2real.robot.validation import load_yaml

@@ -24,7 +24,7 @@ from benchmarks.common import report
 from benchmarks.hierarchy import pair_parser, run_pairs
 from evolve.config import config_path
 from evolve.config import load_evolve_config
-from evolve.run import read_stats
+from evolve.run_stats import read_stats
 from sim2real.figures import pyplot, save_figure
 
 # seed 002 table 5.1 (joint torque-based controller): generations and minutes

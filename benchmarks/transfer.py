@@ -23,9 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import parser, progress, report
+from evolve.champion import Best
 from evolve.evaluation import EvaluatorSpec, build_evaluator
 from evolve.neat import Population
-from evolve.run import Best, Run
+from evolve.run import Run
 from evolve.transfer import transfer_check
 
 

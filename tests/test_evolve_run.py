@@ -14,7 +14,7 @@ from evolve.cli import main
 from evolve.evaluation import EvaluatorSpec, LocalBackend
 from evolve.locomotion.task import TaskConfig
 from evolve.ray_backend import WorkerEvaluator
-from evolve.run import STATS_COLUMNS
+from evolve.run_stats import STATS_COLUMNS
 from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot
@@ -73,7 +73,7 @@ def test_a_kill_between_checkpoints_resumes_from_the_older_one_exactly(config_fi
     """The latest checkpoint is written at most every CHECKPOINT_INTERVAL_S (writing one every
     generation cost 13 % of a generation): a run stopped hard between two loses the
     generations since the last, and its resume reruns them to the same result."""
-    import evolve.run as run_module
+    import evolve.run_folder as run_module
     from evolve.run import Run
     from evolve.config import load_evolve_config
 
@@ -351,7 +351,7 @@ def test_validation_needs_ranges_to_draw_from(tmp_path):
 
 
 def test_a_validated_champion_beats_any_unvalidated_one_and_walks_count_first():
-    from evolve.run import Best
+    from evolve.champion import Best
 
     def best(fitness, validation=None, harness=0.0):
         return Best(fitness, 0.0, 0.0, 0, harness, genome=None, validation=validation)

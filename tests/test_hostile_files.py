@@ -28,7 +28,6 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -433,24 +432,25 @@ def test_evolve_into_a_full_disk_names_the_file_and_starts_nothing(full_disk, tm
 def test_a_stats_row_the_disk_refuses_half_way_is_taken_back(tmp_path, monkeypatch):
     """A resume keeps the rows of generations below its checkpoint's: a row cut after '1' of
     '12' would be read as generation 1 and kept."""
-    import evolve.run
-    from evolve.run import Run
+    import evolve.run_stats
+    from evolve.run_stats import StatsFile
 
     path = tmp_path / "stats.csv"
     path.write_text("generation,best_fitness\r\n0,1.5\r\n")
     before = path.read_bytes()
     written = []
+    write = os.write  # the real one: os.write is patched below, and would call itself
 
     def half_then_full(fd, data):
         if written:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         written.append(bytes(data[:1]))
-        return os.write(fd, bytes(data[:1]))
+        return write(fd, bytes(data[:1]))
 
-    monkeypatch.setattr(evolve.run.os, "write", half_then_full)
-    owner = SimpleNamespace(out=tmp_path, columns=("generation", "best_fitness"))
+    monkeypatch.setattr(evolve.run_stats.os, "write", half_then_full)
+    stats = StatsFile(path, ("generation", "best_fitness"))
     with pytest.raises(OSError, match=f"cannot write {path}: No space left on device.*generation 12"):
-        Run._append_stats(owner, {"generation": 12, "best_fitness": 2.0})
+        stats.append({"generation": 12, "best_fitness": 2.0})
     assert written == [b"1"] and path.read_bytes() == before
 
 
