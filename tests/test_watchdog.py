@@ -27,7 +27,7 @@ from sim2real.hardware import MockBus
 from sim2real.hardware.bus import ServoError
 from sim2real.hardware.dynamixel.errors import ALERT_BIT, DATA_RANGE_ERROR
 from sim2real.hardware.dynamixel.registers import Reg
-from sim2real.hardware.dynamixel.startup import WATCHDOG_MS, WATCHDOG_UNIT_MS
+from sim2real.robot.timing import WATCHDOG_MS, WATCHDOG_UNIT_MS
 from sim2real.hardware.mock import WATCHDOG_GOALS
 from sim2real.robot import load_robot
 from sim2real.robot.paths import data_root
