@@ -198,7 +198,7 @@ def controller(robot):
 @pytest.mark.parametrize("stand_in", [False, True], ids=["as-configured", "with-mx-bulk-read"])
 def test_every_tick_reads_every_position_and_writes_both_protocols_in_the_planned_packets(robot, controller,
                                                                                           stand_in):
-    from sim2real.controller.checks import bus_problems
+    from sim2real.controller.robot_checks import bus_problems
 
     robot = with_stand_in_mx(robot) if stand_in else robot
     tick_s = controller.tick_s

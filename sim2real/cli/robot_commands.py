@@ -131,7 +131,7 @@ def describe(robot: RobotSpec) -> dict:
     from sim2real.simulation.model_builder import build_model
     from sim2real.simulation.statics import CROUCH_KNEE_DEG, holding_torques
 
-    from sim2real.controller.checks import bus_problems
+    from sim2real.controller.robot_checks import bus_problems
     from sim2real.robot.bus_plan import bus_time
 
     model = build_model(robot)

@@ -40,7 +40,7 @@ from sim2real.controller.file import Controller
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
 from sim2real.controller.reach import NO_REACH, metres
-from sim2real.controller.checks import bus_problems
+from sim2real.controller.robot_checks import bus_problems
 from sim2real.errors import BipedError, ConfigError, UsageError
 from sim2real.hardware.bus import Bus, CommunicationError, ServoError
 from sim2real.hardware.dynamixel.chain import BoardReading, ServoChain, board_reports
