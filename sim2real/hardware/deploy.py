@@ -31,7 +31,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Protocol, Sequence
+from typing import Any, Callable, Protocol
 
 import numpy as np
 
@@ -39,7 +39,6 @@ from sim2real.controller.channels import CHANNELS
 from sim2real.controller.file import Controller
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
-from sim2real.controller.reach import NO_REACH, metres
 from sim2real.controller.robot_checks import bus_problems
 from sim2real.errors import BipedError, ConfigError, UsageError
 from sim2real.hardware.bus import Bus, CommunicationError, ServoError
@@ -110,7 +109,7 @@ class RunReport:
     stop_notes: list[str] = field(default_factory=list)
     torque_off: TorqueOff | None = None
     realtime: dict[str, Any] | None = None
-    reach: dict[str, Any] | None = None  # a reaching controller's goals reached, its target and arm
+    task: dict[str, Any] = field(default_factory=dict)  # the goal source's own report (GoalSource.task_report)
     compute_s: list[float] = field(default_factory=list)
     jitter_s: list[float] = field(default_factory=list)
 
@@ -125,8 +124,7 @@ class RunReport:
                 "stop_reason": self.stop_reason, "stop_signal": self.stop_signal, "stop_notes": self.stop_notes,
                 "torque_off": torque,
                 "compute_us_p50": pct(self.compute_s, 50, 1e6), "compute_us_p99": pct(self.compute_s, 99, 1e6),
-                "jitter_ms_p99": pct(self.jitter_s, 99, 1e3), "realtime": self.realtime,
-                **({"reach": self.reach} if self.reach is not None else {})}
+                "jitter_ms_p99": pct(self.jitter_s, 99, 1e3), "realtime": self.realtime, **self.task}
 
 
 class GoalSource(Protocol):
@@ -149,7 +147,9 @@ class GoalSource(Protocol):
     # current too (:mod:`sim2real.hardware.readings`), at the cost of bus time every tick;
     # ``sensors`` (the board's sensors it reads, checked before any servo moves);
     # ``trace_channels`` and ``trace_values()`` (columns it adds to a trace, and their values);
-    # ``reach`` (a reaching controller's state machine, aimed by ``--reach-target``).
+    # ``apply_commands(heading=, reach_target=, log=)`` (a user's commands for the run, refused
+    # before any servo moves where the source cannot take them) and ``task_report()`` (what the
+    # run reports of its task, e.g. a reaching controller's goals reached).
 
 
 def ramp(chain: ServoChain, mapping: ServoMapping, start: np.ndarray, target: np.ndarray,
@@ -188,7 +188,7 @@ class RealTimeLoop:
         self.failed_tries = 0  # reads failed since the last good one (said if communication is lost)
 
     def policy_values(self) -> tuple[float, ...]:
-        """What the policy adds to a trace row (a reaching controller's state and hand error)."""
+        """What the policy adds to a trace row (:meth:`Policy.trace_values`)."""
         values = getattr(self.policy, "trace_values", None)
         return values() if values is not None else ()
 
@@ -353,22 +353,6 @@ class StopSignals:
         self.received.append(signal.Signals(signum).name)
 
 
-def aim_reach(policy: GoalSource, target_m: Sequence[float], log: Callable[[str], None]) -> None:
-    """Point a reaching controller's hand at ``target_m`` (root frame [m]); refused, before any
-    servo moves, for a controller without the reach input or a target beyond the arm's reach."""
-    reach = getattr(policy, "reach", None)
-    if reach is None:
-        raise UsageError(NO_REACH)
-    evolved = reach.target.copy()
-    try:
-        reach.aim(target_m)
-    except ValueError as exc:
-        raise UsageError(f"--reach-target {', '.join(f'{v:g}' for v in target_m)}: {exc}") from None
-    if np.linalg.norm(reach.target - evolved) > 0.5 * reach.cycle.tolerance * reach.arm_length:
-        log(f"note: the controller was evolved to reach {metres(evolved)}; a network that learned one target may "
-            f"miss {metres(reach.target)}")
-
-
 class _SafeLog:
     """The run's log, which never raises: after a SIGHUP the terminal is gone and writing to
     it fails (EIO), and no message may keep the stop from turning torque off."""
@@ -401,24 +385,22 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
     ``controller`` is a controller file's contents or any other :class:`GoalSource`.
     ``realtime``: ask the OS for real-time treatment first (None: do not ask).
     ``on_loop_end`` is called once the loop has ended, however, before the stop (a dry run
-    takes its ground truth then); nothing it raises delays the torque-off.  ``heading``: the
-    heading to hold [rad, from the start's] at a time since the start [s], for a controller with
-    a heading input (:mod:`sim2real.controller.steering`; None: the start's).  ``reach_target``:
-    where a reaching controller's right hand reaches, in its root body's frame [m] (None: the
-    target it was evolved for)."""
+    takes its ground truth then); nothing it raises delays the torque-off.  ``heading`` (the
+    heading to hold [rad, from the start's] at a time since the start [s]; None: the start's)
+    and ``reach_target`` (where a reaching controller's right hand reaches, root frame [m];
+    None: where it was evolved to) are a user's commands, handed to the goal source
+    (:meth:`~sim2real.controller.policy.Policy.apply_commands`) before any servo moves."""
     if isinstance(controller, Controller):
         policy: GoalSource = Policy(controller, robot, disabled_modules)
-        if heading is not None:
-            if not controller.heading_input:
-                raise UsageError("a heading to hold was given, but the controller has no heading input "
-                                 "(heading_input): it cannot be steered")  # before any servo moves
-            policy.heading_command = heading
         metadata = {"controller_hash": controller.joint_map_hash,
                     "controller_provenance": controller.to_dict()["provenance"]}
     else:
         policy, metadata = controller, controller.trace_metadata()
-    if reach_target is not None:
-        aim_reach(policy, reach_target, log)  # before any servo moves
+    if heading is not None or reach_target is not None:  # before any servo moves
+        apply_commands = getattr(policy, "apply_commands", None)
+        if apply_commands is None:
+            raise UsageError(f"{type(policy).__name__} takes no commands (a heading to hold, a reach target)")
+        apply_commands(heading=heading, reach_target=reach_target, log=log)
     if duration_s is not None and not (math.isfinite(duration_s) and round(duration_s / policy.tick_s) >= 1):
         raise UsageError(f"duration {duration_s!r} s: not a finite time of at least one control tick "
                          f"({policy.tick_s} s)")  # before any servo moves
@@ -501,10 +483,9 @@ def drive(bus: Bus, robot: RobotSpec, controller: Controller | GoalSource, durat
         report.stop_notes.append(f"signals received: {', '.join(signals.received)}")
     if signals.cut_short:
         report.stop_notes.append(f"ramp to rest cut short by {signals.received[-1]}")
-    reach = getattr(policy, "reach", None)
-    if reach is not None:
-        report.reach = {"reaches": int(reach.cycle.reached[0]), "target_m": [round(float(v), 4) for v in reach.target],
-                        "arm_length_m": round(reach.arm_length, 4)}
+    task_report = getattr(policy, "task_report", None)
+    if task_report is not None:
+        report.task = task_report()
     if startup_error is not None:
         raise startup_error
     return report
