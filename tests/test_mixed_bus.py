@@ -29,7 +29,8 @@ import yaml
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
 from sim2real.hardware import MockBus, ServoChain
-from sim2real.hardware.deploy import RealTimeLoop, RunReport
+from sim2real.hardware.loop import RealTimeLoop
+from sim2real.hardware.run_report import RunReport
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.hardware.dynamixel.startup import start_up
 from sim2real.robot import load_robot

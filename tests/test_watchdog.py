@@ -327,7 +327,8 @@ def test_biped_run_killed_mid_walk_leaves_servos_stopped_with_torque_on(tmp_path
 def test_a_run_whose_wire_fell_silent_says_the_watchdog_tripped(grown_controller):
     """A host held up longer than the watchdog allows: the servos stopped and refused goals;
     the stop's report names them (and torque still goes off, read back)."""
-    from sim2real.hardware.deploy import RAMP_TICK_S, drive
+    from sim2real.hardware.deploy import drive
+    from sim2real.hardware.loop import RAMP_TICK_S
     from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 
     chain = EmulatedChain(MockBus(ROBOT).devices)
