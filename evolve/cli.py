@@ -15,8 +15,8 @@ import sys
 if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
     os.environ.setdefault("MUJOCO_GL", "egl")
 
-from evolve import cli_commands, quickstart, train_cli  # noqa: E402
-from sim2real.cli import deploy_commands, plot_commands, robot_commands, sysid_commands  # noqa: E402
+from evolve import cli_commands, quickstart_cli, train_cli  # noqa: E402
+from sim2real.cli import deploy_commands, plot_commands, robot_commands, sysid_commands, view_commands  # noqa: E402
 from sim2real.cli.args import NamedStdout  # noqa: E402
 from sim2real.errors import BipedError  # noqa: E402
 
@@ -28,13 +28,14 @@ def build_parser() -> argparse.ArgumentParser:
         "them to Dynamixel hardware.",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    robot_commands.add_commands(sub, replay=cli_commands.REPLAY)  # robot, view, render
+    robot_commands.add_commands(sub)  # robot
+    view_commands.add_commands(sub, replay=cli_commands.REPLAY)  # view, render
     deploy_commands.add_commands(sub)  # run, dry-run, simbus, compare
     sysid_commands.add_commands(sub)  # excite, sysid
     plot_commands.add_commands(sub, replay=cli_commands.REPLAY)  # plot gait, plot network
     cli_commands.add_commands(sub)
     train_cli.add_command(sub)
-    quickstart.add_command(sub)
+    quickstart_cli.add_command(sub)
     return parser
 
 

@@ -166,3 +166,36 @@ def test_no_import_cycles_even_through_imports_inside_functions():
     cycles = _cycles(edges)
     shown = [[i for i in counted if i.source in c and i.target in c] for c in cycles]
     assert not cycles, "\n\n".join(_where(s) for s in shown)
+
+
+# -- the controller never reaches into the bus code ----------------------------------------------
+def test_the_controller_imports_nothing_from_hardware():
+    """A controller is checked against its robot's description (``sim2real.robot``: the bus
+    plan, the Bus Watchdog start-up sets), never against the bus code that drives it."""
+    wrong = [i for i in import_graph() if _in(i.source, "sim2real.controller") and _in(i.target, "sim2real.hardware")]
+    assert not wrong, _where(wrong)
+
+
+# -- evolve's library never imports a command line ----------------------------------------------
+def is_command_module(module: str) -> bool:
+    """A command-line module: ``sim2real.cli`` and its modules; in ``evolve``, a module named
+    ``cli``, ``cli_*`` or ``*_cli`` (``evolve.cli``, ``evolve.cli_commands``, ``evolve.train_cli``)."""
+    if _in(module, "sim2real.cli"):
+        return True
+    name = module.rpartition(".")[2]
+    return _in(module, "evolve") and (name == "cli" or name.startswith("cli_") or name.endswith("_cli"))
+
+
+def test_command_modules_are_told_apart_by_name():
+    modules = _modules()
+    commands = sorted(m for m in modules if _in(m, "evolve") and is_command_module(m))
+    assert {"evolve.cli", "evolve.cli_commands", "evolve.train_cli", "evolve.quickstart_cli"} <= set(commands)
+    assert not any(is_command_module(m) for m in ("evolve.run", "evolve.train", "evolve.config", "sim2real.arg_types"))
+
+
+def test_evolve_library_modules_import_no_command_line():
+    """Flags belong to the command line; what a library module of ``evolve`` needs from one
+    (a converter, a config resolver) sits lower, e.g. in :mod:`sim2real.arg_types`."""
+    wrong = [i for i in import_graph() if _in(i.source, "evolve") and not is_command_module(i.source)
+             and is_command_module(i.target)]
+    assert not wrong, _where(wrong)

@@ -308,11 +308,12 @@ def test_a_dry_run_that_stopped_on_an_error_exits_1(argv, controller, monkeypatc
 
 def test_a_mock_run_that_stopped_on_an_error_exits_1(controller, monkeypatch, capsys):
     import sim2real.hardware.deploy
+    import sim2real.hardware.run_report
 
     monkeypatch.setattr(sim2real.hardware.deploy, "drive",
-                        lambda *a, **k: sim2real.hardware.deploy.RunReport(
+                        lambda *a, **k: sim2real.hardware.run_report.RunReport(
                             ticks=2, stop_reason="lost communication: servo 4",
-                            torque_off=sim2real.hardware.deploy.TorqueOff(confirmed=list(range(1, 12)))))
+                            torque_off=sim2real.hardware.run_report.TorqueOff(confirmed=list(range(1, 12)))))
     result = biped(["run", controller, "--bus", "mock", "--duration", "1"], capsys)
     assert result.code == 1, result.err
     assert result.err.strip().splitlines()[-1] == "biped: error: the run stopped early: lost communication: servo 4"

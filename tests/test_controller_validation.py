@@ -20,7 +20,7 @@ from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome, genome_from_controller
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population, PopulationNetwork
-from sim2real.controller.checks import tick_bounds
+from sim2real.controller.robot_checks import tick_bounds
 from sim2real.controller.file import Controller
 from sim2real.controller.json_reader import MAX_BYTES, MAX_DEPTH, nesting_depth
 from sim2real.controller.schema import MAX_STEEPNESS, MAX_WEIGHT, TICK_RANGE_S

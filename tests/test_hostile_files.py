@@ -42,7 +42,7 @@ from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome, NeatConfig, Population
 from sim2real.run_lock import RunFolderBusy, RunLock
-from sim2real.controller.checks import tick_bounds
+from sim2real.controller.robot_checks import tick_bounds
 from sim2real.controller.file import Controller
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError, UsageError

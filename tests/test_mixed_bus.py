@@ -29,7 +29,8 @@ import yaml
 from sim2real.controller.mapping import ServoMapping
 from sim2real.controller.policy import Policy
 from sim2real.hardware import MockBus, ServoChain
-from sim2real.hardware.deploy import RealTimeLoop, RunReport
+from sim2real.hardware.loop import RealTimeLoop
+from sim2real.hardware.run_report import RunReport
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.hardware.dynamixel.startup import start_up
 from sim2real.robot import load_robot
@@ -198,7 +199,7 @@ def controller(robot):
 @pytest.mark.parametrize("stand_in", [False, True], ids=["as-configured", "with-mx-bulk-read"])
 def test_every_tick_reads_every_position_and_writes_both_protocols_in_the_planned_packets(robot, controller,
                                                                                           stand_in):
-    from sim2real.controller.checks import bus_problems
+    from sim2real.controller.robot_checks import bus_problems
 
     robot = with_stand_in_mx(robot) if stand_in else robot
     tick_s = controller.tick_s

@@ -27,7 +27,8 @@ import pytest
 
 from sim2real.hardware import MockBus
 from sim2real.hardware.bus import CommunicationError
-from sim2real.hardware.deploy import STOP_SIGNALS, drive, signal_stop_reason
+from sim2real.hardware.deploy import drive
+from sim2real.hardware.safe_stop import STOP_SIGNALS, signal_stop_reason
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import load_robot

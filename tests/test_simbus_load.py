@@ -18,7 +18,8 @@ import time
 import pytest
 
 from sim2real.hardware import MockBus, realtime
-from sim2real.hardware.deploy import READ_BUDGET, TICK_ATTEMPTS, drive, read_budget
+from sim2real.hardware.deploy import drive
+from sim2real.hardware.loop import READ_BUDGET, TICK_ATTEMPTS, read_budget
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.robot import load_robot
 from sim2real.simulation.simbus import service

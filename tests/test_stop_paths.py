@@ -20,7 +20,8 @@ import pytest
 
 from sim2real.controller.policy import Policy
 from sim2real.hardware import MockBus
-from sim2real.hardware.deploy import RAMP_TICK_S, drive
+from sim2real.hardware.deploy import drive
+from sim2real.hardware.loop import RAMP_TICK_S
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.robot import load_robot
 from sim2real.simulation.simbus.server import EmulatedChain, PtyServer

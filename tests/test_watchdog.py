@@ -27,7 +27,7 @@ from sim2real.hardware import MockBus
 from sim2real.hardware.bus import ServoError
 from sim2real.hardware.dynamixel.errors import ALERT_BIT, DATA_RANGE_ERROR
 from sim2real.hardware.dynamixel.registers import Reg
-from sim2real.hardware.dynamixel.startup import WATCHDOG_MS, WATCHDOG_UNIT_MS
+from sim2real.robot.timing import WATCHDOG_MS, WATCHDOG_UNIT_MS
 from sim2real.hardware.mock import WATCHDOG_GOALS
 from sim2real.robot import load_robot
 from sim2real.robot.paths import data_root
@@ -327,7 +327,8 @@ def test_biped_run_killed_mid_walk_leaves_servos_stopped_with_torque_on(tmp_path
 def test_a_run_whose_wire_fell_silent_says_the_watchdog_tripped(grown_controller):
     """A host held up longer than the watchdog allows: the servos stopped and refused goals;
     the stop's report names them (and torque still goes off, read back)."""
-    from sim2real.hardware.deploy import RAMP_TICK_S, drive
+    from sim2real.hardware.deploy import drive
+    from sim2real.hardware.loop import RAMP_TICK_S
     from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 
     chain = EmulatedChain(MockBus(ROBOT).devices)

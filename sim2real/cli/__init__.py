@@ -1,4 +1,4 @@
-"""The deployment side's ``biped`` subcommands: ``robot``, ``view``, ``render``
-(:mod:`.robot_commands`); ``run``, ``dry-run``, ``simbus``, ``compare``
+"""The deployment side's ``biped`` subcommands: ``robot`` (:mod:`.robot_commands`); ``view``,
+``render`` (:mod:`.view_commands`); ``run``, ``dry-run``, ``simbus``, ``compare``
 (:mod:`.deploy_commands`); checked flag values and result printing (:mod:`.args`).
 :mod:`evolve.cli` assembles them with the evolution commands into one program."""

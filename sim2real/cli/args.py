@@ -11,8 +11,8 @@ asked reports with :func:`run_failed`: one line, exit 1.
     run.add_argument("--duration", type=positive_float_at_most(MAX_TIME_S, "a week"))
     run.add_argument("--trace", type=output_file(".csv", exclude=(".json",)))
 
-Used by :mod:`sim2real.cli.robot_commands`, :mod:`sim2real.cli.deploy_commands`, :mod:`evolve.cli_commands` and
-:mod:`evolve.quickstart`.  The converters of values (numbers, seeds, baud rates, real-time
+Used by :mod:`sim2real.cli.robot_commands`, :mod:`sim2real.cli.view_commands`, :mod:`sim2real.cli.deploy_commands`,
+:mod:`evolve.cli_commands` and :mod:`evolve.quickstart_cli`.  The converters of values (numbers, seeds, baud rates, real-time
 treatment, robot and reality names) live in :mod:`sim2real.arg_types`, below the command line,
 which the simulated bus's own process reads its flags with too; they are re-exported here.
 No MuJoCo here.

@@ -27,7 +27,7 @@ from sim2real.cli.args import (
 )
 from sim2real.arg_types import HEADING_HELP, REACH_HELP, heading_schedule, reach_target
 from sim2real.errors import UsageError
-from sim2real.hardware.deploy import LOST_AFTER_S
+from sim2real.hardware.loop import LOST_AFTER_S
 from sim2real.hardware.trace import MAX_TIME_S, sidecar_path
 from sim2real.robot import DEFAULT_ROBOT, load_robot
 from sim2real.simulation.simbus import service as simbus_service

@@ -17,23 +17,17 @@ says with messages that name the field, and what a schema cannot say.  In order:
   inputs, outputs, symmetry block and driven joints consistent with each other; every
   module enabled (switching one off is ``--disable-module``'s job); no unknown keys
   outside the free-form ``task`` and ``provenance``; no ``NaN`` or ``Infinity`` anywhere.
-* with a robot: its joint-map hash (:func:`joint_map_hash`), and inputs, outputs, symmetry
-  and joint ranges exactly those the robot gives for the driven joints (its control set);
-  every hold angle inside its joint's range; and ``tick_s`` within :func:`tick_bounds` - no
-  shorter than one bus cycle (the loop could not read and write every servo in it), no
-  longer than half the Bus Watchdog start-up sets (one late tick would trip it and the
-  servos would stop taking goals).  A tick other than the robot's own is allowed within
-  these bounds.
+* with a robot: its joint-map hash, joints, symmetry and tick against the robot's
+  (:mod:`sim2real.controller.robot_checks`).
 
-The field checker here speaks JSON (objects, ``a.b[0]`` key paths, missing keys before
-unknown ones) where :class:`sim2real.robot.validation.Node` speaks YAML; both echo values
-through :func:`sim2real.robot.validation.show`, the one cutter of user input in messages.
+The field checker (:mod:`sim2real.controller.field_checker`) speaks JSON (objects, ``a.b[0]``
+key paths, missing keys before unknown ones) where :class:`sim2real.robot.validation.Node`
+speaks YAML; both echo values through :func:`sim2real.robot.validation.show`, the one cutter
+of user input in messages.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import re
 from typing import Any
@@ -62,97 +56,15 @@ from sim2real.controller.schema import (
     VERSION,
 )
 from sim2real.controller.channels import CHANNELS, InputSettings, input_names, selection
-from sim2real.controller.symmetry import symmetric_layout
-from sim2real.errors import ConfigError
+from sim2real.controller.field_checker import FieldChecker, difference, join_key
+from sim2real.controller.robot_checks import check_robot
 from sim2real.robot import RobotSpec
-from sim2real.robot.timing import control_timing
 from sim2real.robot.validation import show
 
-RANGE_TOLERANCE_RAD = 1e-9  # [rad] a file's joint range may differ from the robot's by rounding
 
-
-# -- the field checker -------------------------------------------------------------------------
-def _join(path: str, key: Any) -> str:
-    if isinstance(key, int):
-        return f"{path}[{key}]"
-    if isinstance(key, str) and key.isidentifier():
-        return f"{path}.{key}" if path else key
-    return f"{path}[{show(key)}]"
-
-
-class _Checker:
-    """Type, shape and range checks that name the field: ``FILE: FIELD: problem``."""
-
-    def __init__(self, source: str):
-        self.source = source
-
-    def error(self, key: str, problem: str) -> ConfigError:
-        return ConfigError(self.source, key, problem)
-
-    def obj(self, value: Any, key: str, required: tuple[str, ...] = (), optional: tuple[str, ...] = (),
-            free: bool = False) -> dict[str, Any]:
-        if not isinstance(value, dict):
-            raise self.error(key, f"must be an object, got {show(value)}")
-        for name in required:
-            if name not in value:
-                raise self.error(_join(key, name), "missing")
-        if not free:
-            allowed = required + optional
-            for name in value:
-                if name not in allowed:
-                    raise self.error(_join(key, name), f"unknown key (allowed: {', '.join(allowed)})")
-        return value
-
-    def string(self, value: Any, key: str) -> str:
-        if not isinstance(value, str) or not value:
-            raise self.error(key, f"must be a non-empty string, got {show(value)}")
-        return value
-
-    def names(self, value: Any, key: str, min_len: int = 0) -> list[str]:
-        if not isinstance(value, list):
-            raise self.error(key, f"must be a list of names, got {show(value)}")
-        if len(value) < min_len:
-            raise self.error(key, f"must have at least {min_len} entr{'y' if min_len == 1 else 'ies'}")
-        for i, name in enumerate(value):
-            self.string(name, f"{key}[{i}]")
-        if len(set(value)) != len(value):
-            twice = next(n for i, n in enumerate(value) if n in value[:i])
-            raise self.error(key, f"{show(twice)} appears twice")
-        return value
-
-    def number(self, value: Any, key: str, lo: float, hi: float, lo_open: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float, NonFinite)):
-            raise self.error(key, f"must be a number, got {show(value)}")
-        if isinstance(value, NonFinite) or isinstance(value, float) and not math.isfinite(value):
-            raise self.error(key, f"must be a finite number, got {show(value)}")
-        if value < lo or (lo_open and value == lo) or value > hi:
-            raise self.error(key, f"must be within {'(' if lo_open else '['}{lo:g}, {hi:g}], got {show(value)}")
-        return float(value)
-
-    def same_names(self, key: str, got: list[str], want: list[str], why: str) -> None:
-        if got == want:
-            return
-        if len(got) != len(want):
-            raise self.error(key, f"has {len(got)} names where {why} has {len(want)}: {show(want)}")
-        i = next(i for i, (a, b) in enumerate(zip(got, want)) if a != b)
-        raise self.error(f"{key}[{i}]", f"is {show(got[i])} where {why} has {show(want[i])}")
-
-    def finite_everywhere(self, value: Any, key: str) -> None:
-        """Free-form blocks (task, provenance) may hold anything JSON allows, finite numbers only."""
-        if isinstance(value, dict):
-            for k, v in value.items():
-                self.finite_everywhere(v, _join(key, k))
-        elif isinstance(value, list):
-            for i, v in enumerate(value):
-                self.finite_everywhere(v, f"{key}[{i}]")
-        elif isinstance(value, NonFinite) or (isinstance(value, float) and not math.isfinite(value)):
-            raise self.error(key, f"must be a finite number, got {show(value)}")
-
-
-# -- the format ---------------------------------------------------------------------------------
 def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> dict[str, Any]:
     """Check a decoded controller whole (see the module docstring); returns it unchanged."""
-    c = _Checker(source)
+    c = FieldChecker(source)
     if not isinstance(data, dict):
         # its type only: a file that is not a controller at all is not echoed
         raise c.error("", f"a controller file must hold a JSON object, got {type(data).__name__}")
@@ -195,11 +107,11 @@ def check_controller(data: Any, source: str, robot: RobotSpec | None = None) -> 
     if "control_set" in data["task"]:
         c.string(data["task"]["control_set"], "task.control_set")
     if robot is not None:
-        _check_robot(c, data, robot)
+        check_robot(c, data, robot)
     return data
 
 
-def _check_reach_arm(c: _Checker, data: dict[str, Any], chosen: dict[str, dict[str, float]],
+def _check_reach_arm(c: FieldChecker, data: dict[str, Any], chosen: dict[str, dict[str, float]],
                      driven: list[str]) -> None:
     """The arm's chain: present exactly with the reach input, its numbers within the schema's
     bounds, rotations and axes of unit length, its hinges joints of the controller."""
@@ -235,7 +147,7 @@ def _check_reach_arm(c: _Checker, data: dict[str, Any], chosen: dict[str, dict[s
         raise c.error("reach_arm.shoulder_link", f"must be a link's index (0-{len(links) - 1}), got {show(shoulder)}")
 
 
-def _vector(c: _Checker, value: Any, key: str, size: int, bound: float, unit: bool = False) -> None:
+def _vector(c: FieldChecker, value: Any, key: str, size: int, bound: float, unit: bool = False) -> None:
     if not isinstance(value, list) or len(value) != size:
         raise c.error(key, f"must be {size} numbers, got {show(value)}")
     for i, v in enumerate(value):
@@ -244,7 +156,7 @@ def _vector(c: _Checker, value: Any, key: str, size: int, bound: float, unit: bo
         raise c.error(key, f"must have length 1, got {show(value)}")
 
 
-def _check_modules(c: _Checker, modules: Any) -> int:
+def _check_modules(c: FieldChecker, modules: Any) -> int:
     if not isinstance(modules, list) or not modules:
         raise c.error("modules", f"must be a non-empty list of {{name, enabled}}, got {show(modules)}")
     for i, m in enumerate(modules):
@@ -257,7 +169,7 @@ def _check_modules(c: _Checker, modules: Any) -> int:
     return len(modules)
 
 
-def _check_hidden(c: _Checker, hidden: Any, n_interface: int, n_modules: int) -> set[int]:
+def _check_hidden(c: FieldChecker, hidden: Any, n_interface: int, n_modules: int) -> set[int]:
     if not isinstance(hidden, list):
         raise c.error("hidden", f"must be a list of [node id, module index], got {show(hidden)}")
     ids: set[int] = set()
@@ -277,7 +189,7 @@ def _check_hidden(c: _Checker, hidden: Any, n_interface: int, n_modules: int) ->
     return ids
 
 
-def _check_connections(c: _Checker, conns: Any, n_in: int, n_bias: int, n_out: int, hidden: set[int],
+def _check_connections(c: FieldChecker, conns: Any, n_in: int, n_bias: int, n_out: int, hidden: set[int],
                        n_modules: int) -> None:
     """The hot loop of the check: a 300-connection controller takes well under 1 ms."""
     if not isinstance(conns, list):
@@ -307,15 +219,15 @@ def _check_connections(c: _Checker, conns: Any, n_in: int, n_bias: int, n_out: i
                           f"(0..{n_modules - 1})")
 
 
-def _check_joints(c: _Checker, joints: Any) -> list[str]:
+def _check_joints(c: FieldChecker, joints: Any) -> list[str]:
     c.obj(joints, "joints", *JOINTS_KEYS)
     driven = c.names(joints["driven"], "joints.driven", FIELDS["joints"]["properties"]["driven"]["minItems"])
     ranges = c.obj(joints["range_rad"], "joints.range_rad", free=True)
     for name in driven:
         if name not in ranges:
-            raise c.error(_join("joints.range_rad", name), "missing (every driven joint needs its range)")
+            raise c.error(join_key("joints.range_rad", name), "missing (every driven joint needs its range)")
     for name, pair in ranges.items():
-        key = _join("joints.range_rad", name)
+        key = join_key("joints.range_rad", name)
         if not isinstance(pair, list) or len(pair) != 2:
             raise c.error(key, f"must be [low, high] [rad], got {show(pair)}")
         lo = c.number(pair[0], f"{key}[0]", -ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD)
@@ -323,9 +235,9 @@ def _check_joints(c: _Checker, joints: Any) -> list[str]:
         if not lo < hi:
             raise c.error(key, f"low must be below high, got {show(pair)}")
     for name, value in c.obj(joints.get("hold_rad", {}), "joints.hold_rad", free=True).items():
-        c.number(value, _join("joints.hold_rad", name), -ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD)
+        c.number(value, join_key("joints.hold_rad", name), -ANGLE_LIMIT_RAD, ANGLE_LIMIT_RAD)
         if name in driven:
-            raise c.error(_join("joints.hold_rad", name), "is a driven joint: only joints not driven are held")
+            raise c.error(join_key("joints.hold_rad", name), "is a driven joint: only joints not driven are held")
     rules = FIELDS["joints"]["properties"]["output_rule"]["enum"]
     rule = joints.get("output_rule", rules[0])
     if rule not in rules:
@@ -338,13 +250,13 @@ def _check_joints(c: _Checker, joints: Any) -> list[str]:
         centres = c.obj(joints["centre_rad"], "joints.centre_rad", free=True)
         c.same_names("joints.centre_rad", sorted(centres), sorted(driven), "joints.driven")
         for name in driven:
-            key = _join("joints.centre_rad", name)
+            key = join_key("joints.centre_rad", name)
             low, high = joints["range_rad"][name]
             c.number(centres[name], key, low, high)
     return driven
 
 
-def _check_input_channels(c: _Checker, data: dict[str, Any]) -> dict[str, dict[str, float]]:
+def _check_input_channels(c: FieldChecker, data: dict[str, Any]) -> dict[str, dict[str, float]]:
     """Each input channel's keys (:data:`sim2real.controller.channels.CHANNELS`): its switch
     true or false, its settings within the schema's bounds and only with it on; returns the
     channels on with their settings."""
@@ -364,7 +276,7 @@ def _check_input_channels(c: _Checker, data: dict[str, Any]) -> dict[str, dict[s
     return selection(data)
 
 
-def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str], outputs: list[str],
+def _check_symmetry(c: FieldChecker, sym: Any, driven: list[str], inputs: list[str], outputs: list[str],
                     chosen: InputSettings) -> None:
     """The symmetry block against the driven joints, and the inputs and outputs it implies
     (:func:`sim2real.controller.symmetry.symmetric_layout` names them so): the joint angles,
@@ -390,7 +302,7 @@ def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str],
     if len(set(wired)) != len(wired):
         raise c.error("symmetry", f"{show(next(n for i, n in enumerate(wired) if n in wired[:i]))} is wired twice")
     if set(wired) != set(driven):
-        raise c.error("symmetry", _difference("joints.driven", sorted(set(wired) - set(driven)),
+        raise c.error("symmetry", difference("joints.driven", sorted(set(wired) - set(driven)),
                                               sorted(set(driven) - set(wired))))
     k = len(right)
     own = outputs[:k]
@@ -407,133 +319,3 @@ def _check_symmetry(c: _Checker, sym: Any, driven: list[str], inputs: list[str],
            and ch.key not in chosen]
     c.same_names("inputs", inputs, list(input_names(angles, chosen)),
                  why[:-1] + "".join(", " + part for part in on) + "".join("; " + part for part in off) + ")")
-
-
-def _difference(what: str, extra: list[str], lacking: list[str]) -> str:
-    parts = [f"has {show(extra)} beyond {what}"] if extra else []
-    return "; ".join(parts + ([f"lacks {show(lacking)} of {what}"] if lacking else []))
-
-
-# -- against a robot ---------------------------------------------------------------------------
-def joint_map_hash(robot: RobotSpec) -> str:
-    """A short hash of what a controller relies on: joint names, order, ranges and servos."""
-    parts = []
-    for j in robot.joints:
-        servo = (j.servo.id, j.servo.profile.model, j.servo.direction, round(j.servo.zero_offset_rad, 9)) if j.servo else None
-        # a model joint turned over (sign -1) adds its sign: older robots' hashes stay as they were
-        parts.append([j.name, j.side, j.location, j.axis, [round(a, 9) for a in j.range_rad], servo]
-                     + ([j.sign] if j.sign != 1 else []) + ([{"index": j.index}] if j.index else []))
-    return hashlib.sha256(json.dumps(parts).encode()).hexdigest()[:16]
-
-
-def _check_robot(c: _Checker, data: dict[str, Any], robot: RobotSpec) -> None:
-    want = joint_map_hash(robot)
-    if data["robot"]["joint_map_hash"] != want:
-        raise c.error("robot.joint_map_hash", f"made for robot {show(data['robot']['name'])} with joint map "
-                      f"{data['robot']['joint_map_hash']}, but {robot.name} has {want}")
-    driven = data["joints"]["driven"]
-    control_set = data["task"].get("control_set")
-    if control_set is not None:
-        if control_set not in robot.control_sets:
-            raise c.error("task.control_set", f"robot {robot.name} has no control set {show(control_set)} "
-                          f"(has {', '.join(robot.control_sets)})")
-        members = set(robot.control_sets[control_set])
-        if set(driven) != members:
-            raise c.error("joints.driven", _difference(f"robot {robot.name}'s {control_set!r} control set "
-                                                       "(task.control_set)", sorted(set(driven) - members),
-                                                       sorted(members - set(driven))))
-    try:
-        layout = symmetric_layout(robot, tuple(driven), selection(data))
-    except (ValueError, KeyError) as exc:
-        raise c.error("joints.driven", str(exc)) from None
-    why = f"robot {robot.name} driving {show(list(layout.driven))}"
-    c.same_names("outputs", data["outputs"], list(layout.output_names), why)
-    c.same_names("inputs", data["inputs"], list(layout.input_names), why)
-    names = robot.joint_names
-    sym = data["symmetry"]
-    for side in NETWORKS:
-        c.same_names(f"symmetry.leg_joints.{side}", sym["leg_joints"][side],
-                     [names[i] for i in layout.leg_index[side]], why)
-    c.same_names("symmetry.center_joints", sym["center_joints"], [names[i] for i in layout.center_index], why)
-    if [float(m) for m in sym["center_mirror_for_left"]] != layout.center_mirror.tolist():
-        raise c.error("symmetry.center_mirror_for_left", f"must be {layout.center_mirror.tolist()} for {why}")
-    for block in ("range_rad", "hold_rad"):
-        for name, value in data["joints"].get(block, {}).items():
-            if name not in names:
-                raise c.error(_join(f"joints.{block}", name), f"robot {robot.name} has no such joint")
-            actual = robot.joint(name).range_rad
-            if block == "range_rad":
-                if any(abs(a - b) > RANGE_TOLERANCE_RAD for a, b in zip(value, actual)):
-                    raise c.error(_join("joints.range_rad", name), f"{show(value)} differs from robot "
-                                  f"{robot.name}'s {list(actual)}")
-            elif not actual[0] - RANGE_TOLERANCE_RAD <= value <= actual[1] + RANGE_TOLERANCE_RAD:
-                raise c.error(_join("joints.hold_rad", name), f"{show(value)} rad ({math.degrees(value):.1f} deg) "
-                              f"is outside the joint's range [{actual[0]:.6g}, {actual[1]:.6g}] rad "
-                              f"([{math.degrees(actual[0]):.1f}, {math.degrees(actual[1]):.1f}] deg, robot "
-                              f"{robot.name}'s range_deg): a held joint must hold an angle it can reach")
-    low, high, why = tick_bounds(robot)
-    tick = data["tick_s"]
-    if not low - 1e-12 <= tick <= high + 1e-12:
-        try:  # a robot from a model file measures its leg on the model: MuJoCo, which a robot computer may lack
-            own = f"; its own tick is {control_timing(robot).tick_s * 1e3:.3g} ms"
-        except RuntimeError:
-            own = ""
-        raise c.error("tick_s", f"{show(tick)} s is outside the ticks robot {robot.name} can run at, "
-                      f"[{low * 1e3:.3g}, {high * 1e3:.3g}] ms: {why}{own}")
-
-
-def tick_bounds(robot: RobotSpec) -> tuple[float, float, str]:
-    """The control ticks a controller may run at on ``robot``: (shortest, longest [s], where
-    both come from, in words).  Shortest: one bus cycle - the reads of every position and of
-    the sensor board and the writes of every goal, grouped by protocol and control table, at
-    the robot's baud, with the host's turnaround per exchange
-    (:func:`sim2real.robot.bus_plan.bus_time`) - or one physics step for a robot without a
-    bus.  Longest: half the Bus Watchdog that start-up sets on servos that have one (goals
-    must keep coming though one tick runs late), else the format's bound."""
-    from sim2real.hardware.dynamixel.registers import Reg
-    from sim2real.hardware.dynamixel.startup import WATCHDOG_MS
-    from sim2real.robot.bus_plan import bus_time
-    from sim2real.robot.timing import PHYSICS_DT_S
-
-    time, step = bus_time(robot), robot.physics_dt_s or PHYSICS_DT_S
-    if time is not None and time.total_s >= step:
-        low = time.total_s
-        why = (f"the shortest is one bus cycle ({time.packets} packets, {time.bytes} bytes at {robot.bus.baud} baud "
-               "with the host's turnaround, sim2real/robot/bus_plan.py)")
-    else:
-        low, why = step, f"the shortest is one physics step ({step * 1e3:g} ms, longer than a bus cycle)"
-    watched = robot.bus is not None and any(
-        j.servo is not None and Reg.BUS_WATCHDOG in j.servo.profile.control_table for j in robot.joints)
-    if watched:
-        high = WATCHDOG_MS / 2e3
-        why += (f"; the longest half the {WATCHDOG_MS} ms Bus Watchdog that start-up sets on its servos "
-                "(one late tick must not trip it)")
-    else:
-        high = TICK_RANGE_S[1]
-        why += "; the longest the format's"
-    return low, high, why
-
-
-def bus_problems(robot: RobotSpec, tick_s: float, *, baud: int | None = None, motion: tuple[str, ...] = ()) -> list[str]:
-    """Why ``robot``'s bus cannot run a tick of ``tick_s`` [s] at ``baud`` (default: the
-    robot's), every reason at once: a device that cannot be set to the baud rate (servos of
-    both protocols that need different ones), a tick's reads and writes (and ``motion``'s
-    extra reads) that take longer than the tick, or a bus that no tick the Bus Watchdog
-    allows can serve.  Empty when it can; checked by ``biped robot show`` and before a run
-    opens its port."""
-    from sim2real.robot.bus_plan import baud_problem, bus_devices, bus_time, tick_problem
-
-    if robot.bus is None:
-        return []
-    baud = baud or robot.bus.baud
-    problems = [p for p in (baud_problem(bus_devices(robot), baud),) if p]
-    time = bus_time(robot, baud, motion)
-    _, high, why = tick_bounds(robot)
-    if time.total_s > high + 1e-12:
-        problems.append(f"one control tick's bus traffic takes {time.total_s * 1e3:.2f} ms, longer than the longest "
-                        f"tick the robot can run at ({high * 1e3:.3g} ms: {why.split('; ')[-1]}): {time.describe()}")
-    else:
-        problem = tick_problem(robot, tick_s, baud, motion)
-        if problem:
-            problems.append(problem)
-    return problems

@@ -31,7 +31,8 @@ from typing import Any, ClassVar, Mapping
 import numpy as np
 
 from sim2real.atomic_json import write_text_atomic
-from sim2real.controller.checks import check_controller, joint_map_hash
+from sim2real.controller.checks import check_controller
+from sim2real.controller.robot_checks import joint_map_hash
 from sim2real.controller.json_reader import decode, read_bounded
 from sim2real.controller import channels
 from sim2real.controller.mapping import OUTPUT_RULES, hold_pose

@@ -8,11 +8,16 @@ servos' no-load speed per tick (:mod:`sim2real.controller.mapping`); joints the 
 not drive hold the centre of their range.  The outputs' wiring is fused into a gather derived
 from :func:`~sim2real.controller.symmetry.joint_outputs` (its test oracle); every number is
 computed as in evolution, bit for bit.
+
+A run's commands from its user - a heading to hold, a point to reach - reach the policy through
+:meth:`Policy.apply_commands` before any servo moves, and :meth:`Policy.task_report` gives what
+the run reports of its task; the loop that drives it (:mod:`sim2real.hardware.deploy`) knows
+neither steering nor reaching.
 """
 
 from __future__ import annotations
 
-from typing import Callable, Iterable
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
@@ -21,8 +26,9 @@ from sim2real.controller.channels import InputWiring, Reach, Readings
 from sim2real.controller.file import Controller
 from sim2real.controller.kinematics import ArmChain
 from sim2real.controller.mapping import hold_pose, max_steps, output_to_angle, rate_limit
-from sim2real.controller.reach import ReachControl
+from sim2real.controller.reach import ReachControl, aim_reach
 from sim2real.controller.symmetry import joint_outputs
+from sim2real.errors import UsageError
 from sim2real.robot import RobotSpec
 
 
@@ -72,6 +78,27 @@ class Policy:
         if self.reach is None:
             return ()
         return float(self.reach.cycle.state[0]), float(self.reach.error[0])
+
+    def apply_commands(self, *, heading: Callable[[float], float] | None = None,
+                       reach_target: tuple[float, float, float] | None = None,
+                       log: Callable[[str], None] = print) -> None:
+        """A user's commands for the run, each refused (:class:`UsageError`) if this controller
+        cannot take it: ``heading``, the heading to hold [rad, from the start's] at a time since
+        the start [s] (a controller with a heading input, :mod:`sim2real.controller.steering`);
+        ``reach_target``, where the right hand reaches in the root body's frame [m] (a reaching
+        controller, :func:`~sim2real.controller.reach.aim_reach`).  None: not commanded."""
+        if heading is not None:
+            if "heading" not in self.layout.inputs:
+                raise UsageError("a heading to hold was given, but the controller has no heading input "
+                                 "(heading_input): it cannot be steered")
+            self.heading_command = heading
+        if reach_target is not None:
+            aim_reach(self.reach, reach_target, log)
+
+    def task_report(self) -> dict[str, Any]:
+        """What a run reports of this controller's task beyond the loop's counts: a reaching
+        controller's goals reached, target and arm (``{"reach": ...}``); empty for others."""
+        return {} if self.reach is None else {"reach": self.reach.report()}
 
     def _output_gather(self) -> tuple[np.ndarray, np.ndarray]:
         """Each driven joint's output as the mean of two entries of the networks' flat outputs

@@ -11,16 +11,20 @@ network reads the state through :class:`sim2real.controller.channels.Reach`.
     cycle = ReachCycle(n, phase_s=1.0, tolerance=0.15)
     reached = cycle.update(ids, error, dt)   # error: each hand's distance to its goal [arm lengths]
 
-:class:`ReachControl` runs it on the hand's position from joint angles (the arm's chain).
+:class:`ReachControl` runs it on the hand's position from joint angles (the arm's chain);
+:func:`aim_reach` points it where a user tells a run to reach (``--reach-target``), before
+any servo moves.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from sim2real.controller.kinematics import ArmChain
+from sim2real.errors import UsageError
 
 REACHING, RETURNING = 1.0, 0.0
 # a target farther from the shoulder than this many arm lengths (shoulder to hand at home, where
@@ -128,3 +132,26 @@ class ReachControl:
     def inputs(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The reach state and target offset the networks of ``ids`` read (channels.Reach)."""
         return self.cycle.state[ids], np.broadcast_to(self.offset, (len(ids), 3))
+
+    def report(self) -> dict[str, Any]:
+        """What a run on one robot reports: goals reached, the target (root frame [m], to 0.1 mm)
+        and the arm's length [m]."""
+        return {"reaches": int(self.cycle.reached[0]), "target_m": [round(float(v), 4) for v in self.target],
+                "arm_length_m": round(self.arm_length, 4)}
+
+
+def aim_reach(reach: ReachControl | None, target_m: Sequence[float], log: Callable[[str], None]) -> None:
+    """Point a reaching controller's hand at ``target_m`` (root frame [m]); refused
+    (:class:`UsageError`, before any servo moves) for a controller without the reach input
+    (``reach`` None) or a target beyond the arm's reach; ``log`` notes a target far from the one
+    it was evolved for."""
+    if reach is None:
+        raise UsageError(NO_REACH)
+    evolved = reach.target.copy()
+    try:
+        reach.aim(target_m)
+    except ValueError as exc:
+        raise UsageError(f"--reach-target {', '.join(f'{v:g}' for v in target_m)}: {exc}") from None
+    if np.linalg.norm(reach.target - evolved) > 0.5 * reach.cycle.tolerance * reach.arm_length:
+        log(f"note: the controller was evolved to reach {metres(evolved)}; a network that learned one target may "
+            f"miss {metres(reach.target)}")

@@ -38,8 +38,9 @@ from sim2real.hardware.dynamixel.chain import decode
 from sim2real.robot import RobotSpec
 from sim2real.robot.bus_plan import BULK_READ, READ, SYNC_READ, SYNC_WRITE, WRITE, check_group
 from sim2real.robot.profiles import DeviceProfile
+from sim2real.robot.timing import WATCHDOG_UNIT_MS
 
-WATCHDOG_UNIT_S = 0.020  # Bus Watchdog (98) counts in 20 ms
+WATCHDOG_UNIT_S = WATCHDOG_UNIT_MS / 1e3  # Bus Watchdog (98) counts in 20 ms [s]
 WATCHDOG_EXPIRED = -1  # what Bus Watchdog (98) reads once it has stopped the servo
 # The goal entries an expired Bus Watchdog makes read-only (those a profile has).
 WATCHDOG_GOALS = ("goal_pwm", "goal_current", "goal_velocity", Reg.GOAL_POSITION)

@@ -9,6 +9,12 @@ control table (:mod:`sim2real.robot.bus_plan`), at the configured baud (10 bits 
 Return Delay Time 0), plus the host's turnaround for each exchange that waits for replies -
 and it is rounded to a whole number of physics steps.  Within one tick a goal may move at most the servo's no-load speed times
 the tick.
+
+The tick is bounded from above by the Bus Watchdog that start-up
+(:mod:`sim2real.hardware.dynamixel.startup`) sets on every servo that has one
+(:func:`watchdog_ms`): a servo that hears no instruction for that long stops and refuses goals,
+so a tick may last at most half of it (:func:`sim2real.controller.robot_checks.tick_bounds`).
+This module owns that setting; start-up writes it from here.
 """
 
 from __future__ import annotations
@@ -23,6 +29,12 @@ from sim2real.robot.bus_plan import BITS_PER_BYTE, bus_time, tick_exchanges
 HUMAN_TICK_S = 0.07  # seed 000 section 8: spinal reflex delay
 REFERENCE_HUMAN = "human:male_50"  # whose leg length the 0.07 s belongs to
 PHYSICS_DT_S = 0.002  # MuJoCo timestep [s], unless the robot config sets physics_dt_s
+# The Bus Watchdog (ROBOTIS e-manual, X series control table, "Bus Watchdog(98)"; MX with
+# protocol 2.0 too): its entry's name in firmware_profiles/, the setting start-up writes, and the
+# entry's unit.
+BUS_WATCHDOG = "bus_watchdog"
+WATCHDOG_MS = 100  # servos stop if the host is silent this long [ms]
+WATCHDOG_UNIT_MS = 20  # the entry counts in 20 ms [ms]
 
 
 @dataclass(frozen=True)
@@ -58,6 +70,14 @@ def tick_bus_s(robot: RobotSpec) -> float:
     exchange that waits for replies (:class:`sim2real.robot.bus_plan.BusTime`); 0 without a bus."""
     time = bus_time(robot)
     return 0.0 if time is None else time.total_s
+
+
+def watchdog_ms(robot: RobotSpec) -> int | None:
+    """The Bus Watchdog start-up sets on ``robot``'s servos [ms]: :data:`WATCHDOG_MS`, or None
+    for a robot without a bus or none of whose servos has the entry."""
+    watched = robot.bus is not None and any(
+        j.servo is not None and BUS_WATCHDOG in j.servo.profile.control_table for j in robot.joints)
+    return WATCHDOG_MS if watched else None
 
 
 @lru_cache(maxsize=1)

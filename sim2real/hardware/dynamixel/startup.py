@@ -19,9 +19,7 @@ from sim2real.hardware.bus import CommunicationError
 from sim2real.hardware.dynamixel.chain import ServoChain
 from sim2real.hardware.dynamixel.errors import decode_hardware_error
 from sim2real.hardware.dynamixel.registers import POSITION_MODE, Reg
-
-WATCHDOG_MS = 100  # servos stop if the host is silent this long
-WATCHDOG_UNIT_MS = 20  # Bus Watchdog (X series, address 98) counts in 20 ms
+from sim2real.robot.timing import WATCHDOG_MS, WATCHDOG_UNIT_MS  # the tick's bounds are checked against it too
 
 
 class StartupError(BipedError):
