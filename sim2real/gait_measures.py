@@ -67,16 +67,17 @@ class GaitMeasures:
         return self.ticks == 0
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready, NaN as None, with the verdict (``walk``) and what fails it (``not_a_walk``)."""
-        def number(value: float, digits: int = 4) -> float | None:
-            return None if math.isnan(value) else round(float(value), digits)
+        """JSON-ready (NaN as None, numbers unrounded), with the verdict (``walk``) and what fails
+        it (``not_a_walk``)."""
+        def number(value: float) -> float | None:  # unrounded: read back, the verdict is the same
+            return None if math.isnan(value) else float(value)
 
-        return {"skipped_s": self.skipped_s, "measured_s": round(self.measured_s, 6), "ticks": self.ticks,
-                "hip_swing_deg": {side: number(v, 2) for side, v in zip(SIDES, self.hip_swing_deg)},
+        return {"skipped_s": self.skipped_s, "measured_s": self.measured_s, "ticks": self.ticks,
+                "hip_swing_deg": {side: number(v) for side, v in zip(SIDES, self.hip_swing_deg)},
                 "symmetry": number(self.symmetry), "flight_share": number(self.flight_share),
                 "double_support_share": number(self.double_support_share), "steps": self.steps,
                 "touchdowns": dict(zip(SIDES, self.touchdowns)),
-                "cadence_steps_min": number(self.cadence_steps_min, 2),
+                "cadence_steps_min": number(self.cadence_steps_min),
                 "walk": is_a_walk(self), "not_a_walk": walk_faults(self)}
 
     @classmethod
@@ -203,9 +204,9 @@ class GaitMeter:
             skipped_s=self.skip_s, measured_s=measured_s, ticks=ticks,
             hip_swing_deg=(float(swing[0]), float(swing[1])),
             symmetry=float(swing.min()) / larger if larger > 0 else float("nan"),
-            flight_share=self.flight[e] / ticks, double_support_share=self.double[e] / ticks,
+            flight_share=float(self.flight[e] / ticks), double_support_share=float(self.double[e] / ticks),
             steps=int(self.steps[e]), touchdowns=(int(self.touchdowns[e, 0]), int(self.touchdowns[e, 1])),
-            cadence_steps_min=60.0 * self.steps[e] / measured_s)
+            cadence_steps_min=float(60.0 * self.steps[e] / measured_s))
 
 
 def measure_gait(times_s: np.ndarray, hips_rad: np.ndarray, feet: np.ndarray, *, skip_s: float = SKIP_S,
