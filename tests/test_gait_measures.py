@@ -124,7 +124,9 @@ class TestEdgeCases:
     def test_the_start_up_skipped_is_a_parameter(self):
         assert SKIP_S == 2.0
         times, hips, feet = walk()
-        assert measure_gait(times, hips, feet, skip_s=0.0).ticks == 200
+        everything = measure_gait(times, hips, feet, skip_s=0.0)
+        assert everything.ticks == 200
+        assert everything.touchdowns == (9, 10) and everything.steps == 19  # feet down at the first tick: no landing
         m = measure_gait(times, hips, feet, skip_s=5.0)
         assert m.ticks == 100 and m.skipped_s == 5.0 and m.steps == 10
         assert measure_gait(times, hips, feet, skip_s=10.0).empty
