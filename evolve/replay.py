@@ -23,6 +23,7 @@ from sim2real.controller.channels import turn_rad
 from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError, UsageError
 from sim2real.robot.names import ROBOT_FLAG
+from sim2real.robot.spec import RobotSpec
 from sim2real.figures.gait import Gait
 from sim2real.gait_measures import GaitMeter, hip_pitch_joints, is_a_walk
 from sim2real.figures.reach import Reach as ReachPlot
@@ -87,7 +88,7 @@ class GaitTracker:
     """``on_tick`` hook: every episode's gait measures (:mod:`sim2real.gait_measures`), fed
     tick by tick at the times :func:`gait` records (tick index x tick)."""
 
-    def __init__(self, robot, n: int, tick_s: float):
+    def __init__(self, robot: RobotSpec, n: int, tick_s: float):
         self.hips = [robot.joint_names.index(name) for name in hip_pitch_joints(robot)]
         self.meter = GaitMeter(n, tick_s)
         self.tick = 0
