@@ -13,6 +13,11 @@ best walker can improve a little) or at the generation limit; its best walker (f
 those judged) then walks 60 s in simulation without a stagnation stop: seconds upright,
 distance before toppling, speed.
 
+A run **covers 2 m** (``covers_2m``, what ``walked`` meant before issue 51) when it found such a
+walker; it **walked** only when its best walker's gait is also a walk (issue 51): measured over
+a 10 s replay on the nominal body with the first 2 s skipped (:mod:`sim2real.gait_measures`:
+both hips swing alike, no flight phase, both feet step).  The summary counts both.
+
 Resumable: every run lives in ``--out/<preset>-seed<S>/`` (``<file>_<preset>-seed<S>/`` for a
 ``--robot FILE``; the evolution's run folder ``run/``, ``state.json`` with the first and best
 walker, ``walker.json``, and ``result.json`` once finished).  A call does what is left,
@@ -34,16 +39,18 @@ from benchmarks.common import command_line, parser, progress, report
 from evolve.config import config_path
 from evolve.config import load_evolve_config
 from evolve.locomotion.evaluator import LocomotionEvaluator
-from evolve.replay import evaluate_controller
+from evolve.replay import evaluate_controller, gait
 from evolve.run import Run
 from sim2real.atomic_json import read_json, write_json_atomic
 from sim2real.controller.activation import exp_fingerprint
 from sim2real.controller.file import Controller
+from sim2real.gait_measures import GaitMeasures, describe, is_a_walk, measure_recorded
 
 PRESETS = ("female_5", "female_50", "female_95", "male_5", "male_50", "male_95",
            "male_heavy_short", "female_heavy_short")
 WALKED_M = 2.0  # seed 000: upright for more than 2 m
 SUSTAINED_S = 60.0
+GAIT_S = 10.0  # issue 51: a gait is judged over a 10 s replay on the nominal body (its first 2 s skipped)
 
 
 def walked_by_seed_000(upright_s: float, distance_m: float, episode_s: float) -> bool:
@@ -111,14 +118,45 @@ def sustained_walk(controller: Path) -> dict:
             "fell": walk["fell"], "turn_deg": walk["per_episode"][0]["turn_deg"]}
 
 
+def gait_of(controller: Path) -> dict:
+    """``controller``'s gait measures over a :data:`GAIT_S` replay on its nominal body
+    (:func:`~sim2real.gait_measures.GaitMeasures.to_dict`)."""
+    return measure_recorded(gait(controller, seconds=GAIT_S)).to_dict()
+
+
+def walks_a_walk(covers_2m: bool, gait_measures: dict) -> bool:
+    """Issue 51's count: a run walked when it covers 2 m upright (seed 000) and its gait is a walk."""
+    return covers_2m and is_a_walk(GaitMeasures.from_dict(gait_measures))
+
+
+def judged(run: dict, folder: Path) -> dict:
+    """A finished run's result, read back: one finished before the gait measures (its
+    ``walked`` was seed 000's test alone) gets ``covers_2m`` from that, its gait measured now
+    and ``walked`` judged with it (the file is left as it was)."""
+    if "covers_2m" in run:
+        return run
+    covers = bool(run["walked"])
+    measures = gait_of(folder / "walker.json" if covers else folder / "run" / "controller.json")
+    return {**run, "covers_2m": covers, "walked": walks_a_walk(covers, measures), "gait": measures}
+
+
+def tally(runs: list[dict]) -> dict:
+    """How many runs walked a walk and how many covered 2 m (the count before issue 51), and rates."""
+    walked, covered = sum(r["walked"] for r in runs), sum(r["covers_2m"] for r in runs)
+    return {"walked": walked, "rate": walked / len(runs) if runs else None,
+            "covers_2m": covered, "covers_2m_rate": covered / len(runs) if runs else None}
+
+
 def finish(preset: str, seed: int, folder: Path, quiet: bool) -> dict:
-    """The run's result: its first walker, and its best walker's 60 s walk."""
+    """The run's result: its first walker, its best walker's gait and 60 s walk."""
     state = read_json(folder / "state.json") if (folder / "state.json").exists() else {"first_walker": None}
     first = state["first_walker"]
     controller = folder / "walker.json" if first else folder / "run" / "controller.json"
     stats = (folder / "run" / "stats.csv").read_text().splitlines()
+    measures = gait_of(controller)
     result = {
-        "preset": preset, "seed": seed, "walked": first is not None,
+        "preset": preset, "seed": seed, "walked": walks_a_walk(first is not None, measures),
+        "covers_2m": first is not None, "gait": measures,
         "generation": first["generation"] if first else None,
         "minutes": first["minutes"] if first else None,
         "first_walker_m": first["distance_m"] if first else None,
@@ -127,8 +165,9 @@ def finish(preset: str, seed: int, folder: Path, quiet: bool) -> dict:
         **sustained_walk(controller),
     }
     write_json_atomic(folder / "result.json", result)
-    progress(f"{preset} seed {seed}: walked {result['walked']} (generation {result['generation']}), "
-             f"60 s walk: {result['sustained_m']:.1f} m upright {result['sustained_s']:.1f} s", quiet)
+    progress(f"{preset} seed {seed}: covers 2 m {result['covers_2m']} (generation {result['generation']}), "
+             f"60 s walk: {result['sustained_m']:.1f} m upright {result['sustained_s']:.1f} s; gait over "
+             f"{GAIT_S:g} s: {describe(GaitMeasures.from_dict(measures))}", quiet)
     return result
 
 
@@ -156,7 +195,7 @@ def main(argv=None) -> None:
         for seed in args.seeds:
             folder = run_folder(args.out, preset, seed, args.robot)
             if (folder / "result.json").exists():
-                runs.append(read_json(folder / "result.json"))
+                runs.append(judged(read_json(folder / "result.json"), folder))
                 continue
             if time.monotonic() > deadline:
                 unfinished.append(folder.name)
@@ -169,10 +208,8 @@ def main(argv=None) -> None:
                 runs.append(finish(preset, seed, folder, args.quiet))
             else:
                 unfinished.append(folder.name)
-    walked = sum(r["walked"] for r in runs)
-    result = {"runs": runs, "walked": walked, "rate": walked / len(runs) if runs else None,
-              "unfinished": unfinished, "generations": args.generations, "after_walker": args.after_walker,
-              "config": args.config, "robot": args.robot}
+    result = {"runs": runs, **tally(runs), "unfinished": unfinished, "generations": args.generations,
+              "after_walker": args.after_walker, "config": args.config, "robot": args.robot}
     if args.ship:
         result["shipped"] = ship(runs, args.out, args.robot, args.ship, argv, args.quiet)
     report(result, args.json)
@@ -186,9 +223,10 @@ def walks_here(walker: Path) -> bool:
 
 def ship(runs: list[dict], out: Path, robot: str, into: Path, argv: list[str] | None,
          quiet: bool = True) -> list[str]:
-    """Each preset's best walker of ``runs`` - of those that still walk when replayed here, the
-    farthest in its 60 s walk here - as ``into/human_<preset>.json``; presets without one get no
-    file.
+    """Each preset's best walker of ``runs`` - of the runs that walked (a walk's gait, not only
+    2 m: :func:`walks_a_walk`) whose walker still walks by seed 000's test when replayed here,
+    the farthest in its 60 s walk here - as ``into/human_<preset>.json``; presets without one
+    get no file.
 
     These walkers replay exactly only on the numbers they were evolved on
     (``benchmarks.tolerance``), so a walker evolved on another machine or MuJoCo is judged and

@@ -401,6 +401,19 @@ def cmd_polish(args: argparse.Namespace) -> int:
     return 0
 
 
+def print_gaits(gaits: dict) -> None:
+    """``biped eval``'s gait lines: how many episodes walk a walk, then each one's measures."""
+    from sim2real.gait_measures import GaitMeasures, SKIP_S, describe
+
+    if "unmeasured" in gaits:
+        print(f"gait: not measured ({gaits['unmeasured']})")
+        return
+    episodes = gaits["per_episode"]
+    print(f"gait: {gaits['walks']} of {len(episodes)} episodes walk a walk (first {SKIP_S:g} s skipped)")
+    for e, measures in enumerate(episodes):
+        print(f"  episode {e}: {describe(GaitMeasures.from_dict(measures))}")
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
     from evolve.replay import ablate_controller, evaluate_controller
 
@@ -409,12 +422,14 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if not args.ablate:
         result = evaluate_controller(args.controller, episodes=args.episodes or 1, randomize=reality,
                                      seed=args.seed, by_perturbation=args.by_perturbation, heading=args.heading,
-                                     **options)
+                                     gait_measures=True, **options)
         table = result.pop("by_perturbation", None)
         if args.json:
             print(json.dumps({**result, **({"by_perturbation": table} if table is not None else {})}))
             return 0
+        gaits = result.pop("gait")
         print_result(result, False)
+        print_gaits(gaits)
         if table is not None:
             print(f"{'walked in the low / middle / high third of':>44}  correlation")
             for key, row in sorted(table.items(), key=lambda item: -abs(item[1]["correlation"])):

@@ -23,7 +23,9 @@ from sim2real.controller.channels import turn_rad
 from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError, UsageError
 from sim2real.robot.names import ROBOT_FLAG
+from sim2real.robot.spec import RobotSpec
 from sim2real.figures.gait import Gait
+from sim2real.gait_measures import GaitMeter, hip_pitch_joints, is_a_walk
 from sim2real.figures.reach import Reach as ReachPlot
 from sim2real.simulation.model_builder import SimulationUnstable
 from sim2real.simulation.reality import NOMINAL, Reality, load_reality
@@ -82,11 +84,33 @@ class TurnTracker:
         self.last = yaw
 
 
+class GaitTracker:
+    """``on_tick`` hook: every episode's gait measures (:mod:`sim2real.gait_measures`), fed
+    tick by tick at the times :func:`gait` records (tick index x tick)."""
+
+    def __init__(self, robot: RobotSpec, n: int, tick_s: float):
+        self.hips = [robot.joint_names.index(name) for name in hip_pitch_joints(robot)]
+        self.meter = GaitMeter(n, tick_s)
+        self.tick = 0
+
+    def __call__(self, evaluator: LocomotionEvaluator, alive: np.ndarray) -> None:
+        hips = evaluator.joint_angles(alive)[:, self.hips]
+        feet = evaluator.parts.feet_touching(evaluator.sensordata[alive])
+        self.meter.add(alive, self.tick * evaluator.tick_s, hips, feet)
+        self.tick += 1
+
+    def report(self) -> dict[str, Any]:
+        """How many episodes walk a walk, and each one's measures (JSON-ready)."""
+        measures = self.meter.measures()
+        return {"walks": sum(map(is_a_walk, measures)), "per_episode": [m.to_dict() for m in measures]}
+
+
 def evaluate_controller(path: Path | str, robot: str | None = None, seconds: float | None = None,
                         episodes: int = 1, disabled_modules: tuple[str, ...] = (),
                         randomize: str | Reality | None = None, seed: int = 0,
                         stagnation_stop: bool = True, by_perturbation: bool = False,
-                        heading: Callable[[float], float] | None = None, threads: int = 1) -> dict[str, Any]:
+                        heading: Callable[[float], float] | None = None, threads: int = 1,
+                        gait_measures: bool = False) -> dict[str, Any]:
     """Measure a controller on ``episodes`` episodes, each drawn from ``randomize`` (a reality
     file's ranges or fixed profile; None: the nominal robot) with seed ``seed``; without
     ``stagnation_stop`` only a fall (or the clock) ends an episode.  ``by_perturbation`` adds
@@ -94,7 +118,9 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
     ``heading``: steer a controller with a heading input - the heading to hold [rad, from the
     start's] at a time [s] (:mod:`sim2real.controller.steering`); each episode then reports how
     far its torso ends from the heading it was told to hold (``heading_error_deg``).
-    ``threads``: simulation threads (0: every core); the numbers do not depend on them."""
+    ``threads``: simulation threads (0: every core); the numbers do not depend on them.
+    ``gait_measures`` adds ``gait``: each episode's gait after its start-up and how many walk
+    a walk (:class:`GaitTracker`), or why a robot's gait cannot be measured (``unmeasured``)."""
     reality = load_reality(randomize)
     data, spec, evaluator, genome = controller_setup(path, robot, seconds, episodes, reality=reality,
                                            disabled_modules=disabled_modules, stagnation_stop=stagnation_stop,
@@ -109,8 +135,16 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         told = np.array([heading(t * evaluator.tick_s) for t in range(evaluator.n_ticks)])
         turns = np.broadcast_to(told, (episodes, evaluator.n_ticks)).copy()
     reaching = "reach" in data.input_channels  # scored as it was evolved: seed 002's reaching
+    on_tick, gaits = turn, None
+    if gait_measures:
+        try:
+            gaits = GaitTracker(spec, episodes, evaluator.tick_s)
+        except ValueError as exc:  # a robot without a hip pitch joint on each side
+            gaits = {"unmeasured": str(exc)}
+        else:
+            on_tick = lambda ev, alive: (turn(ev, alive), gaits(ev, alive))  # noqa: E731
     result = evaluator.evaluate([genome] * episodes, data.sigmoid_steepness, harness=0.0,
-                                disabled_modules=disabled_modules, perturbation=perturbation, on_tick=turn,
+                                disabled_modules=disabled_modules, perturbation=perturbation, on_tick=on_tick,
                                 turns=turns, objective=_objective(data))
     _refuse_unstable(result.unstable, reality)
     reach = {}
@@ -143,6 +177,7 @@ def evaluate_controller(path: Path | str, robot: str | None = None, seconds: flo
         "disabled_modules": list(disabled_modules),
         "seconds": evaluator.episode_s,
         **reach,
+        **({} if gaits is None else {"gait": gaits if isinstance(gaits, dict) else gaits.report()}),
         **({"by_perturbation": walk_rate_by_draw(perturbation, walked)}
            if by_perturbation and perturbation is not None else {}),
     }

@@ -130,8 +130,17 @@ def cmd_plot_gait(args: argparse.Namespace) -> int:
     else:
         gait = args.replay["gait"](args.controller, robot=args.robot, seconds=args.seconds, reality=args.reality,
                                    disabled_modules=tuple(args.disable_module))
-    plot_gait(gait, args.output)
+    from sim2real.gait_measures import describe, measure_recorded
+
+    try:
+        measures = measure_recorded(gait)
+    except ValueError as exc:  # a trace without foot switches, a robot without hip pitch joints: drawn all the same
+        measures, line = None, f"not measured ({exc})"
+    else:
+        line = describe(measures)
+    plot_gait(gait, args.output, measures=measures)
     print(f"wrote {args.output} ({gait.times_s[-1]:.1f} s{', fell' if gait.fell_s is not None else ''})")
+    print(f"gait: {line}")
     return 0
 
 
