@@ -29,7 +29,7 @@ from evolve.neat import NeatConfig, Population
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.robot import load_robot
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.reality.file import load_reality
 
 
 def _ranks(values: np.ndarray) -> np.ndarray:

@@ -20,8 +20,8 @@ import numpy as np
 
 from benchmarks.common import parser, progress, report
 from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import is_collision_geom
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import is_collision_geom
 
 DEFAULT_ROBOTS = ("xl430_biped", "op3_legs", "op3")
 

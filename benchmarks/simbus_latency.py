@@ -35,7 +35,7 @@ from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.readings import MotionReadings
 from sim2real.hardware.realtime import RealtimeRequest, ordinary_scheduling, request_realtime
 from sim2real.robot import load_robot
-from sim2real.simulation.dry_run import SimulatedBusProcess
+from sim2real.simulation.transfer.dry_run import SimulatedBusProcess
 
 TICK_S = 0.01  # biped excite's default tick
 PATIENCE_US = 500_000.0  # added to every packet timeout: a late reply is measured, not lost

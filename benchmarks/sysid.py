@@ -33,8 +33,8 @@ from typing import Any
 from benchmarks.common import parser, progress, report
 from sim2real.robot import load_robot
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.dry_run import SimulatedBusProcess
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.transfer.dry_run import SimulatedBusProcess
+from sim2real.simulation.reality.file import load_reality
 
 PROFILES = Path(__file__).with_name("sysid_profiles")
 LOOP_CONFIG = Path(__file__).with_name("records") / "configs" / "walk_robust.yaml"  # the loop's evolution

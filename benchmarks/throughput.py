@@ -20,7 +20,7 @@ from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population
 from sim2real.robot import load_robot
-from sim2real.simulation.reality import load_reality, needs_backlash_joints
+from sim2real.simulation.reality.file import load_reality, needs_backlash_joints
 
 
 def main(argv=None) -> None:

@@ -32,7 +32,7 @@ from evolve.transfer import transfer_check
 from sim2real.atomic_json import write_json_atomic
 from sim2real.controller.file import Controller
 from sim2real.controller.purpose import require_walker
-from sim2real.simulation.reality import centred, load_reality
+from sim2real.simulation.reality.file import centred, load_reality
 from sim2real.run_lock import RunLock, holds_folder
 
 TEST_SEED = 271_828  # the judging robots' episode seeds [TEST_SEED, e]: no training or validation key

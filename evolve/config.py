@@ -75,7 +75,7 @@ from sim2real.robot.names import load_named_robot
 from sim2real.robot.spec import JOINT_ANGLE_DEG
 from sim2real.robot.timing import control_timing
 from sim2real.robot.validation import Node, load_yaml, show, show_key
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.reality.file import load_reality
 
 TOP_KEYS = ("robot", "seed", "generations", "threads", "checkpoint_every", "task", "neat", "randomize", "stages")
 MAX_EXTENDS = 8  # configs a chain of ``extends`` may hold: a few layers are plenty, a loop is refused

@@ -22,7 +22,7 @@ from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from evolve.stages import Stage
 from sim2real.robot import load_robot
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.reality.file import load_reality
 
 # The generation field of a validation draw's key: no training generation ever has it, so the
 # validation robots are never among the ones selection saw.

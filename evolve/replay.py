@@ -25,8 +25,8 @@ from sim2real.errors import ConfigError, UsageError
 from sim2real.robot.names import ROBOT_FLAG
 from sim2real.figures.gait import Gait
 from sim2real.figures.reach import Reach as ReachPlot
-from sim2real.simulation.model_builder import SimulationUnstable
-from sim2real.simulation.reality import NOMINAL, Reality, load_reality
+from sim2real.simulation.model.builder import SimulationUnstable
+from sim2real.simulation.reality.file import NOMINAL, Reality, load_reality
 
 
 def controller_task(data: Controller, source: str) -> TaskConfig:

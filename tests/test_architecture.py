@@ -25,7 +25,7 @@ PACKAGES = ("sim2real", "evolve")
 LIBRARY_LAYERS = ("sim2real.controller", "sim2real.hardware", "sim2real.robot", "sim2real.simulation")
 # Lazy imports that go up a layer on purpose, each with its reason; they count for nothing else.
 BY_DESIGN = {
-    ("sim2real.robot.spec", "sim2real.simulation.model_robot"):
+    ("sim2real.robot.spec", "sim2real.simulation.model.file_robot"):
         "a robot from a model file has its mass and leg length measured on the compiled model: only "
         "then, and only where MuJoCo is installed (the robot computer's deploy path needs neither)",
 }

@@ -16,9 +16,9 @@ from evolve.neat import Genome
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot, parse_robot
 from sim2real.robot.paths import robots_dir
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.model_mirror import mirror_pairs
-from sim2real.simulation.robot_model import RobotModel
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.importing.mirror import mirror_pairs
+from sim2real.simulation.model.robot_model import RobotModel
 
 TABLE_A1_MASS_KG = 75.16
 # Table A.2: each body part's share of the mass; (s) parts once per side

@@ -35,8 +35,8 @@ from evolve.cli import main
 from sim2real.controller.file import Controller
 from sim2real.robot import load_robot
 from sim2real.robot.spec import LEG_LOCATIONS
-from sim2real.simulation.stand_check import check_stand
-from sim2real.simulation.stand_home import needs_home
+from sim2real.simulation.standing.check import check_stand
+from sim2real.simulation.standing.home import needs_home
 
 CHAIN = [VARIANTS[0], VARIANTS[6], VARIANTS[1], VARIANTS[4], VARIANTS[5]]
 DRY_RUN_ATTEMPTS = 3  # a dry run whose simulated bus this computer starved is run again (see _held_up)

@@ -12,10 +12,10 @@ from conftest import all_robot_names
 
 from sim2real.controller.mapping import hold_pose
 from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model, to_mjcf
-from sim2real.simulation.model_parts import CLOSED_PLAY_RAD
-from sim2real.simulation.robot_model import BACKLASH_SUFFIX, JointAngles
-from sim2real.simulation.statics import holding_torques
+from sim2real.simulation.model.builder import build_model, to_mjcf
+from sim2real.simulation.model.parts import CLOSED_PLAY_RAD
+from sim2real.simulation.model.robot_model import BACKLASH_SUFFIX, JointAngles
+from sim2real.simulation.standing.statics import holding_torques
 
 
 @pytest.fixture(scope="module", params=all_robot_names())
@@ -161,7 +161,7 @@ def test_closed_backlash_joints_stand_as_the_rigid_model():
 _MODEL_BYTES = """
 import hashlib, sys, mujoco, numpy as np
 from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.model.builder import build_model
 for name in sys.argv[1:]:
     model = build_model(load_robot(name))
     buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)

@@ -22,10 +22,10 @@ from sim2real.controller.channels import angle_names
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot, parse_robot
-from sim2real.robot.importer import import_robot
+from sim2real.simulation.model.importing.importer import import_robot
 from sim2real.robot.validation import load_yaml
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import IMU_SITE
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import IMU_SITE
 
 
 @pytest.mark.parametrize("variant", VARIANTS, ids=variant_id)
@@ -131,7 +131,7 @@ def poppy_like(tmp_path_factory):
     folder = tmp_path_factory.mktemp("poppy")
     files = write_humanoid(folder, names="numbered", forward="+y", spine=5, leg=5)
     result = import_robot(files.urdf, folder / "poppy.yaml", servo="XM430-W350")
-    from sim2real.robot.import_yaml import write_robot_yaml
+    from sim2real.simulation.model.importing.robot_yaml import write_robot_yaml
 
     write_robot_yaml(result)
     return folder / "poppy.yaml"

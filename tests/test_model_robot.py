@@ -19,8 +19,8 @@ from evolve.neat import Genome
 from evolve.cli import main
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import RobotModel
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import RobotModel
 
 GRAVITY = 9.81
 
@@ -161,7 +161,7 @@ def test_standing_at_home_the_robot_touches_only_the_floor(imported):
 
 def test_xacro_left_in_comments_is_not_xacro(tmp_path):
     """An expanded xacro keeps its commented-out properties: that is a plain URDF."""
-    from sim2real.simulation.model_files import load_model_spec
+    from sim2real.simulation.model.files import load_model_spec
 
     files = write_humanoid(tmp_path)
     text = files.urdf.read_text().replace("<robot ", '<robot xmlns:a="urn:x" ', 1)

@@ -15,10 +15,10 @@ from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.model_files import add_free_joint, compile_model, load_model_spec
-from sim2real.simulation.model_mirror import mirror_pairs
-from sim2real.simulation.robot_model import RobotModel
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.files import add_free_joint, compile_model, load_model_spec
+from sim2real.simulation.model.importing.mirror import mirror_pairs
+from sim2real.simulation.model.robot_model import RobotModel
 
 OP3 = load_robot("op3")
 # ROBOTIS-OP3-Tools config_mirror_joint.yaml: IDs 1:2, 3:4, ... 17:18 (right odd, left even),

@@ -157,8 +157,8 @@ def _reacher(task: TaskConfig) -> tuple[Genome, Controller]:
 def test_the_arms_chain_finds_the_hand_where_the_simulation_has_it(name):
     import mujoco
     from sim2real.controller.kinematics import ArmChain
-    from sim2real.simulation.model_builder import build_model
-    from sim2real.simulation.robot_model import Arm, arm_chain
+    from sim2real.simulation.model.builder import build_model
+    from sim2real.simulation.model.robot_model import Arm, arm_chain
 
     robot = load_robot(name)
     model = build_model(robot)
@@ -269,7 +269,7 @@ def test_a_walker_takes_no_reach_target(capsys):
 
 @pytest.mark.parametrize("path, reaches", [("hand-made", 1), ("configs/controllers/op3_reach.json", 2)])
 def test_a_dry_run_reaches_through_the_simulated_bus(path, reaches, reacher_file):
-    from sim2real.simulation.dry_run import dry_run
+    from sim2real.simulation.transfer.dry_run import dry_run
 
     result = dry_run(reacher_file if path == "hand-made" else path, duration_s=4.0, log=lambda s: None, ramp_s=0.3)
     assert result["reach"]["reaches"] >= reaches and not result["fell"]

@@ -16,8 +16,8 @@ from robots.urdf_humanoid import write_humanoid
 from evolve.cli import main
 from sim2real.robot import load_robot
 from sim2real.robot.validation import load_yaml
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import sole_site
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import sole_site
 
 # Darwin-OP's walker (HumaRobotics darwin_gazebo scripts/walker.py, WFunc with its defaults):
 # the ready pose, model angles [rad] of the left leg; the right mirrors them with opposite signs

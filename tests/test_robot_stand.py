@@ -1,4 +1,4 @@
-"""Does it stand? `biped robot stand` (sim2real/simulation/stand_check.py) on the shipped robots
+"""Does it stand? `biped robot stand` (sim2real/simulation/standing/check.py) on the shipped robots
 and on homes that fall, and the home :func:`propose_home` (stand_home.py) gives a robot whose
 home falls, checked on the generated URDF humanoid imported as a user would; and the importer's
 stand step (import_stand.py) where no home stands or the robot does not load yet."""
@@ -14,10 +14,10 @@ from robots.urdf_humanoid import write_humanoid
 from evolve.cli import main
 from sim2real.robot import load_robot
 from sim2real.robot.validation import load_yaml
-from sim2real.simulation.robot_model import RobotModel
-from sim2real.simulation.stand_check import VERDICTS, check_stand, floor_force_on, foot_bodies
-from sim2real.simulation.stand_home import NoStandingHome, leg_pitch_joints, needs_home, propose_home, with_stance
-from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.model.robot_model import RobotModel
+from sim2real.simulation.standing.check import VERDICTS, check_stand, floor_force_on, foot_bodies
+from sim2real.simulation.standing.home import NoStandingHome, leg_pitch_joints, needs_home, propose_home, with_stance
+from sim2real.simulation.model.builder import build_model
 
 JSON_KEYS = {"robot", "seconds", "up_z_final", "up_z_worst", "sag_m", "feet_weight_share", "slide_m", "com_ahead_m",
              "fell", "fell_at_s", "slid", "holds", "weakest", "verdict", "reasons", "reason"}
@@ -234,7 +234,7 @@ def test_a_bad_robot_file_is_refused_with_the_file_named(tmp_path):
     assert main(["robot", "stand", str(tmp_path / "none.yaml")]) == 2
 
 
-# -- the importer's stand step (sim2real/simulation/import_stand.py) ----------------------------
+# -- the importer's stand step (sim2real/simulation/standing/imported.py) ----------------------------
 def test_an_import_whose_knees_cannot_bend_to_a_stance_keeps_its_home_and_says_why(tmp_path, capsys):
     files = write_humanoid(tmp_path)
     text = files.urdf.read_text()
@@ -252,9 +252,9 @@ def test_an_import_whose_knees_cannot_bend_to_a_stance_keeps_its_home_and_says_w
 
 
 def test_an_import_that_does_not_load_yet_is_written_without_its_stand_check(tmp_path):
-    from sim2real.robot.import_yaml import write_robot_yaml
-    from sim2real.robot.importer import import_robot
-    from sim2real.simulation.import_stand import stand_imported
+    from sim2real.simulation.model.importing.robot_yaml import write_robot_yaml
+    from sim2real.simulation.model.importing.importer import import_robot
+    from sim2real.simulation.standing.imported import stand_imported
 
     files = write_humanoid(tmp_path)
     result = import_robot(files.urdf, tmp_path / "footless.yaml")

@@ -147,7 +147,7 @@ def cmd_excite(args: argparse.Namespace) -> int:
         report = drive(DynamixelBus(args.port, args.baud or robot.bus.baud, robot), robot, program,
                        duration_s=program.duration_s, trace_path=args.trace, log=log, realtime=realtime)
     else:
-        from sim2real.simulation.dry_run import SimulatedBusProcess
+        from sim2real.simulation.transfer.dry_run import SimulatedBusProcess
 
         log("no --port: exciting the robot on the simulated bus (MuJoCo behind a pseudo-terminal)")
         simbus_args = ["--robot", args.robot, "--seed", str(args.seed),

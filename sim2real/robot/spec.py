@@ -230,7 +230,7 @@ class RobotSpec:
         if self.body is not None:
             return Physique(self.body.mass, self.body.height, self.body.leg_length)
         try:
-            from sim2real.simulation.model_robot import measure_physique  # MuJoCo: only for model robots
+            from sim2real.simulation.model.file_robot import measure_physique  # MuJoCo: only for model robots
         except ImportError as exc:  # a robot computer without MuJoCo
             raise RuntimeError(f"robot {self.name} is described by a MuJoCo model ({self.model.path}): measuring "
                                f"its leg length and mass needs MuJoCo ({exc}; pip install mujoco)") from None

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 from sim2real.arg_types import add_realtime_arguments, realtime_request
 from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import RobotSpec
-from sim2real.simulation.dry_run import END_OF_RUN, parse_faults
+from sim2real.simulation.transfer.dry_run import END_OF_RUN, parse_faults
 
 if TYPE_CHECKING:
     from sim2real.simulation.simbus.physics import PhysicsChain
@@ -71,7 +71,7 @@ def serve(args: argparse.Namespace) -> int:
     """Serve until told to stop; see the module docstring."""
     from sim2real.hardware.realtime import request_realtime
     from sim2real.robot import load_robot
-    from sim2real.simulation.reality import load_reality
+    from sim2real.simulation.reality.file import load_reality
     from sim2real.simulation.simbus.physics import REPLY_CATCH_UP_S, PhysicsChain
     from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
 

@@ -2,7 +2,7 @@
 
     result = import_robot("op3.xml", "configs/robots/op3.yaml", servo="XM430-W350")
     print("\\n".join(result.report()))
-    write_robot_yaml(result)          # sim2real.robot.import_yaml: every guess commented
+    write_robot_yaml(result)          # sim2real.simulation.model.importing.robot_yaml: every guess commented
 
 What it infers, at the model's zero pose (``qpos0``), from the robot's structure:
 
@@ -10,13 +10,13 @@ What it infers, at the model's zero pose (``qpos0``), from the robot's structure
   chain (hip, knee, ankle, toe; shoulder, elbow, wrist): :mod:`.structure`;
 * which way the robot faces, from its feet, knees and toes (or ``forward=``): :mod:`.facing`;
 * each hinge's side from its chain, its mirror partner from the geometry
-  (:mod:`sim2real.simulation.model_mirror`), its axis (yaw, roll, pitch) in the facing's
+  (:mod:`sim2real.simulation.model.importing.mirror`), its axis (yaw, roll, pitch) in the facing's
   anatomical frame, its index among hinges of one role along the chain, and its sign,
   anatomical angle = sign * model angle: :mod:`.roles`;
 * its range from the model's (turned anatomical by the sign, cut to its servo's reach), or
   +-90 deg where the model sets none; its home from a keyframe named ``home``, else 0 (``biped
   robot import`` then checks that it stands and proposes a home that does, with leg ranges
-  centred on it: :mod:`sim2real.simulation.import_stand`); servo IDs 1, 2, ... in model order;
+  centred on it: :mod:`sim2real.simulation.standing.imported`); servo IDs 1, 2, ... in model order;
 * the root (the body with the free joint, or a URDF's base), the IMU at the root's origin, each
   foot as the end of its leg, each hand as the end of its arm.
 
@@ -42,10 +42,10 @@ from typing import TYPE_CHECKING, Iterable, Sequence
 
 import numpy as np
 
-from sim2real.robot import structure
+from sim2real.simulation.model.importing import structure
 from sim2real.robot.anatomy import DEFAULT_FORWARD, to_anatomical
-from sim2real.robot.facing import Facing, infer_facing
-from sim2real.robot.roles import (  # noqa: F401 - the constants, JointGuess and number_text: this module's API
+from sim2real.simulation.model.importing.facing import Facing, infer_facing
+from sim2real.simulation.model.importing.roles import (  # noqa: F401 - the constants, JointGuess and number_text: this module's API
     GUESSED,
     MAX_AXIS_OFF_DEG,
     UNLIMITED_RANGE_DEG,
@@ -56,12 +56,12 @@ from sim2real.robot.roles import (  # noqa: F401 - the constants, JointGuess and
     number_text,
     with_note,
 )
-from sim2real.robot.structure import Body, Hinge
+from sim2real.simulation.model.importing.structure import Body, Hinge
 
 if TYPE_CHECKING:  # pragma: no cover
-    from sim2real.simulation.import_stand import ImportStand
-    from sim2real.simulation.model_inertias import InertiaProblem
-    from sim2real.simulation.model_mirror import MirrorInference
+    from sim2real.simulation.standing.imported import ImportStand
+    from sim2real.simulation.model.inertias import InertiaProblem
+    from sim2real.simulation.model.importing.mirror import MirrorInference
 
 DEFAULT_SERVO = "XL430-W250-T"
 DEFAULT_BUS = ("/dev/ttyUSB0", 1_000_000)
@@ -105,7 +105,7 @@ class ImportResult:
     notes: list[str] = field(default_factory=list)  # anything else a person must read
     facing: "Facing | None" = None
     contradictions: list[str] = field(default_factory=list)  # limits against the geometry, one sentence each
-    stand: "ImportStand | None" = None  # the stand check and the home it proposed (simulation.import_stand)
+    stand: "ImportStand | None" = None  # the stand check and the home it proposed (simulation.standing.imported)
 
     @property
     def forward(self) -> str:
@@ -161,9 +161,9 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     :class:`~sim2real.errors.ConfigError` naming the file."""
     from sim2real.errors import ConfigError
     from sim2real.robot.profiles import load_profile
-    from sim2real.simulation import model_files as mf
-    from sim2real.simulation import model_inertias
-    from sim2real.simulation.model_mirror import mirror_pairs
+    from sim2real.simulation.model import files as mf
+    from sim2real.simulation.model import inertias as model_inertias
+    from sim2real.simulation.model.importing.mirror import mirror_pairs
 
     model_file, output = Path(model_file), Path(output)
     dirs = tuple(Path(d).expanduser() for d in package_dirs)
@@ -269,7 +269,7 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
         if left is not None and right is not None and (left.location, left.axis) != (right.location, right.axis):
             result.notes.append(f"{GUESSED}: the mirror pairs {left.name} ({left.location} {left.axis}) with "
                                 f"{right.name} ({right.location} {right.axis})")
-    # the stand check and a home that stands: sim2real.simulation.import_stand.stand_imported(result), which
+    # the stand check and a home that stands: sim2real.simulation.standing.imported.stand_imported(result), which
     # the command line calls (it needs the simulation, which this module does not import to build a YAML)
     return result
 
@@ -354,7 +354,7 @@ def _model_facts(model) -> tuple[list[Hinge], dict[str, Body], list[tuple[str, s
     with why they are held."""
     import mujoco
 
-    from sim2real.simulation.robot_model import is_collision_geom
+    from sim2real.simulation.model.robot_model import is_collision_geom
 
     data = mujoco.MjData(model)
     key = next((k for k in range(model.nkey) if model.key(k).name == "home"), None)

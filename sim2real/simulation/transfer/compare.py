@@ -24,9 +24,9 @@ from sim2real.errors import ConfigError
 from sim2real.hardware.trace import TIMING, Trace, check_joint_angles, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.robot.names import load_named_robot
-from sim2real.simulation.model_builder import instability, SimulationUnstable
-from sim2real.simulation.robot_model import RobotModel
-from sim2real.simulation.reality import Reality, load_reality, perturbed_model
+from sim2real.simulation.model.builder import instability, SimulationUnstable
+from sim2real.simulation.model.robot_model import RobotModel
+from sim2real.simulation.reality.file import Reality, load_reality, perturbed_model
 
 MAX_LAG_S = 0.5
 

@@ -13,7 +13,7 @@ and the element named:
   URDF's ``<mesh filename>``) that exists but is not a regular file, is larger than
   ``MAX_ASSET_BYTES``, or lies outside the folders a model's files may come from; a missing
   include, texture, skin or height field, with a near match (``.STL`` for ``.stl``) named;
-  missing meshes are left to :mod:`.model_files`, which lists them all at once;
+  missing meshes are left to :mod:`.files`, which lists them all at once;
 * includes deeper than ``MAX_INCLUDE_DEPTH`` or in a cycle; XML nested deeper than
   ``MAX_XML_DEPTH`` (the standard library's writer and walks recurse); a DTD (entity
   expansion is how XML bombs grow);

@@ -182,7 +182,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     heading to hold over time and ``reach_target`` where a reaching controller's hand reaches
     (:func:`sim2real.hardware.deploy.drive`).
     """
-    from sim2real.simulation.reality import (
+    from sim2real.simulation.reality.file import (
         load_reality,  # MuJoCo: only a dry run needs it, not `biped run`
     )
 

@@ -42,9 +42,9 @@ from sim2real.robot.loading import exists
 from sim2real.robot.validation import Node, load_yaml, show, show_name
 from sim2real.robot import RobotSpec
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.model_parts import CLOSED_PLAY_RAD
-from sim2real.simulation.robot_model import JointAngles
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.parts import CLOSED_PLAY_RAD
+from sim2real.simulation.model.robot_model import JointAngles
 
 # name -> (nominal value, meaning with unit)
 PERTURBATIONS: dict[str, tuple[float, str]] = {

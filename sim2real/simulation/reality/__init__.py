@@ -1,0 +1,1 @@
+"""How a real robot differs from its nominal model: reality files and randomization (:mod:`.file`)."""
