@@ -30,7 +30,8 @@ import mujoco
 import numpy as np
 
 from benchmarks.common import parser, progress, report
-from sim2real.robot import RobotSpec, load_robot
+from sim2real.robot import RobotSpec
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.servo_model import derivative_time, servo_physics
 from sim2real.robot.timing import control_timing
 from sim2real.simulation.model.builder import build_model
@@ -171,7 +172,7 @@ def main(argv=None) -> None:
     p.add_argument("--robot", default="xl430_biped")
     p.add_argument("--only", nargs="*", help="measure only these variants (default: all)")
     args = p.parse_args(argv)
-    robot = load_robot(args.robot)
+    robot = load_measured(args.robot)
     phys = servo_physics(robot.joints[0].servo.profile)
     results = {}
     for name, (reality, backlash) in variants(robot).items():

@@ -26,6 +26,7 @@ from sim2real.robot.names import ROBOT_FLAG
 from sim2real.figures.gait import Gait
 from sim2real.figures.reach import Reach as ReachPlot
 from sim2real.simulation.model.builder import SimulationUnstable
+from sim2real.simulation.model.physique import measured
 from sim2real.simulation.reality.file import NOMINAL, Reality, load_reality
 
 
@@ -46,6 +47,7 @@ def controller_setup(path: Path | str, robot: str | None, seconds: float | None,
     takes a robot file (None: it does not), for the error on a robot the file names that is
     not the project's (:meth:`Controller.load_for_robot`)."""
     data, spec = Controller.load_for_robot(path, robot, robot_flag=robot_flag)
+    spec = measured(spec)
     check_disabled_modules(data, disabled_modules)
     task = controller_task(data, str(path))
     changes = {"episode_s": float(seconds)} if seconds is not None else {}

@@ -64,7 +64,7 @@ from sim2real.controller.file import Controller
 from sim2real.errors import BipedError, UsageError
 from sim2real.figures import pyplot, save_figure
 from sim2real.input_files import check_regular_file
-from sim2real.robot import load_robot
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.validation import load_yaml
 
 STATS_COLUMNS = ("generation", "stage", "best_fitness", "mean_fitness", "best_distance_m", "best_upright_s",
@@ -111,7 +111,7 @@ class Run:
     def __init__(self, config: EvolveConfig, out: Path, *, population: Population | None = None,
                  log: Callable[[str], None] = print, backend: str = "local", address: str | None = None):
         self.config, self.out, self.log = config, Path(out), log
-        self.robot = load_robot(config.robot)
+        self.robot = load_measured(config.robot)
         r = config.randomize
         spec = EvaluatorSpec(config.robot, config.task.to_dict(), r.profile,
                              config.neat.population_size * r.episodes, config.threads)

@@ -15,6 +15,7 @@ from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot, parse_robot
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.paths import robots_dir
 from sim2real.simulation.model.builder import build_model
 from sim2real.simulation.model.importing.mirror import mirror_pairs
@@ -29,7 +30,7 @@ SOURCE = str(robots_dir() / "human_arms.yaml")
 
 @pytest.fixture(scope="module")
 def human():
-    robot = load_robot("human_arms")
+    robot = load_measured("human_arms")
     return robot, build_model(robot)
 
 

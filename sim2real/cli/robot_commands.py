@@ -118,10 +118,13 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
 
 
 def _robot(name: str) -> RobotSpec:
-    """The robot a positional ROBOT names, its file checked first (a FIFO would block the read)."""
+    """The robot a positional ROBOT names, its file checked first (a FIFO would block the read),
+    measured (every command that takes one simulates it)."""
+    from sim2real.simulation.model.physique import measured
+
     if name.split(":", 1)[0] not in available_robots():  # a project robot's name is that robot, whatever the cwd holds
         check_input_file(name)
-    return load_robot(name)
+    return measured(load_robot(name))
 
 
 # -- robot show -------------------------------------------------------------------------------

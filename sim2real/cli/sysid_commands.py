@@ -193,8 +193,9 @@ def cmd_sysid(args: argparse.Namespace) -> int:
 
     from sim2real.atomic_json import write_text_atomic
     from sim2real.simulation.identify import identify
+    from sim2real.simulation.model.physique import measured
 
-    robot = _sysid_robot(args)
+    robot = measured(_sysid_robot(args))
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
     found = identify(args.traces, robot, per_joint=args.per_joint, max_iters=args.max_iters,
                      report_dir=args.report, log=log)

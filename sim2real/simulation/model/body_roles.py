@@ -25,15 +25,12 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import mujoco
 
 from sim2real.errors import ConfigError
+from sim2real.robot import RobotSpec
 from sim2real.robot.validation import show
-
-if TYPE_CHECKING:  # model_files imports this module, and sim2real.robot's importer model_files
-    from sim2real.robot import RobotSpec
 
 SIDES = ("left", "right")
 LEG_JOINTS = ("hip", "knee")  # a foot hangs below its leg's joints of these locations

@@ -25,7 +25,9 @@ does (:func:`~sim2real.simulation.model.builder.finished_spec`).
   forward (its axes are the body's, as drawn, turned to the robot's facing).
 
 :func:`measure_physique` gives mass, height and leg length from the compiled model at its
-zero pose; the control tick and the holding-torque margins follow from them as for a box robot.
+zero pose (:func:`sim2real.simulation.model.physique.measured` hands them to the robot's spec);
+the control tick and the holding-torque margins follow from them as for a box robot.  Every
+other function here takes a robot so measured.
 """
 
 from __future__ import annotations

@@ -271,7 +271,7 @@ class _Walk:
         candidates = [Path(name)] if Path(name).is_absolute() else [model_dir / folder / name,
                                                                      place.doc.path.parent / name]
         self._existing(element, place, attr, value, candidates, MAX_ASSET_BYTES,
-                       missing_is_error=element.tag != "mesh")  # missing meshes: model_files lists them all
+                       missing_is_error=element.tag != "mesh")  # missing meshes: files.py lists them all
 
     def _model(self, element: ET.Element, place: _Place, path: Path) -> None:
         if len(place.chain) > MAX_INCLUDE_DEPTH:

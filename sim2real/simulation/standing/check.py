@@ -19,7 +19,7 @@ and left to stand for ``seconds`` with every actuator's target at home.  What is
 
 The verdict is ``stands``, ``stands with a warning`` or ``falls``, with every reason.
 
-    report = check_stand(load_robot("op3"))
+    report = check_stand(load_measured("op3"))    # sim2real.simulation.model.physique
     report.verdict, report.up_z_final, report.sag_m, report.reasons
 """
 

@@ -157,10 +157,8 @@ def with_stance(robot: RobotSpec, home_rad: dict[str, float],
     ranges = range_rad or {}
     joints = tuple(dataclasses.replace(j, home_rad=home_rad.get(j.name, j.home_rad),
                                        range_rad=tuple(ranges.get(j.name, j.range_rad))) for j in robot.joints)
-    new = dataclasses.replace(robot, joints=joints)
-    if "physique" in robot.__dict__:  # measured at the zero pose: home and ranges do not change it
-        new.__dict__["physique"] = robot.physique
-    return new
+    # a measured physique goes along: it is measured at the zero pose, which home and ranges leave alone
+    return dataclasses.replace(robot, joints=joints)
 
 
 def centred_ranges(robot: RobotSpec, home_rad: dict[str, float],

@@ -29,8 +29,8 @@ A knee or elbow whose limits let it bend only the wrong way is named as a limit 
 geometry and, where the facing rests on cues (or ``--forward``), written turned to its flexion
 side (a robot no home makes stand otherwise); the note says so.
 
-Only :func:`import_robot` needs MuJoCo (imported inside it): the rest is plain data, so this
-package still imports without MuJoCo.
+Only :func:`import_robot` needs MuJoCo (imported inside it): the rest is plain data, so the
+command line reads :data:`DEFAULT_SERVO` for its help where MuJoCo is not installed.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Iterable, Sequence
+from typing import TYPE_CHECKING, Iterable, Protocol, Sequence
 
 import numpy as np
 
@@ -59,7 +59,6 @@ from sim2real.simulation.model.importing.roles import (  # noqa: F401 - the cons
 from sim2real.simulation.model.importing.structure import Body, Hinge
 
 if TYPE_CHECKING:  # pragma: no cover
-    from sim2real.simulation.standing.imported import ImportStand
     from sim2real.simulation.model.inertias import InertiaProblem
     from sim2real.simulation.model.importing.mirror import MirrorInference
 
@@ -81,6 +80,12 @@ def servo_model_name(name: str) -> str:
         servos = [m for m in available_profiles() if load_profile(m).is_servo]
         raise KeyError(f"{name!r} is no servo profile (servos: {', '.join(servos)})")
     return profile.model
+
+
+class Reported(Protocol):
+    """What the import's report takes from the stand check it is handed."""
+
+    def report(self) -> list[str]: ...
 
 
 @dataclass
@@ -105,7 +110,9 @@ class ImportResult:
     notes: list[str] = field(default_factory=list)  # anything else a person must read
     facing: "Facing | None" = None
     contradictions: list[str] = field(default_factory=list)  # limits against the geometry, one sentence each
-    stand: "ImportStand | None" = None  # the stand check and the home it proposed (simulation.standing.imported)
+    # the stand check and the home it proposed: an ImportStand of sim2real.simulation.standing.imported,
+    # which judges the robot this builds (so this module does not import it, not even for its type)
+    stand: "Reported | None" = None
 
     @property
     def forward(self) -> str:
@@ -270,7 +277,7 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
             result.notes.append(f"{GUESSED}: the mirror pairs {left.name} ({left.location} {left.axis}) with "
                                 f"{right.name} ({right.location} {right.axis})")
     # the stand check and a home that stands: sim2real.simulation.standing.imported.stand_imported(result), which
-    # the command line calls (it needs the simulation, which this module does not import to build a YAML)
+    # the command line calls (standing judges what model building makes, a job above this one)
     return result
 
 
@@ -383,7 +390,7 @@ def _model_facts(model) -> tuple[list[Hinge], dict[str, Body], list[tuple[str, s
     kinds = {int(mujoco.mjtJoint.mjJNT_SLIDE): "a slide (prismatic) joint, e.g. a gripper's: not a servo's hinge",
              int(mujoco.mjtJoint.mjJNT_BALL): "a ball joint: not a servo's hinge"}
     for j in range(model.njnt):
-        name = model.joint(j).name or f"joint{j}"  # as model_mirror names it; held below, the map needs a name
+        name = model.joint(j).name or f"joint{j}"  # as mirror.py names it; held below, the map needs a name
         if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
             limited = bool(model.jnt_limited[j])
             hinges.append(Hinge(name, tuple(float(v) for v in data.xanchor[j]),
