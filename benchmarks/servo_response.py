@@ -37,7 +37,8 @@ from sim2real.robot.timing import control_timing
 from sim2real.simulation.model.builder import build_model
 from sim2real.simulation.model.robot_model import JointAngles
 from sim2real.simulation.model.robot_model import UP_SENSOR
-from sim2real.simulation.reality.file import Reality, apply_to_model, load_reality, needs_backlash_joints, sample
+from sim2real.simulation.reality.file import Reality, load_reality
+from sim2real.simulation.reality.randomize import apply_to_model, needs_backlash_joints, sample
 
 STEP_DEG = 10.0
 STEP_S = 1.0  # each step is held this long

@@ -20,7 +20,8 @@ from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population
 from sim2real.simulation.model.physique import load_measured
-from sim2real.simulation.reality.file import load_reality, needs_backlash_joints
+from sim2real.simulation.reality.file import load_reality
+from sim2real.simulation.reality.randomize import needs_backlash_joints
 
 
 def main(argv=None) -> None:

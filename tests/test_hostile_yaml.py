@@ -618,7 +618,7 @@ def test_eval_and_gait_of_an_unstable_simulation_are_no_result(mujoco_log):
 def test_compare_of_an_unstable_simulation_is_no_result(mujoco_log):
     from sim2real.simulation.transfer.compare import _simulate
     from sim2real.simulation.model.builder import SimulationUnstable
-    from sim2real.simulation.reality.file import perturbed_model
+    from sim2real.simulation.reality.randomize import perturbed_model
 
     robot = load_robot()
     model, _ = perturbed_model(robot, Reality("blown-up", "", {"armature_scale": (math.inf, math.inf)}))

@@ -39,11 +39,10 @@ from sim2real.robot.spec import GRAVITY
 from sim2real.robot.timing import control_timing
 from sim2real.simulation.model.builder import build_model
 from sim2real.simulation.model.robot_model import Arm, RobotModel, arm_chain, imu_between
-from sim2real.simulation.reality.file import (
-    NOMINAL,
+from sim2real.simulation.reality.file import NOMINAL, Reality
+from sim2real.simulation.reality.randomize import (
     PERTURBED_FIELDS,
     Perturbation,
-    Reality,
     apply,
     latency_capacity_s,
     needs_backlash_joints,

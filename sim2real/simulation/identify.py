@@ -47,7 +47,8 @@ from sim2real.robot import RobotSpec
 from sim2real.robot.validation import show
 from sim2real.simulation.model.builder import finished_spec
 from sim2real.simulation.model.robot_model import JointAngles, joint_sensor
-from sim2real.simulation.reality.file import NOMINAL, Perturbation, apply_to_model, sample
+from sim2real.simulation.reality.file import NOMINAL
+from sim2real.simulation.reality.randomize import Perturbation, apply_to_model, sample
 
 # fitted per group: (reality key, low, high)
 SERVO_PARAMETERS = (

@@ -31,7 +31,7 @@ servo (motor-side) joint; the encoder sits on the output shaft, behind the gears
 angle the robot reports is servo joint + backlash joint.  :class:`JointAngles` is the one
 reader of that angle from ``qpos``; the ``<joint>_pos`` sensors stay on the servo joint.
 Each simulation's width goes into the backlash joints' ``jnt_range``
-(:func:`sim2real.simulation.reality.apply`); the compiled model holds them closed.
+(:func:`sim2real.simulation.reality.randomize.apply`); the compiled model holds them closed.
 
     model = build_model(load_robot("xl430_biped"))
     angles = JointAngles.of(model).read(data.qpos)  # [rad], robot.joints order

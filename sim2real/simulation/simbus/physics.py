@@ -38,7 +38,8 @@ from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
 from sim2real.simulation.model.builder import instability
 from sim2real.simulation.model.robot_model import RobotModel, imu_between
-from sim2real.simulation.reality.file import EFFECTS, NOMINAL, Reality, perturbed_model
+from sim2real.simulation.reality.file import EFFECTS, NOMINAL, Reality
+from sim2real.simulation.reality.randomize import perturbed_model
 
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
 # The simulated bus steps at most this much simulated time [s] between two looks at the

@@ -27,7 +27,8 @@ from sim2real.robot.names import load_named_robot
 from sim2real.simulation.model.builder import instability, SimulationUnstable
 from sim2real.simulation.model.physique import measured
 from sim2real.simulation.model.robot_model import RobotModel
-from sim2real.simulation.reality.file import Reality, load_reality, perturbed_model
+from sim2real.simulation.reality.file import Reality, load_reality
+from sim2real.simulation.reality.randomize import perturbed_model
 
 MAX_LAG_S = 0.5
 
