@@ -5,5 +5,5 @@ owns the names the simulation reads), whether a robot stands and what its servos
 bus (:mod:`.simbus`), dry runs on it and traces compared with the simulation (:mod:`.transfer`),
 system identification (:mod:`.identify`) and pictures (:mod:`.rendering`).
 
-Each package depends only on those before it in this list (``model`` on :mod:`sim2real.robot`
-alone); :mod:`sim2real.robot` imports none of them."""
+Model building is the floor: it imports :mod:`sim2real.robot` and none of the other jobs, and
+:mod:`sim2real.robot` imports none of these (both held by ``tests/test_architecture.py``)."""
