@@ -426,7 +426,8 @@ import math, numpy as np
 from sim2real.robot import load_robot
 from sim2real.simulation.transfer.compare import _simulate
 from sim2real.simulation.model.builder import SimulationUnstable
-from sim2real.simulation.reality.file import Reality, perturbed_model
+from sim2real.simulation.reality.file import Reality
+from sim2real.simulation.reality.randomize import perturbed_model
 robot = load_robot()
 model, _ = perturbed_model(robot, Reality("blown-up", "", {"armature_scale": (math.inf, math.inf)}))
 try:
