@@ -28,7 +28,7 @@ from sim2real.hardware.realtime import (
     request_realtime,
 )
 from sim2real.robot import load_robot
-from sim2real.simulation.dry_run import SimulatedBusProcess
+from sim2real.simulation.transfer.dry_run import SimulatedBusProcess
 
 
 def cycles(port: str, baud: int, robot, n: int, busy: bool) -> dict:

@@ -47,7 +47,7 @@ from sim2real.hardware import MockBus
 from sim2real.hardware.deploy import drive
 from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import load_robot
-from sim2real.simulation.dry_run import SimulatedBusProcess
+from sim2real.simulation.transfer.dry_run import SimulatedBusProcess
 
 
 def random_controller(robot, connections: int, hidden: int, seed: int, control_set: str = "walk") -> Controller:

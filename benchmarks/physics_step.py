@@ -27,9 +27,9 @@ from evolve.locomotion.evaluator import LocomotionEvaluator, neat_layout
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population
 from sim2real.controller.symmetry import symmetric_layout
-from sim2real.robot import load_robot
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.reality.file import load_reality
 
 
 def _ranks(values: np.ndarray) -> np.ndarray:
@@ -97,10 +97,10 @@ def main(argv=None) -> None:
         from evolve.config import load_evolve_config
 
         config = load_evolve_config(args.run / "config.yaml")
-        robot, task, steepness = load_robot(config.robot), config.task, config.neat.sigmoid_steepness
+        robot, task, steepness = load_measured(config.robot), config.task, config.neat.sigmoid_steepness
         genomes = Population.load(args.run / "checkpoint.json.gz").genomes
     else:
-        robot, task, steepness = load_robot(), TaskConfig(), NeatConfig().sigmoid_steepness
+        robot, task, steepness = load_measured(), TaskConfig(), NeatConfig().sigmoid_steepness
         layout = neat_layout(symmetric_layout(robot, robot.control_sets[task.control_set], task.inputs))
         genomes = Population(NeatConfig(population_size=args.genomes), layout, seed=7).genomes
     task = dataclasses.replace(task, episode_s=args.seconds)

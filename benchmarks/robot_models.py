@@ -19,9 +19,9 @@ import mujoco
 import numpy as np
 
 from benchmarks.common import parser, progress, report
-from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import is_collision_geom
+from sim2real.simulation.model.physique import load_measured
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import is_collision_geom
 
 DEFAULT_ROBOTS = ("xl430_biped", "op3_legs", "op3")
 
@@ -53,7 +53,7 @@ def _batch_rate(model: mujoco.MjModel, steps: int) -> float:
 
 
 def measure(name: str, steps: int, repeats: int) -> dict:
-    robot = load_robot(name)
+    robot = load_measured(name)
     model = build_model(robot)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)

@@ -30,13 +30,15 @@ import mujoco
 import numpy as np
 
 from benchmarks.common import parser, progress, report
-from sim2real.robot import RobotSpec, load_robot
+from sim2real.robot import RobotSpec
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.servo_model import derivative_time, servo_physics
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import JointAngles
-from sim2real.simulation.robot_model import UP_SENSOR
-from sim2real.simulation.reality import Reality, apply_to_model, load_reality, needs_backlash_joints, sample
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import JointAngles
+from sim2real.simulation.model.robot_model import UP_SENSOR
+from sim2real.simulation.reality.file import Reality, load_reality
+from sim2real.simulation.reality.randomize import apply_to_model, needs_backlash_joints, sample
 
 STEP_DEG = 10.0
 STEP_S = 1.0  # each step is held this long
@@ -171,7 +173,7 @@ def main(argv=None) -> None:
     p.add_argument("--robot", default="xl430_biped")
     p.add_argument("--only", nargs="*", help="measure only these variants (default: all)")
     args = p.parse_args(argv)
-    robot = load_robot(args.robot)
+    robot = load_measured(args.robot)
     phys = servo_physics(robot.joints[0].servo.profile)
     results = {}
     for name, (reality, backlash) in variants(robot).items():

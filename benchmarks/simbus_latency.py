@@ -34,8 +34,8 @@ from sim2real.hardware.dynamixel import sdk_bus
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.readings import MotionReadings
 from sim2real.hardware.realtime import RealtimeRequest, ordinary_scheduling, request_realtime
-from sim2real.robot import load_robot
-from sim2real.simulation.dry_run import SimulatedBusProcess
+from sim2real.simulation.model.physique import load_measured
+from sim2real.simulation.transfer.dry_run import SimulatedBusProcess
 
 TICK_S = 0.01  # biped excite's default tick
 PATIENCE_US = 500_000.0  # added to every packet timeout: a late reply is measured, not lost
@@ -129,7 +129,7 @@ def main(argv=None) -> None:
     p.add_argument("--no-realtime", action="store_true", help="both sides under ordinary scheduling")
     p.add_argument("--loaded-only", action="store_true", help="skip the idle row")
     args = p.parse_args(argv)
-    robot = load_robot(args.robot)
+    robot = load_measured(args.robot)
     flags = ["--no-realtime"] if args.no_realtime else ["--no-mlock"]
     rows = {}
     n_hogs = args.hogs_per_core * (os.cpu_count() or 1)

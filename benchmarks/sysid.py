@@ -31,10 +31,10 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks.common import parser, progress, report
-from sim2real.robot import load_robot
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.dry_run import SimulatedBusProcess
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.transfer.dry_run import SimulatedBusProcess
+from sim2real.simulation.reality.file import load_reality
 
 PROFILES = Path(__file__).with_name("sysid_profiles")
 LOOP_CONFIG = Path(__file__).with_name("records") / "configs" / "walk_robust.yaml"  # the loop's evolution
@@ -76,7 +76,7 @@ def identify_profile(profile: str | None, robot_name: str, folder: Path, max_ite
     identifiable = {key.split("/")[-1]: p["identifiable"] for key, p in fit["parameters"].items()}
     before, after = fit["rmse_deg_before"], fit["rmse_deg_after"]
     reality = load_reality(profile)
-    return {"profile": name, "truth": truth(reality, load_robot(robot_name)), "recovered": recovered,
+    return {"profile": name, "truth": truth(reality, load_measured(robot_name)), "recovered": recovered,
             "identifiable": identifiable, "rmse_deg_before": before, "rmse_deg_after": after,
             "rmse_after_max_deg": max(after.values()),
             "rmse_after_over_before_max": max(after[j] / before[j] for j in before if before[j] > 0),

@@ -19,8 +19,9 @@ from benchmarks.common import parser, progress, report
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import NeatConfig, Population
-from sim2real.robot import load_robot
-from sim2real.simulation.reality import load_reality, needs_backlash_joints
+from sim2real.simulation.model.physique import load_measured
+from sim2real.simulation.reality.file import load_reality
+from sim2real.simulation.reality.randomize import needs_backlash_joints
 
 
 def main(argv=None) -> None:
@@ -33,7 +34,7 @@ def main(argv=None) -> None:
     p.add_argument("--reality", default="nominal", help="perturb each simulation by a draw of this reality file")
     args = p.parse_args(argv)
 
-    robot = load_robot(args.robot)
+    robot = load_measured(args.robot)
     task = TaskConfig()
     reality = load_reality(args.reality)
     evaluator = LocomotionEvaluator(robot, task, args.population, args.threads, reality=reality)

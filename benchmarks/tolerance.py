@@ -7,7 +7,7 @@ from a hundredth of a percent up.
 A controller evolved on one exact model can be a knife-edge trajectory of it: for each
 controller, and each perturbation of :data:`KINDS` alone, ``--episodes`` episodes draw it
 uniformly within ``size`` of nominal (``1 +- size`` for a scale, per link or per joint as
-``sim2real/simulation/reality.py`` draws it; joint-reading noise of ``size`` x
+``sim2real/simulation/reality/randomize.py`` draws it; joint-reading noise of ``size`` x
 :data:`NOISE_DEG_AT_1` standard deviation), and the benchmark reports the share that stay
 upright for the whole episode (``upright``) and their mean distance.  The nominal episode,
 measured in the same call, is the baseline; ``tolerates`` is each perturbation's largest size

@@ -27,7 +27,8 @@ import numpy as np
 
 from benchmarks.common import parser, report
 from sim2real.hardware.trace import TraceWriter
-from sim2real.robot import DEFAULT_ROBOT, load_robot
+from sim2real.robot import DEFAULT_ROBOT
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.timing import control_timing
 
 CHILD = """
@@ -44,7 +45,7 @@ COMPARE = "from evolve.cli import main\ncode = main(['compare', sys.argv[1], '--
 
 def write_trace(path: Path, robot_name: str, minutes: float, tick_s: float) -> int:
     """A valid trace of ``minutes`` at ``tick_s`` [s] into ``path``; returns its rows."""
-    robot = load_robot(robot_name)
+    robot = load_measured(robot_name)
     names = list(robot.joint_names)
     home = np.array([j.home_rad for j in robot.joints])
     low = np.array([j.range_rad[0] for j in robot.joints])
@@ -82,7 +83,7 @@ def main() -> None:
                    help="the checkout whose reader and compare to measure (default: this one)")
     p.add_argument("--no-compare", action="store_true", help="measure the reading only")
     args = p.parse_args()
-    tick_s = args.tick_ms / 1e3 if args.tick_ms else control_timing(load_robot(args.robot)).tick_s
+    tick_s = args.tick_ms / 1e3 if args.tick_ms else control_timing(load_measured(args.robot)).tick_s
     with tempfile.TemporaryDirectory() as folder:
         trace = Path(folder) / "long.csv"
         t = time.perf_counter()

@@ -32,7 +32,8 @@ from evolve.transfer import transfer_check
 from sim2real.atomic_json import write_json_atomic
 from sim2real.controller.file import Controller
 from sim2real.controller.purpose import require_walker
-from sim2real.simulation.reality import centred, load_reality
+from sim2real.simulation.model.physique import measured
+from sim2real.simulation.reality.file import centred, load_reality
 from sim2real.run_lock import RunLock, holds_folder
 
 TEST_SEED = 271_828  # the judging robots' episode seeds [TEST_SEED, e]: no training or validation key
@@ -51,6 +52,7 @@ def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = 
     process); ``lock``: that lock, handed down by :func:`~sim2real.run_lock.holds_folder`."""
     controller = Path(controller)
     data, robot = Controller.load_for_robot(controller, robot_flag=None)
+    robot = measured(robot)
     require_walker(data, str(controller), "biped adapt", "it evolves a walk on robots around the identified one "
                    "and judges it by their walk rate and the transfer check's distance")
     centre = load_reality(identified)

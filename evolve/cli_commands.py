@@ -301,10 +301,10 @@ def cmd_evolve(args: argparse.Namespace) -> int:
         if args.population is not None:  # within its own bound, but with the config's episodes?
             from evolve.config import check_sizes
             from sim2real.errors import ConfigError
-            from sim2real.robot import load_robot
+            from sim2real.simulation.model.physique import load_measured
 
             try:
-                check_sizes(config, load_robot(config.robot), str(path))
+                check_sizes(config, load_measured(config.robot), str(path))
             except ConfigError as exc:
                 raise UsageError(f"--population {args.population}: {exc.problem}") from None
         out = args.out or Path("runs") / f"{path.stem}-seed{config.seed}"

@@ -70,12 +70,13 @@ from evolve.locomotion.task import AUTO, TaskConfig
 from evolve.neat import NeatConfig
 from evolve.stages import Stage, check_stage_joints, parse_stages, with_task
 from sim2real.errors import ConfigError
-from sim2real.robot import DEFAULT_ROBOT, RobotSpec, load_robot
+from sim2real.robot import DEFAULT_ROBOT, RobotSpec
 from sim2real.robot.names import load_named_robot
 from sim2real.robot.spec import JOINT_ANGLE_DEG
 from sim2real.robot.timing import control_timing
 from sim2real.robot.validation import Node, load_yaml, show, show_key
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.model.physique import load_measured, measured
+from sim2real.simulation.reality.file import load_reality
 
 TOP_KEYS = ("robot", "seed", "generations", "threads", "checkpoint_every", "task", "neat", "randomize", "stages")
 MAX_EXTENDS = 8  # configs a chain of ``extends`` may hold: a few layers are plenty, a loop is refused
@@ -336,13 +337,13 @@ def _check_stages(stages: tuple[Stage, ...], source: str) -> None:
 
 
 def _config_robot(named: str | None, source: str, robot_file: str | None) -> RobotSpec:
-    """The robot a config names: the command line's ``robot_file`` if it names that (the same
-    text or the same real path), else a project robot by name only."""
+    """The robot a config names, measured: the command line's ``robot_file`` if it names that
+    (the same text or the same real path), else a project robot by name only."""
     if named is None:
-        return load_robot(DEFAULT_ROBOT)
+        return load_measured(DEFAULT_ROBOT)
     if robot_file is not None and (named == robot_file or os.path.realpath(named) == os.path.realpath(robot_file)):
-        return load_robot(robot_file)  # chosen by the user, on the command line
-    return load_named_robot(named, source, "robot")
+        return load_measured(robot_file)  # chosen by the user, on the command line
+    return measured(load_named_robot(named, source, "robot"))
 
 
 def robot_is_a_file(config: EvolveConfig) -> bool:

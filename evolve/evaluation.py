@@ -21,8 +21,8 @@ from evolve.locomotion.pushes import Pushes, push_schedule
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from evolve.stages import Stage
-from sim2real.robot import load_robot
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.model.physique import load_measured
+from sim2real.simulation.reality.file import load_reality
 
 # The generation field of a validation draw's key: no training generation ever has it, so the
 # validation robots are never among the ones selection saw.
@@ -43,7 +43,7 @@ class EvaluatorSpec:
 def build_evaluator(spec: EvaluatorSpec) -> LocomotionEvaluator:
     """A new evaluator of ``spec``: the model is compiled and its batch allocated here, so
     its owner builds it once and keeps it."""
-    return LocomotionEvaluator(load_robot(spec.robot), TaskConfig.from_mapping(spec.task), spec.capacity,
+    return LocomotionEvaluator(load_measured(spec.robot), TaskConfig.from_mapping(spec.task), spec.capacity,
                                spec.threads, load_reality(spec.reality))
 
 

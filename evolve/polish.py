@@ -45,7 +45,8 @@ from sim2real.controller.file import Controller
 from sim2real.controller.purpose import require_walker
 from sim2real.run_lock import holds_folder
 from sim2real.errors import ConfigError
-from sim2real.simulation.reality import Perturbation, Reality, latency_capacity_s, load_reality, sample
+from sim2real.simulation.reality.file import Reality, load_reality
+from sim2real.simulation.reality.randomize import Perturbation, latency_capacity_s, sample
 
 WEIGHT_LIMIT = NeatConfig().weight_limit  # [the weights' unit] as evolution clips them
 UPDATE_STREAM, VALIDATION_STREAM, TEST_STREAM = 0x504F_4C31, 0x504F_4C32, 0x504F_4C33  # keys' second entry

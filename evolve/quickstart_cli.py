@@ -61,8 +61,8 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     from sim2real.controller.file import Controller
     from sim2real.hardware.realtime import RealtimeRequest
     from sim2real.robot.paths import shipped_controller
-    from sim2real.simulation.compare import compare, plot
-    from sim2real.simulation.dry_run import dry_run
+    from sim2real.simulation.transfer.compare import compare, plot
+    from sim2real.simulation.transfer.dry_run import dry_run
 
     out: Path = args.out
     config = load_evolve_config(config_path("walk"))

@@ -27,8 +27,9 @@ from sim2real.robot.spec import RobotSpec
 from sim2real.figures.gait import Gait
 from sim2real.gait_measures import GaitMeter, hip_pitch_joints, is_a_walk
 from sim2real.figures.reach import Reach as ReachPlot
-from sim2real.simulation.model_builder import SimulationUnstable
-from sim2real.simulation.reality import NOMINAL, Reality, load_reality
+from sim2real.simulation.model.builder import SimulationUnstable
+from sim2real.simulation.model.physique import measured
+from sim2real.simulation.reality.file import NOMINAL, Reality, load_reality
 
 
 def controller_task(data: Controller, source: str) -> TaskConfig:
@@ -48,6 +49,7 @@ def controller_setup(path: Path | str, robot: str | None, seconds: float | None,
     takes a robot file (None: it does not), for the error on a robot the file names that is
     not the project's (:meth:`Controller.load_for_robot`)."""
     data, spec = Controller.load_for_robot(path, robot, robot_flag=robot_flag)
+    spec = measured(spec)
     check_disabled_modules(data, disabled_modules)
     task = controller_task(data, str(path))
     changes = {"episode_s": float(seconds)} if seconds is not None else {}

@@ -42,8 +42,8 @@ from evolve.stages import Stage, check_stage_joints
 from sim2real.controller.channels import REACH
 from sim2real.controller.file import Controller
 from sim2real.errors import UsageError
-from sim2real.robot import load_robot
 from sim2real.run_lock import RunLock
+from sim2real.simulation.model.physique import load_measured
 
 
 class Run:
@@ -52,7 +52,7 @@ class Run:
     def __init__(self, config: EvolveConfig, out: Path, *, population: Population | None = None,
                  log: Callable[[str], None] = print, backend: str = "local", address: str | None = None):
         self.config, self.out, self.log = config, Path(out), log
-        self.robot = load_robot(config.robot)
+        self.robot = load_measured(config.robot)
         r = config.randomize
         spec = EvaluatorSpec(config.robot, config.task.to_dict(), r.profile,
                              config.neat.population_size * r.episodes, config.threads)

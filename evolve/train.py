@@ -110,9 +110,9 @@ def neat_config(robot_name: str, settings: TrainSettings) -> "EvolveConfig":
     sets the gait clock from the robot's leg length), the training's seed and threads, the
     robot's walking control set, and no generation count of its own: the budget ends it."""
     from evolve.config import config_path, load_evolve_config
-    from sim2real.robot import load_robot
+    from sim2real.simulation.model.physique import load_measured
 
-    robot = load_robot(robot_name)
+    robot = load_measured(robot_name)
     probe = load_evolve_config(config_path(settings.config))
     wanted = (probe.task.control_set, *WALKING_SETS)
     control_set = next((name for name in wanted if name in robot.control_sets), None)

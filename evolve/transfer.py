@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from evolve.replay import evaluate_controller
-from sim2real.simulation.dry_run import dry_run
+from sim2real.simulation.transfer.dry_run import dry_run
 
 
 def transfer_check(controller: Path, reality: str = "default", runs: int = 3, keep: float = 0.8,

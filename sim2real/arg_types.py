@@ -209,7 +209,7 @@ def robot_name(text: str) -> str:
 def reality_name(text: str) -> str:
     """A reality profile: ``nominal``, a name from ``configs/reality/`` or a YAML path, read
     and validated now (this imports MuJoCo: only for commands that simulate)."""
-    from sim2real.simulation.reality import load_reality
+    from sim2real.simulation.reality.file import load_reality
 
     return _loads(load_reality, text)
 

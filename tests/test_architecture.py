@@ -1,14 +1,25 @@
-"""The import graph's layering, read from the source with ``ast`` (nothing is imported).
+"""The import graph's layering, read from the source with ``ast`` (nothing is imported), and
+the size of its modules.
 
 Every import counts, at module level or inside a function (a lazy import is still a
 dependency; it only hides it); an import under ``if TYPE_CHECKING:`` counts for the layers,
-not for cycles (it never runs).  The rules:
+not for cycles (it never runs).  No rule has a declared exception.  The rules:
 
 * ``evolve`` depends on ``sim2real``, never the reverse;
 * the library layers of ``sim2real`` (controller, hardware, robot, simulation) never import
   its command line, ``sim2real.cli`` (flags belong to the CLI; what both need sits lower,
   e.g. :mod:`sim2real.arg_types`);
-* no import cycle among the modules of ``sim2real`` and ``evolve``.
+* ``sim2real.robot`` describes and checks robots and imports nothing of ``sim2real.simulation``,
+  not lazily and not for type checking: what needs MuJoCo to make a robot lives in
+  ``sim2real.simulation.model``, which hands the robot's spec what it measured;
+* that model building, the floor of the simulation, imports none of its other jobs (standing
+  checks, reality files, the simulated bus, transfer, identification, rendering), not even
+  for type checking;
+* ``sim2real.controller`` imports nothing of ``sim2real.hardware`` (a controller is checked
+  against its robot's description, not the bus code);
+* library modules of ``evolve`` import no command-line module (:func:`is_command_module`);
+* no import cycle among the modules of ``sim2real`` and ``evolve``;
+* no module of ``sim2real`` or ``evolve`` is over :data:`MAX_MODULE_LINES` lines.
 """
 
 from __future__ import annotations
@@ -23,12 +34,7 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("sim2real", "evolve")
 LIBRARY_LAYERS = ("sim2real.controller", "sim2real.hardware", "sim2real.robot", "sim2real.simulation")
-# Lazy imports that go up a layer on purpose, each with its reason; they count for nothing else.
-BY_DESIGN = {
-    ("sim2real.robot.spec", "sim2real.simulation.model_robot"):
-        "a robot from a model file has its mass and leg length measured on the compiled model: only "
-        "then, and only where MuJoCo is installed (the robot computer's deploy path needs neither)",
-}
+MAX_MODULE_LINES = 500  # a module on one concept fits in this (STYLE.md: files of 100-500 lines)
 
 
 @dataclass(frozen=True)
@@ -158,14 +164,40 @@ def test_cycles_are_found():
     assert _cycles({"a": {"b"}, "b": set()}) == []
 
 
+def test_robot_descriptions_never_import_the_simulation():
+    """Not lazily, not for type checking: a robot's description and its checks need no MuJoCo."""
+    wrong = [i for i in import_graph() if _in(i.source, "sim2real.robot") and _in(i.target, "sim2real.simulation")]
+    assert not wrong, _where(wrong)
+
+
+def test_model_building_imports_no_other_job_of_the_simulation():
+    model = "sim2real.simulation.model"
+    wrong = [i for i in import_graph() if _in(i.source, model) and _in(i.target, "sim2real.simulation")
+             and not _in(i.target, model) and i.target != "sim2real.simulation"]
+    assert not wrong, _where(wrong)
+
+
 def test_no_import_cycles_even_through_imports_inside_functions():
     edges: dict[str, set[str]] = {}
-    counted = [i for i in import_graph() if not i.type_only and (i.source, i.target) not in BY_DESIGN]
+    counted = [i for i in import_graph() if not i.type_only]
     for i in counted:
         edges.setdefault(i.source, set()).add(i.target)
     cycles = _cycles(edges)
     shown = [[i for i in counted if i.source in c and i.target in c] for c in cycles]
     assert not cycles, "\n\n".join(_where(s) for s in shown)
+
+
+def _long_modules() -> dict[str, int]:
+    """Every module of ``sim2real`` and ``evolve`` over :data:`MAX_MODULE_LINES`: path -> lines."""
+    lengths = {str(path.relative_to(ROOT)): len(path.read_text(encoding="utf-8").splitlines())
+               for path in _modules().values()}
+    return {path: n for path, n in sorted(lengths.items()) if n > MAX_MODULE_LINES}
+
+
+def test_no_module_is_over_500_lines():
+    offenders = _long_modules()
+    assert not offenders, "\n".join(f"{path}: {n} lines (at most {MAX_MODULE_LINES}: split it by concept)"
+                                    for path, n in offenders.items())
 
 
 # -- the controller never reaches into the bus code ----------------------------------------------

@@ -297,9 +297,9 @@ def failed_dry_run(*args, **kwargs):
 @pytest.mark.parametrize("argv", [["dry-run", "{c}", "--duration", "1"], ["run", "{c}", "--duration", "1"]],
                          ids=["dry-run", "run on the simulated bus"])
 def test_a_dry_run_that_stopped_on_an_error_exits_1(argv, controller, monkeypatch, capsys):
-    import sim2real.simulation.dry_run
+    import sim2real.simulation.transfer.dry_run
 
-    monkeypatch.setattr(sim2real.simulation.dry_run, "dry_run", failed_dry_run)
+    monkeypatch.setattr(sim2real.simulation.transfer.dry_run, "dry_run", failed_dry_run)
     result = biped([a.format(c=controller) for a in argv], capsys)
     assert result.code == 1, result.err
     assert result.err.strip().splitlines()[-1] == ("biped: error: the run stopped early: "
@@ -320,9 +320,9 @@ def test_a_mock_run_that_stopped_on_an_error_exits_1(controller, monkeypatch, ca
 
 
 def test_a_dry_run_that_ended_as_asked_exits_0(controller, monkeypatch, capsys):
-    import sim2real.simulation.dry_run
+    import sim2real.simulation.transfer.dry_run
 
-    monkeypatch.setattr(sim2real.simulation.dry_run, "dry_run",
+    monkeypatch.setattr(sim2real.simulation.transfer.dry_run, "dry_run",
                         lambda *a, **k: {**failed_dry_run(), "stop_reason": "duration reached"})
     result = biped(["dry-run", controller, "--duration", "1"], capsys)
     assert (result.code, result.err) == (0, "")

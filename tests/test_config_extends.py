@@ -68,11 +68,11 @@ def test_phase_period_auto_is_the_gait_clock_of_the_robots_leg():
     """``phase_period_s: auto`` (train.yaml's) scales the XL430 biped's 0.6 s by the square root of
     the leg length: 0.64 s on OP3, what its recipe's configs set by hand; a number stays as given."""
     from evolve.locomotion.task import TaskConfig, gait_period_s
-    from sim2real.robot import load_robot
+    from sim2real.simulation.model.physique import load_measured
 
     assert load_evolve_config("configs/evolve/train.yaml").task.phase_period_s == 0.6
     op3 = load_evolve_config("configs/evolve/train.yaml", {"robot": "op3"})
-    assert op3.task.phase_period_s == 0.64 == gait_period_s(load_robot("op3").leg_length)
+    assert op3.task.phase_period_s == 0.64 == gait_period_s(load_measured("op3").leg_length)
     assert op3.to_dict()["task"]["phase_period_s"] == 0.64  # a run's config.yaml holds the number
     walk = load_evolve_config("configs/evolve/walk.yaml", {"robot": "op3", "task.phase_period_s": "auto"})
     assert walk.task.phase_period_s == 0.64

@@ -14,7 +14,7 @@ import yaml
 
 import evolve.locomotion.evaluator as evaluator_module
 import evolve.neat.network as neat_network
-import sim2real.simulation.robot_model as robot_model
+import sim2real.simulation.model.robot_model as robot_model
 import sim2real.controller.activation as activation
 import sim2real.controller.channels as channels
 import sim2real.controller.file as controller_file
@@ -24,8 +24,8 @@ import sim2real.controller.schema as controller_schema
 import sim2real.controller.symmetry as symmetry
 import sim2real.hardware.dynamixel.chain as chain
 import sim2real.hardware.mock as mock
-import sim2real.simulation.compare as compare_module
-import sim2real.simulation.model_builder as model_builder
+import sim2real.simulation.transfer.compare as compare_module
+import sim2real.simulation.model.builder as model_builder
 import sim2real.simulation.simbus.physics as physics
 from evolve.locomotion.evaluator import LocomotionEvaluator, neat_layout
 from evolve.locomotion.export import controller_from_genome
@@ -39,7 +39,7 @@ from sim2real.hardware.dynamixel.chain import ServoChain
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import load_robot
 from sim2real.robot.spec import DEFAULT_CONTACT_SHARE
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.reality.file import load_reality
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOT = load_robot()

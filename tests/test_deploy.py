@@ -14,6 +14,7 @@ from sim2real.hardware.deploy import drive
 from sim2real.hardware.dynamixel.startup import StartupError
 from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import load_robot
+from sim2real.simulation.model.physique import load_measured
 
 ROBOT = load_robot()
 
@@ -240,7 +241,7 @@ def test_biped_run_works_where_mujoco_cannot_be_imported(tmp_path):
     assert out.returncode == 0, out.stderr
     result = json.loads(out.stdout.splitlines()[-1])
     assert result["stop_reason"] == "duration reached" and result["torque_off"]["unconfirmed"] == []
-    op3 = load_robot("op3")  # a robot from a model file: its deploy path needs no MuJoCo either
+    op3 = load_measured("op3")  # a robot from a model file (measured here for its tick): its deploy path needs no MuJoCo
     random_controller(op3, connections=20, hidden=2, seed=0, control_set="legs").save(tmp_path / "op3.json")
     out = subprocess.run([sys.executable, "-m", "evolve.cli", "run", str(tmp_path / "op3.json"), "--bus", "mock",
                           "--duration", "0.3", "--json", "--no-realtime"], capture_output=True, text=True, timeout=120,

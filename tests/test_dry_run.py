@@ -13,8 +13,8 @@ from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.robot import load_robot
-from sim2real.simulation.compare import compare, lag_s
-from sim2real.simulation.dry_run import dry_run
+from sim2real.simulation.transfer.compare import compare, lag_s
+from sim2real.simulation.transfer.dry_run import dry_run
 
 ROBOT = load_robot()
 
@@ -104,7 +104,7 @@ def test_a_noisy_bus_does_not_stop_the_robot(standing_controller, faults):
 
 
 def test_the_simulated_bus_takes_a_reality_profile():
-    from sim2real.simulation.reality import load_reality
+    from sim2real.simulation.reality.file import load_reality
     from sim2real.simulation.simbus.physics import PhysicsChain
 
     nominal, real = PhysicsChain(ROBOT), PhysicsChain(ROBOT, reality=load_reality("default"))
@@ -147,7 +147,7 @@ def test_current_sensing_servos_report_present_current():
 
 def test_faults_from_a_flag_or_a_yaml_file(tmp_path):
     from sim2real.errors import ConfigError
-    from sim2real.simulation.dry_run import parse_faults
+    from sim2real.simulation.transfer.dry_run import parse_faults
 
     flag = parse_faults("silent:4@3,overload:7@5.5,drop:0.02")
     path = tmp_path / "faults.yaml"

@@ -120,7 +120,7 @@ def test_a_walk_bonus_counts_in_selection_for_the_episodes_that_walked():
 
 def test_with_a_heading_limit_only_walks_that_kept_their_heading_earn_the_bonus():
     from evolve.locomotion.export import genome_from_controller
-    from sim2real.simulation.robot_model import heading_rad
+    from sim2real.simulation.model.robot_model import heading_rad
     from sim2real.controller.file import Controller
     from sim2real.robot.paths import data_root
 

@@ -22,7 +22,7 @@ from sim2real.hardware.deploy import drive
 from sim2real.hardware.dynamixel.chain import ServoChain
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import load_robot
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.reality.file import load_reality
 from sim2real.simulation.simbus import physics
 
 ROBOT = load_robot()

@@ -424,9 +424,10 @@ def test_standard_output_to_a_full_device_or_a_closed_pipe_is_one_line_and_fails
 UNSTABLE = """
 import math, numpy as np
 from sim2real.robot import load_robot
-from sim2real.simulation.compare import _simulate
-from sim2real.simulation.model_builder import SimulationUnstable
-from sim2real.simulation.reality import Reality, perturbed_model
+from sim2real.simulation.transfer.compare import _simulate
+from sim2real.simulation.model.builder import SimulationUnstable
+from sim2real.simulation.reality.file import Reality
+from sim2real.simulation.reality.randomize import perturbed_model
 robot = load_robot()
 model, _ = perturbed_model(robot, Reality("blown-up", "", {"armature_scale": (math.inf, math.inf)}))
 try:

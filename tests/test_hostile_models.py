@@ -29,8 +29,8 @@ from robots.urdf_humanoid import write_humanoid, write_prism_stl
 
 from evolve.cli import main
 from sim2real.errors import ConfigError
-from sim2real.simulation import model_guard
-from sim2real.simulation.model_files import add_free_joint, load_model_spec
+from sim2real.simulation.model import guard as model_guard
+from sim2real.simulation.model.files import add_free_joint, load_model_spec
 
 ROOT = Path(__file__).resolve().parent.parent
 TIMEOUT_S = 90  # a refusal takes a few seconds (most of it importing MuJoCo); a hang never ends

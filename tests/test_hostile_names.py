@@ -31,6 +31,7 @@ from sim2real.controller.file import Controller
 from sim2real.controller.purpose import purpose_of
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.names import named_robot_path
 from sim2real.robot.paths import data_root
 from tests.test_cli_errors import assert_usage_error, biped
@@ -291,7 +292,7 @@ def _built_three_ways(path: Path, folder: Path, capsys, source: Path | None = No
         errors.append(result.err.strip().splitlines()[-1])
     assert not (folder / "out.xml").exists()
     with pytest.raises(ConfigError) as caught:
-        PhysicsChain(load_robot(path))  # what `biped simbus` serves
+        PhysicsChain(load_measured(path))  # what `biped simbus` serves
     errors.append(str(caught.value))
     return errors
 

@@ -31,8 +31,8 @@ from sim2real.robot import load_robot
 from sim2real.robot.paths import data_root
 from sim2real.robot.profiles import available_profiles
 from sim2real.robot.validation import MAX_YAML_BYTES, MAX_YAML_NODES, load_yaml, parse_yaml, show
-from sim2real.simulation.dry_run import parse_faults
-from sim2real.simulation.reality import PLAUSIBLE, Reality, load_reality
+from sim2real.simulation.transfer.dry_run import parse_faults
+from sim2real.simulation.reality.file import PLAUSIBLE, Reality, load_reality
 
 ROOT = data_root()
 CONTROLLER = ROOT / "configs" / "controllers" / "xl430_biped_no_gyro.json"
@@ -332,7 +332,7 @@ def test_a_reality_outside_its_plausible_ranges_is_refused_naming_the_key(line, 
 
 def test_every_reality_key_has_a_plausible_range_that_holds_the_shipped_and_fitted_values():
     from sim2real.simulation.identify import LATENCY, SERVO_PARAMETERS
-    from sim2real.simulation.reality import EFFECTS, PERTURBATIONS
+    from sim2real.simulation.reality.file import EFFECTS, PERTURBATIONS
 
     assert set(PLAUSIBLE) == set(PERTURBATIONS) | set(EFFECTS)
     for key, low, high in (*SERVO_PARAMETERS, LATENCY):  # whatever `biped sysid` fits can be read back
@@ -590,7 +590,7 @@ def mujoco_log(tmp_path, monkeypatch):
 def test_instability_is_seen_in_mujocos_warnings(mujoco_log):
     import mujoco
 
-    from sim2real.simulation.model_builder import build_model, instability
+    from sim2real.simulation.model.builder import build_model, instability
 
     model = build_model(load_robot())
     data = mujoco.MjData(model)
@@ -607,7 +607,7 @@ def test_instability_is_seen_in_mujocos_warnings(mujoco_log):
 @pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")  # inf gains times 0
 def test_eval_and_gait_of_an_unstable_simulation_are_no_result(mujoco_log):
     from evolve.replay import evaluate_controller, gait
-    from sim2real.simulation.model_builder import SimulationUnstable
+    from sim2real.simulation.model.builder import SimulationUnstable
 
     with pytest.raises(SimulationUnstable, match="2 of 2 episodes went numerically unstable"):
         evaluate_controller(CONTROLLER, seconds=0.5, episodes=2, randomize=BLOWN_UP)
@@ -616,9 +616,9 @@ def test_eval_and_gait_of_an_unstable_simulation_are_no_result(mujoco_log):
 
 
 def test_compare_of_an_unstable_simulation_is_no_result(mujoco_log):
-    from sim2real.simulation.compare import _simulate
-    from sim2real.simulation.model_builder import SimulationUnstable
-    from sim2real.simulation.reality import perturbed_model
+    from sim2real.simulation.transfer.compare import _simulate
+    from sim2real.simulation.model.builder import SimulationUnstable
+    from sim2real.simulation.reality.randomize import perturbed_model
 
     robot = load_robot()
     model, _ = perturbed_model(robot, Reality("blown-up", "", {"armature_scale": (math.inf, math.inf)}))
@@ -646,7 +646,7 @@ def test_the_simulated_bus_reports_instability_with_its_ground_truth(mujoco_log)
 
 def test_a_dry_run_whose_simulated_robot_went_unstable_is_no_result(monkeypatch, mujoco_log, capsys):
     from sim2real.cli.deploy_commands import run_exit_code
-    from sim2real.simulation import dry_run as module
+    from sim2real.simulation.transfer import dry_run as module
 
     exit_ = module.SimulatedBusProcess.__exit__
 

@@ -15,10 +15,11 @@ from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot, parse_robot
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.paths import robots_dir
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.model_mirror import mirror_pairs
-from sim2real.simulation.robot_model import RobotModel
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.importing.mirror import mirror_pairs
+from sim2real.simulation.model.robot_model import RobotModel
 
 TABLE_A1_MASS_KG = 75.16
 # Table A.2: each body part's share of the mass; (s) parts once per side
@@ -29,7 +30,7 @@ SOURCE = str(robots_dir() / "human_arms.yaml")
 
 @pytest.fixture(scope="module")
 def human():
-    robot = load_robot("human_arms")
+    robot = load_measured("human_arms")
     return robot, build_model(robot)
 
 

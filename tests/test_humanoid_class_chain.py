@@ -33,10 +33,10 @@ from robots.urdf_humanoid import VARIANTS, servo_args, variant_id, write_humanoi
 
 from evolve.cli import main
 from sim2real.controller.file import Controller
-from sim2real.robot import load_robot
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.spec import LEG_LOCATIONS
-from sim2real.simulation.stand_check import check_stand
-from sim2real.simulation.stand_home import needs_home
+from sim2real.simulation.standing.check import check_stand
+from sim2real.simulation.standing.home import needs_home
 
 CHAIN = [VARIANTS[0], VARIANTS[6], VARIANTS[1], VARIANTS[4], VARIANTS[5]]
 DRY_RUN_ATTEMPTS = 3  # a dry run whose simulated bus this computer starved is run again (see _held_up)
@@ -83,7 +83,7 @@ def test_each_humanoid_of_the_class_stands_from_the_home_its_import_proposes(imp
     assert "as the YAML holds it: stands:" in report  # the import's own check, after its proposal
     status, out = _cli("robot", "stand", path, "--json")
     assert status == 0 and json.loads(out)["verdict"] == "stands"
-    robot = load_robot(path)
+    robot = load_measured(path)
     assert needs_home(robot, check_stand(robot)) is None  # knees bent: a stance to walk from
     for joint in robot.joints:  # each leg range centred on the stance, so a network at rest holds it
         if joint.location in LEG_LOCATIONS:
@@ -95,7 +95,7 @@ def test_each_humanoid_of_the_class_stands_from_the_home_its_import_proposes(imp
 @pytest.mark.parametrize("variant", CHAIN, ids=variant_id)
 def test_each_class_evolves_exports_runs_dry_runs_and_compares(imported, variant, tmp_path):
     path, _ = imported(variant)
-    robot = load_robot(path)
+    robot = load_measured(path)
     run = tmp_path / "run"
     status, out = _cli("evolve", "walk", "--robot", path, "--out", run, *EVOLVE_TINY)
     assert status == 0, out

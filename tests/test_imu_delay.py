@@ -8,8 +8,8 @@ from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.task import TaskConfig
 from sim2real.controller.channels import turn_rad
 from sim2real.robot import load_robot
-from sim2real.simulation.reality import load_reality
-from sim2real.simulation.robot_model import imu_between
+from sim2real.simulation.reality.file import load_reality
+from sim2real.simulation.model.robot_model import imu_between
 from sim2real.simulation.simbus import physics
 from tests.test_gyro import _gyro_controller
 

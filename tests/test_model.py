@@ -11,16 +11,16 @@ import pytest
 from conftest import all_robot_names
 
 from sim2real.controller.mapping import hold_pose
-from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model, to_mjcf
-from sim2real.simulation.model_parts import CLOSED_PLAY_RAD
-from sim2real.simulation.robot_model import BACKLASH_SUFFIX, JointAngles
-from sim2real.simulation.statics import holding_torques
+from sim2real.simulation.model.physique import load_measured
+from sim2real.simulation.model.builder import build_model, to_mjcf
+from sim2real.simulation.model.parts import CLOSED_PLAY_RAD
+from sim2real.simulation.model.robot_model import BACKLASH_SUFFIX, JointAngles
+from sim2real.simulation.standing.statics import holding_torques
 
 
 @pytest.fixture(scope="module", params=all_robot_names())
 def robot_and_model(request):
-    robot = load_robot(request.param)
+    robot = load_measured(request.param)
     return robot, build_model(robot)
 
 
@@ -68,7 +68,7 @@ def test_only_the_feet_touch_the_floor_at_home(robot_and_model):
 
 
 def test_adjacent_links_never_collide_but_the_legs_do():
-    model = build_model(load_robot())
+    model = build_model(load_measured())
     geom = {model.geom(i).name: i for i in range(model.ngeom)}
 
     def collide(a, b):
@@ -83,7 +83,7 @@ def test_adjacent_links_never_collide_but_the_legs_do():
 
 
 def test_undriven_joints_hold_the_centre_of_their_range():
-    robot = load_robot()
+    robot = load_measured()
     ctrl = hold_pose(robot, robot.control_sets["walk"])
     for target, joint in zip(ctrl, robot.joints):
         expected = joint.home_rad if joint.name in robot.control_sets["walk"] else joint.center_rad
@@ -92,7 +92,7 @@ def test_undriven_joints_hold_the_centre_of_their_range():
 
 @pytest.mark.parametrize("name", ["xl430_biped", "human:male_50"])
 def test_mjcf_export_is_self_contained_and_reloads(name, tmp_path):
-    robot = load_robot(name)
+    robot = load_measured(name)
     xml = to_mjcf(robot)
     assert "file=" not in xml  # no external assets
     path = tmp_path / "robot.xml"
@@ -107,7 +107,7 @@ def test_mjcf_export_is_self_contained_and_reloads(name, tmp_path):
 
 
 def test_holding_torque_of_a_stance_hip_roll_is_body_weight_times_half_hip_spacing():
-    robot = load_robot()
+    robot = load_measured()
     model = build_model(robot)
     torques = {t.joint: t for t in holding_torques(robot, model)}
     expected = robot.mass * 9.81 * robot.body.hip_spacing / 2  # roll axis at the hip
@@ -117,7 +117,7 @@ def test_holding_torque_of_a_stance_hip_roll_is_body_weight_times_half_hip_spaci
 
 
 def test_torso_up_reads_world_up_in_the_torso_frame_as_an_imu_does():
-    model = build_model(load_robot())
+    model = build_model(load_measured())
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     tilt = 0.3
@@ -128,7 +128,7 @@ def test_torso_up_reads_world_up_in_the_torso_frame_as_an_imu_does():
 
 
 def test_backlash_joints_only_when_asked_each_right_behind_its_joint():
-    robot = load_robot()
+    robot = load_measured()
     nominal, geared = build_model(robot), build_model(robot, backlash=True)
     assert nominal.nq == 7 + len(robot.joints)  # the free root and one hinge per joint
     assert not any(nominal.joint(i).name.endswith(BACKLASH_SUFFIX) for i in range(nominal.njnt))
@@ -144,7 +144,7 @@ def test_backlash_joints_only_when_asked_each_right_behind_its_joint():
 
 
 def test_closed_backlash_joints_stand_as_the_rigid_model():
-    robot = load_robot()
+    robot = load_measured()
     held = []
     for backlash in (False, True):
         model = build_model(robot, backlash=backlash)
@@ -160,10 +160,10 @@ def test_closed_backlash_joints_stand_as_the_rigid_model():
 
 _MODEL_BYTES = """
 import hashlib, sys, mujoco, numpy as np
-from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.model.physique import load_measured
+from sim2real.simulation.model.builder import build_model
 for name in sys.argv[1:]:
-    model = build_model(load_robot(name))
+    model = build_model(load_measured(name))
     buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
     mujoco.mj_saveModel(model, None, buffer)
     print(name, hashlib.sha256(buffer.tobytes()).hexdigest())

@@ -14,11 +14,11 @@ from robots.urdf_humanoid import STANDING_BASE_HEIGHT, write_humanoid
 from evolve.cli import main
 from sim2real.errors import ConfigError
 from sim2real.robot.anatomy import ANATOMICAL_AXES, anatomical_axis
-from sim2real.robot.joint_names import base_of, location_of, side_of, words
+from sim2real.simulation.model.importing.joint_names import base_of, location_of, side_of, words
 from sim2real.robot.validation import load_yaml
-from sim2real.simulation.model_files import add_free_joint, compile_model, load_model_spec, missing_meshes, root_body
-from sim2real.simulation.model_inertias import implausible_inertias, recompute_inertias
-from sim2real.simulation.model_mirror import mirror_pairs
+from sim2real.simulation.model.files import add_free_joint, compile_model, load_model_spec, missing_meshes, root_body
+from sim2real.simulation.model.inertias import implausible_inertias, recompute_inertias
+from sim2real.simulation.model.importing.mirror import mirror_pairs
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +87,7 @@ def test_joint_names_are_read_in_the_usual_styles():
 
 
 def test_anatomical_axes_agree_with_the_model_builder_for_the_leg_and_waist():
-    from sim2real.simulation.model_builder import joint_axis
+    from sim2real.simulation.model.builder import joint_axis
 
     class J:  # the fields joint_axis reads
         def __init__(self, side, location, axis):

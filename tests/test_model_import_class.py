@@ -22,10 +22,11 @@ from sim2real.controller.channels import angle_names
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot, parse_robot
-from sim2real.robot.importer import import_robot
+from sim2real.simulation.model.physique import load_measured
+from sim2real.simulation.model.importing.importer import import_robot
 from sim2real.robot.validation import load_yaml
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import IMU_SITE
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import IMU_SITE
 
 
 @pytest.mark.parametrize("variant", VARIANTS, ids=variant_id)
@@ -53,7 +54,7 @@ def test_each_humanoid_of_the_class_imports_with_its_roles_and_loads(tmp_path, c
     assert "walk" in doc["control_sets"] and all(joints[n]["location"] in ("hip", "knee")
                                                  for n in doc["control_sets"]["walk"])
 
-    robot = load_robot(out)
+    robot = load_measured(out)
     if variant.get("mixed_servos"):
         assert {j.name: j.servo.profile.model for j in robot.joints} == files.servos
     assert main(["robot", "show", str(out), "--json"]) == 0
@@ -131,7 +132,7 @@ def poppy_like(tmp_path_factory):
     folder = tmp_path_factory.mktemp("poppy")
     files = write_humanoid(folder, names="numbered", forward="+y", spine=5, leg=5)
     result = import_robot(files.urdf, folder / "poppy.yaml", servo="XM430-W350")
-    from sim2real.robot.import_yaml import write_robot_yaml
+    from sim2real.simulation.model.importing.robot_yaml import write_robot_yaml
 
     write_robot_yaml(result)
     return folder / "poppy.yaml"
@@ -142,7 +143,7 @@ def test_a_spine_of_five_drives_with_both_waist_pitches(poppy_like):
     from evolve.locomotion.task import TaskConfig
     from evolve.neat import Genome
 
-    robot = load_robot(poppy_like)
+    robot = load_measured(poppy_like)
     waist = [j for j in robot.joints if j.location == "waist"]
     assert sorted((j.axis, j.index) for j in waist) == [("pitch", 0), ("pitch", 1), ("roll", 0), ("roll", 1),
                                                        ("yaw", 0)]
@@ -240,7 +241,7 @@ def test_a_joint_without_its_twin_is_held(tmp_path, capsys):
     report = capsys.readouterr().out
     assert "held (not mapped): r_ankle_roll_joint: " in report
     assert "no left twin of this right ankle roll" in (tmp_path / "t.yaml").read_text()
-    robot = load_robot(tmp_path / "t.yaml")  # loads: the right ankle roll is welded
+    robot = load_measured(tmp_path / "t.yaml")  # loads: the right ankle roll is welded
     assert "r_ankle_roll_joint" not in robot.joint_names and len(robot.joints) == 18
     # welded, the right foot fuses into the ankle as a URDF compiles: the foot is the ankle link, and it builds
     assert "the right foot r_foot_link has no mapped joint left, so the model's compile fuses it into " \

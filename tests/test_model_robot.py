@@ -18,9 +18,9 @@ from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
 from evolve.cli import main
 from sim2real.errors import ConfigError
-from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import RobotModel
+from sim2real.simulation.model.physique import load_measured
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import RobotModel
 
 GRAVITY = 9.81
 
@@ -48,7 +48,7 @@ def _stand(robot, seconds: float = 5.0):
 
 
 def test_an_imported_urdf_robot_shows_and_stands_on_its_soles(imported, capsys):
-    robot = load_robot(imported)
+    robot = load_measured(imported)
     assert len(robot.joints) == 20 and {j.location for j in robot.joints} >= {"shoulder", "elbow", "neck", "knee"}
     assert robot.mass == pytest.approx(2.83, rel=1e-6) and robot.leg_length == pytest.approx(0.24, abs=1e-3)
     assert main(["robot", "show", str(imported), "--json"]) == 0
@@ -66,7 +66,7 @@ def test_an_imported_urdf_robot_shows_and_stands_on_its_soles(imported, capsys):
 def test_a_mapped_joint_is_anatomical_whatever_the_models_axis(imported):
     """Hip pitch flexes the leg forward and the knee bends it back on both sides, though the
     model turns one side's axes the other way (sign -1)."""
-    robot = load_robot(imported)
+    robot = load_measured(imported)
     model = build_model(robot)
     data = mujoco.MjData(model)
     parts = RobotModel.of(model, robot)
@@ -106,11 +106,11 @@ def _edited(imported: Path, tmp_path: Path, edit) -> Path:
 ], ids=["joint", "root", "foot", "foot-geom", "imu", "file", "sign", "body-and-model"])
 def test_a_bad_map_is_refused_by_name(imported, tmp_path, edit, problem):
     with pytest.raises(ConfigError, match=problem):
-        build_model(load_robot(_edited(imported, tmp_path, edit)))
+        build_model(load_measured(_edited(imported, tmp_path, edit)))
 
 
 def test_evolution_and_the_runtime_run_on_an_imported_robot(imported, tmp_path):
-    robot = load_robot(imported)
+    robot = load_measured(imported)
     task = TaskConfig(control_set="legs", episode_s=0.5, gyro_input=True)
     ev = LocomotionEvaluator(robot, task, 4, threads=1)
     assert ev.layout.n_leg == 6 and "gyro_yaw" in ev.layout.input_names
@@ -126,7 +126,7 @@ def test_a_controller_for_an_imported_robot_runs_on_the_mock_bus_the_simulated_b
     from evolve.locomotion.export import controller_from_genome
     from evolve.neat.genome import ConnectionGene
 
-    robot = load_robot(imported)
+    robot = load_measured(imported)
     task = TaskConfig(control_set="legs", gyro_input=True)
     ev = LocomotionEvaluator(robot, task, 1, threads=1)
     genome = Genome(0, ev.neat_layout)
@@ -153,7 +153,7 @@ def test_a_controller_for_an_imported_robot_runs_on_the_mock_bus_the_simulated_b
 def test_standing_at_home_the_robot_touches_only_the_floor(imported):
     """Links that touch at the zero pose (CAD overlap at a joint) are excluded: a standing robot
     presses on nothing but the floor, and its soles carry all of it."""
-    for robot in (load_robot(imported), load_robot("op3")):
+    for robot in (load_measured(imported), load_measured("op3")):
         model, data, parts, _ = _stand(robot, seconds=0.5)
         bodies = {(int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])) for c in data.contact[:data.ncon]}
         assert bodies and all(0 in pair for pair in bodies), robot.name
@@ -161,7 +161,7 @@ def test_standing_at_home_the_robot_touches_only_the_floor(imported):
 
 def test_xacro_left_in_comments_is_not_xacro(tmp_path):
     """An expanded xacro keeps its commented-out properties: that is a plain URDF."""
-    from sim2real.simulation.model_files import load_model_spec
+    from sim2real.simulation.model.files import load_model_spec
 
     files = write_humanoid(tmp_path)
     text = files.urdf.read_text().replace("<robot ", '<robot xmlns:a="urn:x" ', 1)
@@ -175,7 +175,7 @@ def test_xacro_left_in_comments_is_not_xacro(tmp_path):
 def test_a_model_robot_hangs_for_system_identification(imported):
     """Hung by its root (``biped excite``'s simulated bus), a URDF robot keeps its base as a
     body, though the base then has no joint (a compile fuses such a body into the world)."""
-    for robot in (load_robot(imported), load_robot("op3")):
+    for robot in (load_measured(imported), load_measured("op3")):
         model = build_model(robot, suspended=True)
         parts = RobotModel.of(model, robot)
         data = mujoco.MjData(model)

@@ -185,7 +185,7 @@ def test_the_heading_drives_evolution_and_the_runtime_alike_drift_included():
     from evolve.neat import Genome
     from evolve.neat.genome import ConnectionGene
     from sim2real.controller.policy import Policy
-    from sim2real.simulation.reality import load_reality
+    from sim2real.simulation.reality.file import load_reality
 
     robot = load_robot()
     task = TaskConfig(heading_input=True, heading_scale_deg=30.0, episode_s=1.0)  # saturates after 1/3 s

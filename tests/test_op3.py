@@ -14,13 +14,13 @@ from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import controller_from_genome
 from evolve.locomotion.task import TaskConfig
 from evolve.neat import Genome
-from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.model_files import add_free_joint, compile_model, load_model_spec
-from sim2real.simulation.model_mirror import mirror_pairs
-from sim2real.simulation.robot_model import RobotModel
+from sim2real.simulation.model.physique import load_measured
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.files import add_free_joint, compile_model, load_model_spec
+from sim2real.simulation.model.importing.mirror import mirror_pairs
+from sim2real.simulation.model.robot_model import RobotModel
 
-OP3 = load_robot("op3")
+OP3 = load_measured("op3")
 # ROBOTIS-OP3-Tools config_mirror_joint.yaml: IDs 1:2, 3:4, ... 17:18 (right odd, left even),
 # mirrored by 4095 - w: equal model angles are opposite motions
 ROBOTIS_MIRROR = [(k, k + 1) for k in range(1, 19, 2)]

@@ -18,9 +18,9 @@ from sim2real.controller.file import Controller
 from sim2real.controller.reach import REACHING, RETURNING, ReachCycle
 from sim2real.controller.symmetry import network_inputs, symmetric_layout
 from sim2real.errors import ConfigError
-from sim2real.robot import load_robot
+from sim2real.simulation.model.physique import load_measured
 
-OP3 = load_robot("op3")
+OP3 = load_measured("op3")
 CONFIG = load_evolve_config("configs/evolve/reach_op3.yaml")
 
 
@@ -157,10 +157,10 @@ def _reacher(task: TaskConfig) -> tuple[Genome, Controller]:
 def test_the_arms_chain_finds_the_hand_where_the_simulation_has_it(name):
     import mujoco
     from sim2real.controller.kinematics import ArmChain
-    from sim2real.simulation.model_builder import build_model
-    from sim2real.simulation.robot_model import Arm, arm_chain
+    from sim2real.simulation.model.builder import build_model
+    from sim2real.simulation.model.robot_model import Arm, arm_chain
 
-    robot = load_robot(name)
+    robot = load_measured(name)
     model = build_model(robot)
     data = mujoco.MjData(model)
     arm = Arm.of(model, robot)
@@ -269,7 +269,7 @@ def test_a_walker_takes_no_reach_target(capsys):
 
 @pytest.mark.parametrize("path, reaches", [("hand-made", 1), ("configs/controllers/op3_reach.json", 2)])
 def test_a_dry_run_reaches_through_the_simulated_bus(path, reaches, reacher_file):
-    from sim2real.simulation.dry_run import dry_run
+    from sim2real.simulation.transfer.dry_run import dry_run
 
     result = dry_run(reacher_file if path == "hand-made" else path, duration_s=4.0, log=lambda s: None, ramp_s=0.3)
     assert result["reach"]["reaches"] >= reaches and not result["fell"]
@@ -351,7 +351,7 @@ def test_under_the_home_rule_a_network_at_rest_holds_home():
     range rule sends a network without connections to the middles, the home rule keeps home."""
     from sim2real.controller.policy import Policy
 
-    human = load_robot("human_arms")
+    human = load_measured("human_arms")
     config = load_evolve_config("configs/evolve/reach.yaml")
     assert config.task.output_centre == "home"
     pose = config.stages[0]
@@ -405,7 +405,7 @@ def test_the_largest_bonus_is_what_a_hand_always_at_its_goal_earns(path):
 
     config = load_evolve_config(path)
     task, stage = config.task, config.stages[-1]
-    tick_s = control_timing(load_robot(config.robot)).tick_s
+    tick_s = control_timing(load_measured(config.robot)).tick_s
     cycle, ids = ReachCycle(1, task.reach_phase_s, task.reach_tolerance), np.zeros(1, dtype=np.intp)
     for t in range(int(round(task.episode_s / tick_s))):  # as the evaluator's readings
         cycle.update(ids, np.zeros(1), tick_s if t else 0.0)

@@ -14,10 +14,10 @@ from robots.real_humanoids import write_real
 from robots.urdf_humanoid import write_humanoid
 
 from evolve.cli import main
-from sim2real.robot import load_robot
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.validation import load_yaml
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import sole_site
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import sole_site
 
 # Darwin-OP's walker (HumaRobotics darwin_gazebo scripts/walker.py, WFunc with its defaults):
 # the ready pose, model angles [rad] of the left leg; the right mirrors them with opposite signs
@@ -59,7 +59,7 @@ def test_darwin_op_imports_its_legs_from_the_structure_and_stands_from_the_home_
 
     # the sole site lies under the ankle, across the foot's whole length (not at its heel:
     # the ankle link's frame has z forward, x vertical)
-    robot = load_robot(tmp_path / "darwin.yaml")
+    robot = load_measured(tmp_path / "darwin.yaml")
     model = build_model(robot)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)

@@ -9,15 +9,9 @@ from evolve.neat import Genome, NeatConfig, Population
 from sim2real.controller.symmetry import symmetric_layout
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot
-from sim2real.simulation.model_parts import CLOSED_PLAY_RAD
-from sim2real.simulation.reality import (
-    NOMINAL,
-    PERTURBATIONS,
-    load_reality,
-    needs_backlash_joints,
-    parse_reality,
-    sample,
-)
+from sim2real.simulation.model.parts import CLOSED_PLAY_RAD
+from sim2real.simulation.reality.file import NOMINAL, PERTURBATIONS, load_reality, parse_reality
+from sim2real.simulation.reality.randomize import needs_backlash_joints, sample
 
 ROBOT = load_robot()
 TASK = TaskConfig(episode_s=1.0)
@@ -238,7 +232,7 @@ def test_a_slicker_floor_is_felt_by_the_soles():
     that 0.6 under soles of 1.0 is 0.6 (it was 1.0: the floor's alone was scaled)."""
     import mujoco
 
-    from sim2real.simulation.reality import perturbed_model
+    from sim2real.simulation.reality.randomize import perturbed_model
 
     for scale in (0.6, 1.0, 1.2):
         model, _ = perturbed_model(ROBOT, load_reality({"floor_friction_scale": scale}))

@@ -9,11 +9,12 @@ from conftest import ROOT, all_robot_names
 
 from sim2real.errors import ConfigError
 from sim2real.robot import load_robot, parse_robot
+from sim2real.simulation.model.physique import load_measured
 
 
 @pytest.mark.parametrize("name", all_robot_names())
 def test_every_robot_and_preset_loads(name):
-    robot = load_robot(name)
+    robot = load_measured(name)
     assert robot.mass > 0 and robot.height > 0
     for joint in robot.joints:
         lo, hi = joint.range_rad

@@ -1,4 +1,4 @@
-"""Does it stand? `biped robot stand` (sim2real/simulation/stand_check.py) on the shipped robots
+"""Does it stand? `biped robot stand` (sim2real/simulation/standing/check.py) on the shipped robots
 and on homes that fall, and the home :func:`propose_home` (stand_home.py) gives a robot whose
 home falls, checked on the generated URDF humanoid imported as a user would; and the importer's
 stand step (import_stand.py) where no home stands or the robot does not load yet."""
@@ -12,12 +12,12 @@ import yaml
 from robots.urdf_humanoid import write_humanoid
 
 from evolve.cli import main
-from sim2real.robot import load_robot
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.validation import load_yaml
-from sim2real.simulation.robot_model import RobotModel
-from sim2real.simulation.stand_check import VERDICTS, check_stand, floor_force_on, foot_bodies
-from sim2real.simulation.stand_home import NoStandingHome, leg_pitch_joints, needs_home, propose_home, with_stance
-from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.model.robot_model import RobotModel
+from sim2real.simulation.standing.check import VERDICTS, check_stand, floor_force_on, foot_bodies
+from sim2real.simulation.standing.home import NoStandingHome, leg_pitch_joints, needs_home, propose_home, with_stance
+from sim2real.simulation.model.builder import build_model
 
 JSON_KEYS = {"robot", "seconds", "up_z_final", "up_z_worst", "sag_m", "feet_weight_share", "slide_m", "com_ahead_m",
              "fell", "fell_at_s", "slid", "holds", "weakest", "verdict", "reasons", "reason"}
@@ -45,7 +45,7 @@ def imported(tmp_path_factory):
 
 # -- the shipped robots stand, with the README's numbers ---------------------------------------
 def test_op3_stands_with_the_numbers_the_readme_quotes():
-    report = check_stand(load_robot("op3"))
+    report = check_stand(load_measured("op3"))
     assert report.verdict == "stands" and not report.reasons and report.stands
     assert report.up_z_final == pytest.approx(0.9944, abs=0.002)  # README: up-vector z 0.994
     assert report.sag_m == pytest.approx(0.0026, abs=0.001)  # README: 2.6 mm sag
@@ -58,7 +58,7 @@ def test_op3_stands_with_the_numbers_the_readme_quotes():
 
 
 def test_xl430_biped_stands_upright_on_its_feet():
-    report = check_stand(load_robot("xl430_biped"))
+    report = check_stand(load_measured("xl430_biped"))
     assert report.verdict == "stands"
     assert report.up_z_final > 0.999 and report.up_z_worst > 0.999
     assert 0.0 < report.sag_m < 0.003  # 1.7 mm measured
@@ -83,7 +83,7 @@ def test_a_home_that_falls_gets_the_falls_verdict_and_exit_1(tmp_path, robots_di
 def test_a_model_robot_bent_over_at_the_hips_falls_though_it_rests_still():
     """On a model robot the home keyframe levels the feet, so hips bent far forward tilt the
     torso over them: it does not topple, yet it does not stand either."""
-    op3 = load_robot("op3")
+    op3 = load_measured("op3")
     bent = with_stance(op3, {n: math.radians(60) for n in ("r_hip_pitch", "l_hip_pitch")}
                        | {n: math.radians(14.3) for n in ("r_knee", "l_knee")}
                        | {n: 0.0 for n in ("r_ank_pitch", "l_ank_pitch")})
@@ -93,7 +93,7 @@ def test_a_model_robot_bent_over_at_the_hips_falls_though_it_rests_still():
 
 
 def test_a_stance_tilted_past_fifteen_degrees_stands_with_a_warning(imported):
-    robot = load_robot(str(imported))
+    robot = load_measured(str(imported))
     hips = [j.name for j in robot.joints if j.location == "hip" and j.axis == "pitch"]
     bent = with_stance(robot, {n: math.radians(20) for n in hips})
     report = check_stand(bent)
@@ -103,7 +103,7 @@ def test_a_stance_tilted_past_fifteen_degrees_stands_with_a_warning(imported):
 
 def test_feet_that_slide_are_reported():
     """On ice (friction 0.05) tilted by a slope's share of gravity (0.5 m/s^2 along x)."""
-    robot = load_robot("xl430_biped")
+    robot = load_measured("xl430_biped")
     model = build_model(robot)
     model.opt.gravity[:] = (0.5, 0.0, -9.81)
     model.geom_friction[:, 0] = 0.05
@@ -115,7 +115,7 @@ def test_feet_that_slide_are_reported():
 def test_the_weight_share_counts_only_the_floor_under_the_feet():
     """A robot lying on its back: the floor carries its weight, on its trunk and pelvis as well as
     its heels; the feet's share is the heels' alone."""
-    robot = load_robot("xl430_biped")
+    robot = load_measured("xl430_biped")
     model = build_model(robot)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
@@ -152,7 +152,7 @@ def test_robot_stand_text_names_the_weakest_joints(capsys):
 
 # -- a proposed home that stands ---------------------------------------------------------------
 def test_the_imported_zero_pose_stands_but_its_straight_knees_ask_for_a_home(imported):
-    robot = load_robot(str(imported))
+    robot = load_measured(str(imported))
     assert all(j.home_rad == 0.0 for j in robot.joints)
     report = check_stand(robot)
     assert report.verdict == "stands"
@@ -160,7 +160,7 @@ def test_the_imported_zero_pose_stands_but_its_straight_knees_ask_for_a_home(imp
 
 
 def test_the_proposed_home_stands_where_the_bent_forward_one_falls(imported, capsys):
-    robot = load_robot(str(imported))
+    robot = load_measured(str(imported))
     hips = [j.name for j in robot.joints if j.location == "hip" and j.axis == "pitch"]
     bent = with_stance(robot, {n: math.radians(60) for n in hips})
     falling = check_stand(bent)
@@ -212,14 +212,14 @@ def test_robot_stand_proposes_a_home_for_an_imported_yaml_that_falls(imported, c
 
 
 def test_no_standing_home_says_what_each_knee_bend_did(imported):
-    robot = load_robot(str(imported))
+    robot = load_measured(str(imported))
     with pytest.raises(NoStandingHome) as err:
         propose_home(robot, knee_bends_deg=(140.0,))  # past the knee's 130 deg limit
     assert "knees 140 deg" in str(err.value) and "outside the joint's limits" in str(err.value)
 
 
 def test_a_leg_without_a_knee_is_named():
-    robot = load_robot("xl430_biped")
+    robot = load_measured("xl430_biped")
     model = build_model(robot)
     kneeless = with_stance(robot, {})
     object.__setattr__(kneeless, "joints", tuple(j for j in robot.joints if j.name != "left_knee"))
@@ -234,7 +234,7 @@ def test_a_bad_robot_file_is_refused_with_the_file_named(tmp_path):
     assert main(["robot", "stand", str(tmp_path / "none.yaml")]) == 2
 
 
-# -- the importer's stand step (sim2real/simulation/import_stand.py) ----------------------------
+# -- the importer's stand step (sim2real/simulation/standing/imported.py) ----------------------------
 def test_an_import_whose_knees_cannot_bend_to_a_stance_keeps_its_home_and_says_why(tmp_path, capsys):
     files = write_humanoid(tmp_path)
     text = files.urdf.read_text()
@@ -252,9 +252,9 @@ def test_an_import_whose_knees_cannot_bend_to_a_stance_keeps_its_home_and_says_w
 
 
 def test_an_import_that_does_not_load_yet_is_written_without_its_stand_check(tmp_path):
-    from sim2real.robot.import_yaml import write_robot_yaml
-    from sim2real.robot.importer import import_robot
-    from sim2real.simulation.import_stand import stand_imported
+    from sim2real.simulation.model.importing.robot_yaml import write_robot_yaml
+    from sim2real.simulation.model.importing.importer import import_robot
+    from sim2real.simulation.standing.imported import stand_imported
 
     files = write_humanoid(tmp_path)
     result = import_robot(files.urdf, tmp_path / "footless.yaml")

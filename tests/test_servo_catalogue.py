@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 from sim2real.hardware.mock import MockDevice
-from sim2real.robot import load_robot
+from sim2real.simulation.model.physique import load_measured
 from sim2real.robot.paths import profiles_dir
 from sim2real.robot.profiles import DeviceProfile, parse_profile
 from sim2real.robot.validation import load_yaml
@@ -100,7 +100,7 @@ def mixed_robot(tmp_path) -> Path:
 
 
 def test_a_robot_mixing_models_and_protocols_loads_with_each_joints_own_profile(mixed_robot):
-    robot = load_robot(mixed_robot)
+    robot = load_measured(mixed_robot)
     by_joint = {j.name: j.servo.profile for j in robot.joints}
     for name, model in MIXED.items():
         assert by_joint[name].model == model
@@ -111,7 +111,7 @@ def test_a_robot_mixing_models_and_protocols_loads_with_each_joints_own_profile(
 def test_robot_show_names_each_joints_model_protocol_and_profile_file(mixed_robot, capsys):
     from sim2real.cli.robot_commands import _print_description, describe
 
-    d = describe(load_robot(mixed_robot))
+    d = describe(load_measured(mixed_robot))
     joints = {j["name"]: j for j in d["joints"]}
     assert (joints["r_knee"]["servo_model"], joints["r_knee"]["servo_protocol"],
             joints["r_knee"]["servo_profile"]) == ("MX-64", 1.0, "mx64_p1.yaml")
@@ -151,7 +151,7 @@ def test_the_simulated_bus_reports_a_protocol_1_servos_load_with_its_sign_bit(tm
     doc["bus"]["baud"] = 1_000_000
     path = tmp_path / "mx64_biped.yaml"
     path.write_text(yaml.safe_dump(doc))
-    robot = load_robot(path)
+    robot = load_measured(path)
     now = [0.0]
     physics = PhysicsChain(robot, clock=lambda: now[0])
     for dxl_id in physics.ids:  # hold the home pose

@@ -9,8 +9,8 @@ import pytest
 
 from sim2real.robot.profiles import available_profiles, load_profile
 from sim2real.robot.servo_model import servo_physics
-from sim2real.simulation.model_parts import add_backlash_joint, CLOSED_PLAY_RAD, configure_servo_actuator, configure_servo_joint
-from sim2real.simulation.robot_model import JointAngles
+from sim2real.simulation.model.parts import add_backlash_joint, CLOSED_PLAY_RAD, configure_servo_actuator, configure_servo_joint
+from sim2real.simulation.model.robot_model import JointAngles
 
 SERVOS = [m for m in available_profiles() if load_profile(m).is_servo]
 LOAD_INERTIA = 2e-4  # a light link on the horn [kg m^2]

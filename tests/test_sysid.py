@@ -15,7 +15,7 @@ from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.excitation import ExcitationSettings, build_program, joint_groups
 from sim2real.hardware.trace import Trace, TraceWriter
 from sim2real.robot import load_robot
-from sim2real.simulation.reality import load_reality, parse_reality
+from sim2real.simulation.reality.file import load_reality, parse_reality
 
 ROBOT = load_robot()
 SHORT = ExcitationSettings(chirp_s=4.0, f0_hz=0.5, f1_hz=8.0, step_deg=(3.0, 15.0), step_hold_s=0.3, hold_s=0.3,
@@ -216,7 +216,7 @@ def test_sysid_refuses_traces_it_cannot_fit(tmp_path, hung_traces):
 
 def test_ranges_around_an_identified_robot_round_trip_and_ramp_from_it(tmp_path):
     from evolve.config import parse_randomize
-    from sim2real.simulation.reality import centred
+    from sim2real.simulation.reality.file import centred
 
     (tmp_path / "mine.yaml").write_text("kp_scale: 0.8\nlatency_ms: 12.0\njoints: {left_knee: {damping_scale: 1.5}}\n")
     ranges, mine = load_reality("randomize"), load_reality(tmp_path / "mine.yaml")
@@ -237,7 +237,7 @@ def test_ranges_around_an_identified_robot_round_trip_and_ramp_from_it(tmp_path)
 
 
 def test_compare_replays_an_excitation_on_the_hung_robot_of_a_reality_file(hung_traces, tmp_path):
-    from sim2real.simulation.compare import compare
+    from sim2real.simulation.transfer.compare import compare
 
     truth, trace = hung_traces
     (tmp_path / "truth.yaml").write_text(json.dumps(truth))

@@ -55,7 +55,7 @@ def test_a_robot_config_sets_its_physics_step_and_the_model_takes_it(tmp_path):
     import yaml
 
     from sim2real.robot.paths import robots_dir
-    from sim2real.simulation.model_builder import build_model
+    from sim2real.simulation.model.builder import build_model
 
     doc = yaml.safe_load((robots_dir() / "human.yaml").read_text())
     doc["physics_dt_s"] = 0.005

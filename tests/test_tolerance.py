@@ -6,7 +6,7 @@ import pytest
 from conftest import ROOT
 
 from benchmarks import tolerance
-from sim2real.simulation.reality import load_reality
+from sim2real.simulation.reality.file import load_reality
 
 WALKER = ROOT / "configs" / "controllers" / "xl430_biped_no_gyro.json"
 

@@ -10,7 +10,7 @@ leave the ids and their networks leave the population network, so nothing is spe
 them; there is no Python loop over individuals.  MuJoCo's batch is bit-identical at any
 thread count, and so are the results.
 
-A simulation may carry a perturbation (:mod:`sim2real.simulation.reality`): its own masses, friction,
+A simulation may carry a perturbation (:mod:`sim2real.simulation.reality.file`): its own masses, friction,
 gains, latency and backlash in the batch's per-simulation model fields, sensor noise on what
 the networks read.  A reality that can draw backlash gets a model with backlash joints;
 joint angles are read from ``qpos`` by the model's :class:`JointAngles` either way.
@@ -37,13 +37,12 @@ from sim2real.controller.symmetry import SymmetricLayout, bias_values, joint_out
 from sim2real.robot import RobotSpec
 from sim2real.robot.spec import GRAVITY
 from sim2real.robot.timing import control_timing
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import Arm, RobotModel, arm_chain, imu_between
-from sim2real.simulation.reality import (
-    NOMINAL,
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import Arm, RobotModel, arm_chain, imu_between
+from sim2real.simulation.reality.file import NOMINAL, Reality
+from sim2real.simulation.reality.randomize import (
     PERTURBED_FIELDS,
     Perturbation,
-    Reality,
     apply,
     latency_capacity_s,
     needs_backlash_joints,

@@ -11,8 +11,8 @@ from evolve.neat.network import expressed
 from sim2real.controller.file import Controller
 from sim2real.controller.symmetry import SymmetricLayout
 from sim2real.robot import RobotSpec
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import Arm, arm_chain
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import Arm, arm_chain
 
 
 def controller_from_genome(genome: Genome, robot: RobotSpec, layout: SymmetricLayout, task: TaskConfig,

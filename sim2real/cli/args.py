@@ -69,7 +69,7 @@ __all__ = [  # its own, then the flag values of sim2real.arg_types
 MAX_REPLAY_S = 300.0
 MAX_VIDEO_S = 60.0
 MAX_STRIP_FRAMES = 50
-MAX_RENDER_PX = (1280, 720)  # a render's width, height [px]: simulation.model_parts.OFFSCREEN_SIZE (no MuJoCo here)
+MAX_RENDER_PX = (1280, 720)  # a render's width, height [px]: simulation.model.parts.OFFSCREEN_SIZE (no MuJoCo here)
 MAX_SETTLE_S = 60.0  # simulated seconds a robot stands before its picture (default 1: it is still within a second)
 
 

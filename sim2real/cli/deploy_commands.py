@@ -159,7 +159,7 @@ def check_run(args: argparse.Namespace) -> None:
 
 def check_dry_run(args: argparse.Namespace) -> None:
     from sim2real.controller.activation import check_disabled_modules
-    from sim2real.simulation.dry_run import check_fault_times, parse_faults
+    from sim2real.simulation.transfer.dry_run import check_fault_times, parse_faults
 
     data, robot = _servo_robot(args.robot, args.controller)
     check_duration(args.duration, float(data.tick_s))
@@ -169,7 +169,7 @@ def check_dry_run(args: argparse.Namespace) -> None:
 
 
 def check_simbus(args: argparse.Namespace) -> None:
-    from sim2real.simulation.dry_run import parse_faults
+    from sim2real.simulation.transfer.dry_run import parse_faults
 
     _, robot = _servo_robot(args.robot)
     if args.baud is not None:
@@ -187,7 +187,7 @@ def check_compare(args: argparse.Namespace) -> None:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from sim2real.simulation.compare import compare, plot
+    from sim2real.simulation.transfer.compare import compare, plot
 
     result = compare(args.trace, args.robot, args.controller, args.reality)
     for note in result["notes"]:
@@ -209,7 +209,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 @holding_lock("trace", what="biped dry-run", flag="--trace")
 def cmd_dry_run(args: argparse.Namespace) -> int:
-    from sim2real.simulation.dry_run import dry_run
+    from sim2real.simulation.transfer.dry_run import dry_run
 
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
     result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults, log=log,
@@ -241,7 +241,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                        realtime=realtime, heading=args.heading, reach_target=args.reach_target)
         result = report.summary()
     else:  # neither: the simulated bus, as in a dry run
-        from sim2real.simulation.dry_run import dry_run
+        from sim2real.simulation.transfer.dry_run import dry_run
 
         log("no --port: running on the simulated bus (MuJoCo behind a pseudo-terminal)")
         result = dry_run(args.controller, robot.name if args.robot else None, args.duration or 10.0,

@@ -50,18 +50,21 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
 
 
 def robot_arg(name: str) -> RobotSpec:
-    """The robot a positional ROBOT names, its file checked first (a FIFO would block the read)."""
+    """The robot a positional ROBOT names, its file checked first (a FIFO would block the read),
+    measured (every command that takes one simulates it)."""
+    from sim2real.simulation.model.physique import measured
+
     if name.split(":", 1)[0] not in available_robots():  # a project robot's name is that robot, whatever the cwd holds
         check_input_file(name)
-    return load_robot(name)
+    return measured(load_robot(name))
 
 
 # -- robot show -------------------------------------------------------------------------------
 def describe(robot: RobotSpec) -> dict:
     """Everything ``biped robot show --json`` prints (SI units)."""
     from sim2real.robot.timing import control_timing
-    from sim2real.simulation.model_builder import build_model
-    from sim2real.simulation.statics import CROUCH_KNEE_DEG, holding_torques
+    from sim2real.simulation.model.builder import build_model
+    from sim2real.simulation.standing.statics import CROUCH_KNEE_DEG, holding_torques
 
     from sim2real.controller.robot_checks import bus_problems
     from sim2real.robot.bus_plan import bus_time
@@ -206,13 +209,13 @@ def _add_stand(rsub: argparse._SubParsersAction) -> None:
 
 
 def cmd_robot_stand(args: argparse.Namespace) -> int:
-    from sim2real.simulation.stand_check import check_stand
+    from sim2real.simulation.standing.check import check_stand
 
     robot = robot_arg(args.robot)
     report = check_stand(robot)
     proposal = None
     if args.propose_home:
-        from sim2real.simulation.stand_home import propose_home
+        from sim2real.simulation.standing.home import propose_home
 
         proposal = propose_home(robot)
     if args.json:
@@ -224,7 +227,7 @@ def cmd_robot_stand(args: argparse.Namespace) -> int:
 
 
 def cmd_robot_mjcf(args: argparse.Namespace) -> int:
-    from sim2real.simulation.model_builder import to_mjcf
+    from sim2real.simulation.model.builder import to_mjcf
 
     xml = to_mjcf(robot_arg(args.robot))
     if args.output is None:
@@ -277,7 +280,7 @@ examples:
 
 
 def _add_import(rsub: argparse._SubParsersAction) -> None:
-    from sim2real.robot.importer import DEFAULT_SERVO
+    from sim2real.simulation.model.importing.importer import DEFAULT_SERVO
 
     imp = rsub.add_parser(
         "import", help="write a starting robot YAML from an MJCF or URDF model",
@@ -314,7 +317,7 @@ def _add_import(rsub: argparse._SubParsersAction) -> None:
 
 def _servo_model(text: str) -> str:
     """A servo model name from ``firmware_profiles/`` (its canonical spelling)."""
-    from sim2real.robot.importer import servo_model_name
+    from sim2real.simulation.model.importing.importer import servo_model_name
 
     try:
         return servo_model_name(text)
@@ -329,10 +332,10 @@ def _servo_choice(text: str) -> tuple[str | None, str]:
 
 
 def cmd_robot_import(args: argparse.Namespace) -> int:
-    from sim2real.robot.import_yaml import write_robot_yaml
-    from sim2real.robot.importer import import_robot
+    from sim2real.simulation.model.importing.robot_yaml import write_robot_yaml
+    from sim2real.simulation.model.importing.importer import import_robot
 
-    from sim2real.robot.importer import DEFAULT_SERVO
+    from sim2real.simulation.model.importing.importer import DEFAULT_SERVO
 
     defaults = [model for where, model in args.servo if where is None]
     if len(defaults) > 1:
@@ -343,7 +346,7 @@ def cmd_robot_import(args: argparse.Namespace) -> int:
                           package_dirs=args.package_dir, recompute_inertias=args.recompute_inertias,
                           forward=args.forward)
     if not args.no_stand:  # on the simulation side: sim2real.robot does not import it to write a YAML
-        from sim2real.simulation.import_stand import stand_imported
+        from sim2real.simulation.standing.imported import stand_imported
 
         result = stand_imported(result)
     print("\n".join(result.report()))

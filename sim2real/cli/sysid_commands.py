@@ -147,7 +147,7 @@ def cmd_excite(args: argparse.Namespace) -> int:
         report = drive(DynamixelBus(args.port, args.baud or robot.bus.baud, robot), robot, program,
                        duration_s=program.duration_s, trace_path=args.trace, log=log, realtime=realtime)
     else:
-        from sim2real.simulation.dry_run import SimulatedBusProcess
+        from sim2real.simulation.transfer.dry_run import SimulatedBusProcess
 
         log("no --port: exciting the robot on the simulated bus (MuJoCo behind a pseudo-terminal)")
         simbus_args = ["--robot", args.robot, "--seed", str(args.seed),
@@ -193,8 +193,9 @@ def cmd_sysid(args: argparse.Namespace) -> int:
 
     from sim2real.atomic_json import write_text_atomic
     from sim2real.simulation.identify import identify
+    from sim2real.simulation.model.physique import measured
 
-    robot = _sysid_robot(args)
+    robot = measured(_sysid_robot(args))
     log = lambda line: print(line, file=sys.stderr)  # noqa: E731
     found = identify(args.traces, robot, per_joint=args.per_joint, max_iters=args.max_iters,
                      report_dir=args.report, log=log)

@@ -88,7 +88,7 @@ def add_commands(sub: argparse._SubParsersAction, replay: Replay | None = None) 
 def _standing(robot: RobotSpec, settle_s: float = 0.0):
     import mujoco
 
-    from sim2real.simulation.model_builder import build_model
+    from sim2real.simulation.model.builder import build_model
 
     model = build_model(robot)
     data = mujoco.MjData(model)
@@ -124,7 +124,7 @@ def check_view(args: argparse.Namespace) -> None:
 
 def check_render(args: argparse.Namespace) -> None:
     """Flags that apply to the other kind of render, the output's kind and size, up front."""
-    from sim2real.simulation.model_parts import OFFSCREEN_SIZE
+    from sim2real.simulation.model.parts import OFFSCREEN_SIZE
 
     if args.strip:
         _check_strip(args)

@@ -24,7 +24,7 @@ compliance slope is a proportional band: torque rises from 0 to the torque limit
 ``slope`` ticks.
 
 Gear backlash is not a servo parameter here: it is a joint of the model
-(:mod:`sim2real.simulation.model_builder`), its width drawn by reality files.
+(:mod:`sim2real.simulation.model.builder`), its width drawn by reality files.
 """
 
 from __future__ import annotations

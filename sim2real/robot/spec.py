@@ -9,7 +9,8 @@ URDF model (:class:`ModelSource`) whose joints the config maps onto roles - legs
 with a ``sign`` each (anatomical angle = sign * model angle).  Either way the config gives the
 joints with their ranges, and for a servo robot each joint's Dynamixel (ID, model, direction,
 zero offset), the sensor board and the bus.  Mass, height and leg length (:attr:`RobotSpec.physique`)
-are the box tree's, or measured on the compiled model.
+are the box tree's, or, for a robot from a model file, measured on its compiled model by the
+simulation, which hands them to the spec (:attr:`RobotSpec.measured`): nothing here needs MuJoCo.
 
 Joint angles are anatomical and mirrored between the sides, so the same angle means the
 same motion on either side (a symmetric controller relies on it): :mod:`sim2real.robot.anatomy`.
@@ -21,7 +22,6 @@ same motion on either side (a symmetric controller relies on it): :mod:`sim2real
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cached_property
 from pathlib import Path
 
 from sim2real.robot.profiles import DeviceProfile
@@ -207,6 +207,9 @@ class RobotSpec:
     physics_dt_s: float | None = None  # MuJoCo's timestep [s]; None: timing.PHYSICS_DT_S
     anthropometry: dict[str, float] = field(default_factory=dict)
     model: ModelSource | None = None  # a robot from an MJCF or URDF file (then body is None)
+    # a model robot's mass, height and leg length as the simulation measured them on its compiled
+    # model (sim2real.simulation.model.physique.measured); None until then, and for a box robot
+    measured: Physique | None = None
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -223,18 +226,20 @@ class RobotSpec:
         """The model's floating root body, whose centre of mass the fall test watches."""
         return self.model.root if self.model is not None else BOX_ROOT_BODY
 
-    @cached_property
+    @property
     def physique(self) -> Physique:
-        """Mass, height and leg length: the box tree's, or measured on the compiled model of a
-        robot from a model file (which needs MuJoCo)."""
+        """Mass, height and leg length: the box tree's, or those measured on the compiled model
+        of a robot from a model file (:attr:`measured`; RuntimeError naming the robot if it
+        never was, which takes MuJoCo)."""
         if self.body is not None:
             return Physique(self.body.mass, self.body.height, self.body.leg_length)
-        try:
-            from sim2real.simulation.model_robot import measure_physique  # MuJoCo: only for model robots
-        except ImportError as exc:  # a robot computer without MuJoCo
-            raise RuntimeError(f"robot {self.name} is described by a MuJoCo model ({self.model.path}): measuring "
-                               f"its leg length and mass needs MuJoCo ({exc}; pip install mujoco)") from None
-        return measure_physique(self)
+        if self.measured is None:
+            raise RuntimeError(
+                f"robot {self.name} is described by a MuJoCo model ({self.model.path}): its mass, height and leg "
+                "length are measured on the compiled model, and this robot was loaded without that (it takes "
+                "MuJoCo: pip install mujoco; then sim2real.simulation.model.physique.measured(robot) or "
+                "load_measured(name))")
+        return self.measured
 
     @property
     def mass(self) -> float:

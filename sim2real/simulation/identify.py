@@ -10,7 +10,7 @@ physics step nearest their row's time, quantized as the servo received them; eac
 settling lead is not compared.
 
 What is fitted, per servo model (or per joint), in the vocabulary of reality files
-(:mod:`sim2real.simulation.reality`): ``kp_scale`` (position gain), ``torque_scale`` (stall
+(:mod:`sim2real.simulation.reality.file`): ``kp_scale`` (position gain), ``torque_scale`` (stall
 torque), ``damping_scale`` (back-EMF damping), ``friction_scale`` (Coulomb friction),
 ``armature_scale`` (rotor inertia), ``backlash_deg`` (gear play, full width); and for the
 whole bus ``latency_ms``, from a goal's row in the trace to the servo acting on it: the
@@ -45,9 +45,10 @@ from sim2real.hardware.trace import Trace, check_joint_angles, sidecar_path
 from sim2real.input_files import refuse_repeats
 from sim2real.robot import RobotSpec
 from sim2real.robot.validation import show
-from sim2real.simulation.model_builder import finished_spec
-from sim2real.simulation.robot_model import JointAngles, joint_sensor
-from sim2real.simulation.reality import NOMINAL, Perturbation, apply_to_model, sample
+from sim2real.simulation.model.builder import finished_spec
+from sim2real.simulation.model.robot_model import JointAngles, joint_sensor
+from sim2real.simulation.reality.file import NOMINAL
+from sim2real.simulation.reality.randomize import Perturbation, apply_to_model, sample
 
 # fitted per group: (reality key, low, high)
 SERVO_PARAMETERS = (

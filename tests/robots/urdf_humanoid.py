@@ -133,7 +133,7 @@ def _humanoid(spine: int = 0, leg: int = 6, gripper: str = "slide",
                       _limits(tilt, (-30, 60)), tilt)]
     for p, side, s in (("r", "right", -1), ("l", "left", 1)):
         # Axes as the CAD tool wrote them: (right, left) in each link's frame.  Signs follow
-        # from the anatomical convention (sim2real.simulation.model_builder._AXES).
+        # from the anatomical convention (sim2real.simulation.model.builder._AXES).
         def j(name, kind, parent, child, origin, axis, role_axis, location, sign, rng=None):
             role = Role(side, location, role_axis, sign) if kind in ("revolute", "continuous") else None
             return _Joint(f"{p}_{name}", kind, parent, child, origin, axis,

@@ -10,7 +10,7 @@ torso's up-vector (in its profile's ``up_vector_unit``) and, if its profile has 
 heading (``heading_unit``).  A servo that holds its stall torque for ``overload_s`` latches an
 overload: alert bit, Hardware Error Status, torque off until REBOOT.
 
-A reality profile (:mod:`sim2real.simulation.reality`) perturbs the robot behind the bus: masses,
+A reality profile (:mod:`sim2real.simulation.reality.file`) perturbs the robot behind the bus: masses,
 friction and servo gains in the model, latency as actuator delay, backlash as the gears'
 free play (backlash joints, whose angle the encoders see and the motor does not), noise on
 what the servos and the board report; and, only here, effects the model leaves out
@@ -36,9 +36,10 @@ from sim2real.hardware.dynamixel.errors import OVERLOAD_BIT
 from sim2real.hardware.dynamixel.registers import Reg
 from sim2real.hardware.mock import MockBus
 from sim2real.robot import RobotSpec
-from sim2real.simulation.model_builder import instability
-from sim2real.simulation.robot_model import RobotModel, imu_between
-from sim2real.simulation.reality import EFFECTS, NOMINAL, Reality, perturbed_model
+from sim2real.simulation.model.builder import instability
+from sim2real.simulation.model.robot_model import RobotModel, imu_between
+from sim2real.simulation.reality.file import EFFECTS, NOMINAL, Reality
+from sim2real.simulation.reality.randomize import perturbed_model
 
 MAX_CATCH_UP_S = 0.25  # never simulate more than this in one go (a stalled host)
 # The simulated bus steps at most this much simulated time [s] between two looks at the

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 from sim2real.arg_types import add_realtime_arguments, realtime_request
 from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import RobotSpec
-from sim2real.simulation.dry_run import END_OF_RUN, parse_faults
+from sim2real.simulation.transfer.dry_run import END_OF_RUN, parse_faults
 
 if TYPE_CHECKING:
     from sim2real.simulation.simbus.physics import PhysicsChain
@@ -71,11 +71,12 @@ def serve(args: argparse.Namespace) -> int:
     """Serve until told to stop; see the module docstring."""
     from sim2real.hardware.realtime import request_realtime
     from sim2real.robot import load_robot
-    from sim2real.simulation.reality import load_reality
+    from sim2real.simulation.model.physique import measured
+    from sim2real.simulation.reality.file import load_reality
     from sim2real.simulation.simbus.physics import REPLY_CATCH_UP_S, PhysicsChain
     from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
 
-    robot = load_robot(args.robot)
+    robot = measured(load_robot(args.robot))
     physics = PhysicsChain(robot, reality=load_reality(args.reality), seed=args.seed, suspended=args.suspended)
     # In chunks of REPLY_CATCH_UP_S: after a stall the physics catches up between
     # instructions, and a reply waits for one chunk at most, not for all it missed

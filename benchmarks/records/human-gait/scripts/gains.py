@@ -2,7 +2,7 @@
 import sys
 import numpy as np, mujoco
 from sim2real.robot import load_robot
-from sim2real.simulation.model_builder import build_model
+from sim2real.simulation.model.builder import build_model
 for name in sys.argv[1:]:
     r = load_robot(name)
     m = build_model(r)

@@ -15,7 +15,7 @@ most ``MAX_MODEL_BYTES``) and refused, with the file named and what to do:
   for, and for ``package://PKG/PATH`` how to name the package root (``--package-dir DIR``:
   tried as ``DIR/PKG/PATH`` and ``DIR/PATH``);
 * a model without one hinge joint (nothing a servo could turn);
-* anything :mod:`.model_guard` refuses before MuJoCo opens a file: includes, textures, skins,
+* anything :mod:`.guard` refuses before MuJoCo opens a file: includes, textures, skins,
   height fields and meshes that are no regular files (a FIFO would block MuJoCo), too large or
   outside the model's folders; include cycles; deep nesting; more bodies, joints or geoms than a
   robot has; NaN or infinity in a number; a joint axis of length 0.
@@ -28,9 +28,9 @@ world, and ``compile`` runs ``fusestatic`` *on the spec itself*: a base without 
 fused into the world, and its children then hang from the worldbody.  So
 :func:`add_free_joint` must come before any compile, and :func:`compile_model` compiles a copy.
 
-Checks of what the model holds live beside this module: :mod:`.model_inertias` (implausible
-inertias, recomputed from the collision geometry) and :mod:`.model_mirror` (left/right pairs
-from geometry); both are re-exported here.
+Checks of what the model holds live beside this module: :mod:`.inertias` (implausible
+inertias, recomputed from the collision geometry) and :mod:`.importing.mirror` (left/right pairs
+from geometry).
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ import mujoco
 
 from sim2real.errors import ConfigError
 from sim2real.input_files import read_regular_bytes, regular_file_problem
-from sim2real.simulation.model_guard import (
+from sim2real.simulation.model.guard import (
     MAX_MODEL_BYTES,
     XmlDocument,
     check_model_files,
@@ -53,8 +53,8 @@ from sim2real.simulation.model_guard import (
     near_match,
     parse_model_xml,
 )
-from sim2real.simulation.model_roles import check_unique_names
-from sim2real.simulation.robot_model import is_collision_geom
+from sim2real.simulation.model.body_roles import check_unique_names
+from sim2real.simulation.model.robot_model import is_collision_geom
 
 XACRO_NAMESPACE = "http://www.ros.org/wiki/xacro"
 _SUBSTITUTION = re.compile(r"\$\((?:find|arg|env|optenv|eval|dirname|anon)\b[^)]*\)|\$\{[^}]*\}")

@@ -28,7 +28,7 @@ import mujoco
 import numpy as np
 
 from sim2real.errors import ConfigError
-from sim2real.simulation.robot_model import is_collision_geom
+from sim2real.simulation.model.robot_model import is_collision_geom
 
 FACTOR = 10.0  # a principal moment this many times off the geometry's (either way) is implausible
 _TRIANGLE_SLACK = 1e-6  # relative: rounding in a file's printed moments is no violation

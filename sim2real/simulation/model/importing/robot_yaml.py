@@ -17,7 +17,7 @@ import os
 import re
 from pathlib import Path
 
-from sim2real.robot.importer import (
+from sim2real.simulation.model.importing.importer import (
     DEFAULT_BUS,
     DEFAULT_SENSOR_BOARD,
     GUESSED,

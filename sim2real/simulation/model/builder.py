@@ -1,8 +1,8 @@
 """Robot config -> MuJoCo model, with the servo model of :mod:`sim2real.robot.servo_model`.
 
-A robot from a model file is built by :mod:`sim2real.simulation.model_robot`; both builders
-give their robots the same parts (:mod:`sim2real.simulation.model_parts`), named as
-:mod:`sim2real.simulation.robot_model` reads them.  Here: the box tree, the home keyframe,
+A robot from a model file is built by :mod:`sim2real.simulation.model.file_robot`; both builders
+give their robots the same parts (:mod:`sim2real.simulation.model.parts`), named as
+:mod:`sim2real.simulation.model.robot_model` reads them.  Here: the box tree, the home keyframe,
 PD gains of the human characters (box tree or model file), and :func:`build_model` for every
 robot.
 
@@ -31,7 +31,7 @@ servo (motor-side) joint; the encoder sits on the output shaft, behind the gears
 angle the robot reports is servo joint + backlash joint.  :class:`JointAngles` is the one
 reader of that angle from ``qpos``; the ``<joint>_pos`` sensors stay on the servo joint.
 Each simulation's width goes into the backlash joints' ``jnt_range``
-(:func:`sim2real.simulation.reality.apply`); the compiled model holds them closed.
+(:func:`sim2real.simulation.reality.randomize.apply`); the compiled model holds them closed.
 
     model = build_model(load_robot("xl430_biped"))
     angles = JointAngles.of(model).read(data.qpos)  # [rad], robot.joints order
@@ -49,8 +49,8 @@ from sim2real.errors import BipedError
 from sim2real.robot import Joint, RobotSpec
 from sim2real.robot.anatomy import anatomical_axis
 from sim2real.robot.servo_model import servo_physics
-from sim2real.simulation.joint_loads import axis_inertia, dot3
-from sim2real.simulation.model_parts import (
+from sim2real.simulation.model.joint_loads import axis_inertia, dot3
+from sim2real.simulation.model.parts import (
     COLLISION_BITS,
     COLORS,
     SUSPENDED_HEIGHT_LEGS,
@@ -62,8 +62,8 @@ from sim2real.simulation.model_parts import (
     configure_servo_joint,
     physics_dt,
 )
-from sim2real.simulation.model_robot import level_feet, lowest_sole_point, model_spec
-from sim2real.simulation.robot_model import FEET, IMU_SITE, JointAngles, sole_site
+from sim2real.simulation.model.file_robot import level_feet, lowest_sole_point, model_spec
+from sim2real.simulation.model.robot_model import FEET, IMU_SITE, JointAngles, sole_site
 
 JOINT_ORDER = {"waist": ("yaw", "roll", "pitch"), "hip": ("yaw", "roll", "pitch"),
                "knee": ("pitch",), "ankle": ("yaw", "pitch", "roll")}
@@ -242,7 +242,7 @@ def _scale_pd_gains(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel
     joint".  We take I as the inertia, at home, of what the joint moves when its foot is on
     the ground (the whole body above an ankle; the trunk for a waist joint), since a stance
     leg's joints carry the body; a joint scaled by its distal inertia alone could not stand.
-    Box tree and model file alike (:func:`~sim2real.simulation.joint_loads.carried_bodies`:
+    Box tree and model file alike (:func:`~sim2real.simulation.model.joint_loads.carried_bodies`:
     an arm's or a neck's joint moves what lies beyond it).
     """
     assert robot.pd is not None

@@ -24,9 +24,11 @@ from sim2real.errors import ConfigError
 from sim2real.hardware.trace import TIMING, Trace, check_joint_angles, loop_channels, sidecar_path
 from sim2real.robot import RobotSpec, load_robot
 from sim2real.robot.names import load_named_robot
-from sim2real.simulation.model_builder import instability, SimulationUnstable
-from sim2real.simulation.robot_model import RobotModel
-from sim2real.simulation.reality import Reality, load_reality, perturbed_model
+from sim2real.simulation.model.builder import instability, SimulationUnstable
+from sim2real.simulation.model.physique import measured
+from sim2real.simulation.model.robot_model import RobotModel
+from sim2real.simulation.reality.file import Reality, load_reality
+from sim2real.simulation.reality.randomize import perturbed_model
 
 MAX_LAG_S = 0.5
 
@@ -92,8 +94,8 @@ def compare(trace_path: Path | str, robot_name: str | None = None,
     if not (robot_name or trace.metadata.get("robot")):
         raise ConfigError(str(trace_path), "", f"no robot: its sidecar {sidecar_path(trace_path).name} "
                           "is missing or names none; give --robot")
-    robot = (load_robot(robot_name) if robot_name else
-             load_named_robot(trace.metadata["robot"], str(sidecar_path(trace_path)), "robot"))
+    robot = measured(load_robot(robot_name) if robot_name else
+                     load_named_robot(trace.metadata["robot"], str(sidecar_path(trace_path)), "robot"))
     names = list(robot.joint_names)
     missing = trace.missing([c.name for c in loop_channels(names) if c.name not in TIMING])
     if missing:

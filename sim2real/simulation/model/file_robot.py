@@ -2,14 +2,14 @@
 
 The robot config's ``model:`` block names the file and where its parts are; its ``joints:``
 map the model's hinges onto roles and servos.  :func:`model_spec` loads the file
-(:func:`~sim2real.simulation.model_files.load_model_spec`), drops what the project supplies
+(:func:`~sim2real.simulation.model.files.load_model_spec`), drops what the project supplies
 itself (the file's actuators, sensors, keyframes; its visual-only geoms unless asked to keep
 them), floats the root body, and then gives it exactly what a box robot has, with the same
-code (:mod:`sim2real.simulation.model_parts`): the scene, the servo physics on every mapped
+code (:mod:`sim2real.simulation.model.parts`): the scene, the servo physics on every mapped
 joint (``kp``, force range, damping, friction, armature; backlash joints when asked), a
 position actuator each, the IMU site and sensors, the sole sites and touch sensors.  A PD
 robot's joints keep the file's dynamics and get their gains as a box robot's PD character
-does (:func:`~sim2real.simulation.model_builder.finished_spec`).
+does (:func:`~sim2real.simulation.model.builder.finished_spec`).
 
 * A mapped joint whose ``sign`` is -1 has its axis turned over, so that the model's angle *is*
   the anatomical angle everything else reads; its range is the config's.
@@ -25,7 +25,9 @@ does (:func:`~sim2real.simulation.model_builder.finished_spec`).
   forward (its axes are the body's, as drawn, turned to the robot's facing).
 
 :func:`measure_physique` gives mass, height and leg length from the compiled model at its
-zero pose; the control tick and the holding-torque margins follow from them as for a box robot.
+zero pose (:func:`sim2real.simulation.model.physique.measured` hands them to the robot's spec);
+the control tick and the holding-torque margins follow from them as for a box robot.  Every
+other function here takes a robot so measured.
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ from sim2real.robot import RobotSpec
 from sim2real.robot.anatomy import facing_turn_deg
 from sim2real.robot.servo_model import servo_physics
 from sim2real.robot.spec import Physique
-from sim2real.simulation.model_parts import (
+from sim2real.simulation.model.parts import (
     COLORS,
     SUSPENDED_HEIGHT_LEGS,
     add_backlash_joint,
@@ -52,10 +54,10 @@ from sim2real.simulation.model_parts import (
     configure_servo_joint,
     physics_dt,
 )
-from sim2real.simulation.model_files import add_free_joint, compile_model, load_model_spec
-from sim2real.simulation.model_inertias import recompute_inertias
-from sim2real.simulation.model_roles import check_roles
-from sim2real.simulation.robot_model import FEET, IMU_SITE, is_collision_geom, sole_site
+from sim2real.simulation.model.files import add_free_joint, compile_model, load_model_spec
+from sim2real.simulation.model.inertias import recompute_inertias
+from sim2real.simulation.model.body_roles import check_roles
+from sim2real.simulation.model.robot_model import FEET, IMU_SITE, is_collision_geom, sole_site
 
 DEFAULT_RGBA = (0.5, 0.5, 0.5, 1.0)  # MuJoCo's colour of a geom that sets none
 SOLE_MARGIN_M = 1e-3  # the sole site reaches this far beyond the foot's geoms sideways
@@ -69,7 +71,7 @@ SOLE_SLAB_SHARE = 0.2
 
 def model_spec(robot: RobotSpec, backlash: bool = False, suspended: bool = False,
                for_measure: bool = False) -> mujoco.MjSpec:
-    """The robot's spec, as :func:`~sim2real.simulation.model_builder.build_spec` gives a box
+    """The robot's spec, as :func:`~sim2real.simulation.model.builder.build_spec` gives a box
     robot's; ``for_measure``: before its physique is known (placed as the file places it, for
     :func:`measure_physique`)."""
     source = robot.model

@@ -6,9 +6,9 @@ servo model and the sensors mean the same thing on every robot.
   :mod:`sim2real.robot.servo_model` (motor side on the joint: armature, friction, damping;
   firmware side on a position actuator: ``kp``, saturating at the stall torque);
 * :func:`add_backlash_joint`: the gears' free play behind a joint (see
-  :mod:`sim2real.simulation.model_builder`);
+  :mod:`sim2real.simulation.model.builder`);
 * :func:`add_touch_sensor`, :func:`add_sensors_and_actuators`: the parts
-  :class:`~sim2real.simulation.robot_model.RobotModel` reads, named as it names them.
+  :class:`~sim2real.simulation.model.robot_model.RobotModel` reads, named as it names them.
 """
 
 from __future__ import annotations
@@ -21,8 +21,8 @@ import numpy as np
 from sim2real.robot import Joint, RobotSpec
 from sim2real.robot.servo_model import ServoPhysics, servo_physics
 from sim2real.robot.timing import PHYSICS_DT_S
-from sim2real.simulation.joint_loads import dot3
-from sim2real.simulation.robot_model import (
+from sim2real.simulation.model.joint_loads import dot3
+from sim2real.simulation.model.robot_model import (
     BACKLASH_SUFFIX,
     FLOOR_GEOM,
     FORWARD_SENSOR,
@@ -158,7 +158,7 @@ def add_touch_sensor(spec: mujoco.MjSpec, side: str) -> None:
 
 def add_sensors_and_actuators(spec: mujoco.MjSpec, robot: RobotSpec) -> None:
     """The IMU's sensors on the ``imu`` site, each joint's angle sensor and position actuator
-    (robot order), the gyro: the parts :class:`~sim2real.simulation.robot_model.RobotModel`
+    (robot order), the gyro: the parts :class:`~sim2real.simulation.model.robot_model.RobotModel`
     reads, after the body tree and the touch sensors."""
     # world up in the torso frame: what the sensor board's IMU reports
     spec.add_sensor(name=UP_SENSOR, type=mujoco.mjtSensor.mjSENS_FRAMEZAXIS,

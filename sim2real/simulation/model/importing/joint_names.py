@@ -12,7 +12,7 @@ A name is split into words at ``_``, ``-``, ``.``, spaces, digits and camelCase 
 ``leg_left_hip``).  Locations come from word beginnings as robot makers abbreviate them
 (``LOCATION_WORDS``): ROBOTIS writes ``sho``, ``el``, ``ank``; others ``shoulder``,
 ``elbow``, ``ankle``.  Only names are read here (no MuJoCo): the geometry that confirms or
-contradicts them is :mod:`sim2real.simulation.model_mirror`'s.
+contradicts them is :mod:`sim2real.simulation.model.importing.mirror`'s.
 """
 
 from __future__ import annotations

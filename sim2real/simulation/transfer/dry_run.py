@@ -25,6 +25,7 @@ from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.input_files import check_regular_file
 from sim2real.robot import RobotSpec
 from sim2real.robot.validation import Node, load_yaml
+from sim2real.simulation.reality.file import load_reality  # reality files, read without MuJoCo
 
 FAULT_KINDS = ("silent", "overload", "drop", "corrupt")
 END_OF_RUN = "end of run"  # a line to the simulated bus's standard input: the loop has ended
@@ -182,10 +183,6 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     heading to hold over time and ``reach_target`` where a reaching controller's hand reaches
     (:func:`sim2real.hardware.deploy.drive`).
     """
-    from sim2real.simulation.reality import (
-        load_reality,  # MuJoCo: only a dry run needs it, not `biped run`
-    )
-
     data, robot = Controller.load_for_robot(controller_path, robot_name)
     robot_arg = robot_name or data.robot_name
     profile = load_reality(reality)  # every input checked before anything starts

@@ -5,7 +5,7 @@ along each chain a hinge sits (hip, knee, ankle, toe; shoulder, elbow, wrist).
     places = leg_places(legs.chains[0], hinges, bodies, legs.lateral)
     upper = find_upper(bodies, hinges, root, legs, sides)   # sides: mirror_pairs(...).sides
 
-Plain data in, plain data out (no MuJoCo): :mod:`sim2real.robot.importer` measures the model
+Plain data in, plain data out (no MuJoCo): :mod:`sim2real.simulation.model.importing.importer` measures the model
 at its zero pose and hands the facts here.  The rules, for a robot modelled standing:
 
 * **Legs**: the two branches of the body tree that reach the floor.  From the root, while one
@@ -35,7 +35,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from sim2real.robot.joint_names import words
+from sim2real.simulation.model.importing.joint_names import words
 
 FLOOR_SHARE = 0.05  # a body within this share of the robot's height of the lowest point stands on the floor
 MIN_FLOOR_TOL_M = 0.005

@@ -17,7 +17,7 @@ ROBOTIS's walking stance: the networks drive the central 80 % of each range
 (:mod:`sim2real.controller.mapping`), so a network at rest holds the stance it starts from.
 Rolls and yaws get +-20 deg about it, knees 50 deg, hip and ankle pitch as wide as the
 joint's limits allow; every range within the limits.  The first bend whose robot stands by
-:func:`~sim2real.simulation.stand_check.check_stand` (no warning) is proposed; else the first
+:func:`~sim2real.simulation.standing.check.check_stand` (no warning) is proposed; else the first
 that stands with a warning; else :class:`NoStandingHome` says what each bend did.
 
     proposal = propose_home(robot)             # a RobotSpec loaded from a YAML
@@ -37,9 +37,9 @@ import numpy as np
 from sim2real.errors import BipedError
 from sim2real.robot import RobotSpec
 from sim2real.robot.spec import LEG_LOCATIONS
-from sim2real.simulation.model_builder import build_model
-from sim2real.simulation.robot_model import JointAngles, RobotModel
-from sim2real.simulation.stand_check import STAND_S, StandReport, check_stand, forward_direction
+from sim2real.simulation.model.builder import build_model
+from sim2real.simulation.model.robot_model import JointAngles, RobotModel
+from sim2real.simulation.standing.check import STAND_S, StandReport, check_stand, forward_direction
 
 KNEE_BENDS_DEG = (30.0, 20.0, 40.0, 15.0, 50.0, 60.0)  # tried in this order: a slight bend first
 STRAIGHT_KNEE_DEG = 5.0  # a home knee bent less than this is straight: no stance to walk from
@@ -157,10 +157,8 @@ def with_stance(robot: RobotSpec, home_rad: dict[str, float],
     ranges = range_rad or {}
     joints = tuple(dataclasses.replace(j, home_rad=home_rad.get(j.name, j.home_rad),
                                        range_rad=tuple(ranges.get(j.name, j.range_rad))) for j in robot.joints)
-    new = dataclasses.replace(robot, joints=joints)
-    if "physique" in robot.__dict__:  # measured at the zero pose: home and ranges do not change it
-        new.__dict__["physique"] = robot.physique
-    return new
+    # a measured physique goes along: it is measured at the zero pose, which home and ranges leave alone
+    return dataclasses.replace(robot, joints=joints)
 
 
 def centred_ranges(robot: RobotSpec, home_rad: dict[str, float],

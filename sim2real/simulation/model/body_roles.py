@@ -7,7 +7,7 @@ tree (the bodies and their parents, before anything is compiled):
 
 * every element's name is its own: two joints (bodies, geoms, sites) of one name are refused
   naming them (MuJoCo's URDF reader takes them, then fails on the first look-up); this one
-  runs on every model file read (:func:`~sim2real.simulation.model_files.load_model_spec`);
+  runs on every model file read (:func:`~sim2real.simulation.model.files.load_model_spec`);
 * the root is the robot's kinematic root: a body that hangs from the world;
 * the IMU and the hands are on the robot: the root or a body below it, never the world;
 * the feet are two distinct bodies of the robot, neither below the other, and neither the
@@ -16,7 +16,7 @@ tree (the bodies and their parents, before anything is compiled):
   arm, above its knee or on the other leg is refused.
 
 Each refusal is a :class:`~sim2real.errors.ConfigError` naming the robot config and the key
-(``model.feet.left.body``, ...).  :func:`~sim2real.simulation.model_robot.model_spec` runs
+(``model.feet.left.body``, ...).  :func:`~sim2real.simulation.model.file_robot.model_spec` runs
 them, so every command that builds a model robot does (``robot show``, ``robot mjcf``,
 ``simbus``, evolution, the dry run).
 """
@@ -25,15 +25,12 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import mujoco
 
 from sim2real.errors import ConfigError
+from sim2real.robot import RobotSpec
 from sim2real.robot.validation import show
-
-if TYPE_CHECKING:  # model_files imports this module, and sim2real.robot's importer model_files
-    from sim2real.robot import RobotSpec
 
 SIDES = ("left", "right")
 LEG_JOINTS = ("hip", "knee")  # a foot hangs below its leg's joints of these locations

@@ -1,11 +1,11 @@
 """Does the robot ``biped robot import`` just inferred stand?  And if not, a home that does.
 
-The importer (:mod:`sim2real.robot.importer`) guesses the joint map from the model's structure
+The importer (:mod:`sim2real.simulation.model.importing.importer`) guesses the joint map from the model's structure
 and takes the home from a keyframe ``home`` or the zero pose: straight legs, from which no
 walker starts.  Here, before the YAML is written, the guessed robot is loaded from the very
-text the YAML will hold and given the stand check (:func:`~sim2real.simulation.stand_check.check_stand`,
-5 s from home with the servos holding it).  Where :func:`~sim2real.simulation.stand_home.needs_home`
-says the home falls or has straight knees, :func:`~sim2real.simulation.stand_home.propose_home`
+text the YAML will hold and given the stand check (:func:`~sim2real.simulation.standing.check.check_stand`,
+5 s from home with the servos holding it).  Where :func:`~sim2real.simulation.standing.home.needs_home`
+says the home falls or has straight knees, :func:`~sim2real.simulation.standing.home.propose_home`
 proposes one (knees bent, feet flat, the centre of mass over the soles) with each leg joint's
 range centred on it within the model's limits; the import's joints take that home and those
 ranges (marked guessed), and the robot is checked again as the YAML will be written.
@@ -14,8 +14,8 @@ ranges (marked guessed), and the robot is checked again as the YAML will be writ
     result = stand_imported(result)         # result.stand: before, proposal, after
     write_robot_yaml(result)
 
-This glue lives on the simulation side (it needs MuJoCo) and is called by the command line,
-so that :mod:`sim2real.robot` never imports the simulation to build a YAML.
+This glue is called by the command line: the importer (model building) never imports the
+standing checks, which judge what it builds.
 """
 
 from __future__ import annotations
@@ -25,11 +25,12 @@ from dataclasses import dataclass, replace
 
 from sim2real.errors import BipedError
 from sim2real.robot import RobotSpec, parse_robot
-from sim2real.robot.import_yaml import robot_yaml
-from sim2real.robot.importer import GUESSED, ImportResult, JointGuess, number_text
+from sim2real.simulation.model.importing.robot_yaml import robot_yaml
+from sim2real.simulation.model.importing.importer import GUESSED, ImportResult, JointGuess, number_text
+from sim2real.simulation.model.physique import measured
 from sim2real.robot.validation import parse_yaml
-from sim2real.simulation.stand_check import STAND_S, StandReport, check_stand
-from sim2real.simulation.stand_home import HomeProposal, NoStandingHome, needs_home, propose_home
+from sim2real.simulation.standing.check import STAND_S, StandReport, check_stand
+from sim2real.simulation.standing.home import HomeProposal, NoStandingHome, needs_home, propose_home
 
 
 @dataclass(frozen=True)
@@ -93,9 +94,9 @@ def _summary(report: StandReport) -> str:
 
 def imported_robot(result: ImportResult) -> RobotSpec:
     """The robot ``result`` describes, read from the YAML text it would write (paths relative
-    to ``result.output``); :class:`~sim2real.errors.ConfigError` when it does not load."""
+    to ``result.output``), measured; :class:`~sim2real.errors.ConfigError` when it does not load."""
     source = str(result.output)
-    return parse_robot(parse_yaml(robot_yaml(result), source), source)
+    return measured(parse_robot(parse_yaml(robot_yaml(result), source), source))
 
 
 def stand_imported(result: ImportResult) -> ImportResult:

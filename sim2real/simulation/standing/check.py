@@ -1,6 +1,6 @@
 """Does the robot stand?  Five seconds from its home pose, the servos holding home.
 
-The robot is built as every simulation here builds it (:func:`~sim2real.simulation.model_builder.build_model`:
+The robot is built as every simulation here builds it (:func:`~sim2real.simulation.model.builder.build_model`:
 each joint a position servo with its profile's gain, stall torque, damping and friction, or a
 PD character's gains), put at its ``home`` keyframe (soles just above the floor, feet level)
 and left to stand for ``seconds`` with every actuator's target at home.  What is measured:
@@ -19,7 +19,7 @@ and left to stand for ``seconds`` with every actuator's target at home.  What is
 
 The verdict is ``stands``, ``stands with a warning`` or ``falls``, with every reason.
 
-    report = check_stand(load_robot("op3"))
+    report = check_stand(load_measured("op3"))    # sim2real.simulation.model.physique
     report.verdict, report.up_z_final, report.sag_m, report.reasons
 """
 
@@ -33,8 +33,8 @@ import numpy as np
 
 from sim2real.robot import RobotSpec
 from sim2real.robot.spec import GRAVITY
-from sim2real.simulation.model_builder import build_model, instability
-from sim2real.simulation.robot_model import RobotModel
+from sim2real.simulation.model.builder import build_model, instability
+from sim2real.simulation.model.robot_model import RobotModel
 
 STAND_S = 5.0  # [s] simulated from home
 AVERAGE_S = 0.5  # [s] the final window the weight share and the holding torques are averaged over

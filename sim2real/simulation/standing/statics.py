@@ -18,8 +18,8 @@ import numpy as np
 
 from sim2real.robot import RobotSpec
 from sim2real.robot.spec import GRAVITY
-from sim2real.simulation.joint_loads import carried_bodies
-from sim2real.simulation.robot_model import JointAngles
+from sim2real.simulation.model.joint_loads import carried_bodies
+from sim2real.simulation.model.robot_model import JointAngles
 
 CROUCH_KNEE_DEG = 60.0
 GRAVITY_VECTOR = np.array([0.0, 0.0, -GRAVITY])  # [m/s^2], world frame

@@ -2,8 +2,8 @@
 
 With the stance foot fixed, a leg joint moves every body on the root's side of it; a waist,
 neck or arm joint the bodies beyond it (:func:`carried_bodies`).  :func:`axis_inertia` sums their moment of
-inertia about the joint's axis [kg m^2] (:mod:`sim2real.simulation.model_builder` sizes each
-joint's armature and gains with it; :mod:`sim2real.simulation.statics` their holding torques
+inertia about the joint's axis [kg m^2] (:mod:`sim2real.simulation.model.builder` sizes each
+joint's armature and gains with it; :mod:`sim2real.simulation.standing.statics` their holding torques
 from the same bodies).  Every sum goes through :func:`dot3`, plain floats in a fixed order,
 so that a model compiles to the same bytes on every CPU.
 

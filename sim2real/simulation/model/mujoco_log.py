@@ -6,8 +6,8 @@ is no output of this project's - besides printing it.  :func:`no_log_file` switc
 off for this process through MuJoCo's log configuration (``mujoco.MjLogConfig``, MuJoCo 3.4+:
 ``get()``, the ``logto_file`` switch, ``set()``); the printed line stays, and every warning
 the project acts on it reads from ``MjData.warning`` (e.g.
-:func:`sim2real.simulation.model_builder.instability`), not from the log.
-:mod:`sim2real.simulation.robot_model`, which every MuJoCo model of the project passes
+:func:`sim2real.simulation.model.builder.instability`), not from the log.
+:mod:`sim2real.simulation.model.robot_model`, which every MuJoCo model of the project passes
 through (model building, model files, the simulated bus, evaluation), calls it on import, so
 each process that simulates - ``biped``, the simulated bus's, a Ray worker - has it.
 """

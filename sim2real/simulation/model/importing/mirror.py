@@ -25,7 +25,7 @@ A hinge with no partner is a centre joint when the mirror maps its axis *line* o
 anchor on the plane, or its subtree's centre of mass (a head tilted by a servo horn 19 mm off
 the plane, as ROBOTIS OP3's).  Any other is unpaired, on the side of its anchor.
 
-Names are read for their side (``l_``, ``_right``, ``LHip`` ...: :mod:`sim2real.robot.joint_names`)
+Names are read for their side (``l_``, ``_right``, ``LHip`` ...: :mod:`sim2real.simulation.model.importing.joint_names`)
 and checked: a pair whose names differ once the side is taken out, a name that says left on a
 hinge right of the plane, two names that pair but whose geometry does not.  A model that pairs
 better across the other vertical plane faces the other way than ``forward`` says: ``notes``
@@ -41,7 +41,7 @@ import mujoco
 import numpy as np
 
 from sim2real.robot.anatomy import DEFAULT_FORWARD, to_anatomical
-from sim2real.robot.joint_names import base_of, side_of
+from sim2real.simulation.model.importing.joint_names import base_of, side_of
 
 SIZE_FRACTION = 0.01  # anchor tolerance, of the robot's size
 MIN_TOLERANCE_M = 0.001

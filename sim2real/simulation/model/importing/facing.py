@@ -31,8 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim2real.robot.anatomy import FORWARDS
-from sim2real.robot.joint_names import side_of
-from sim2real.robot.structure import Legs, Place, Tree, _vec
+from sim2real.simulation.model.importing.joint_names import side_of
+from sim2real.simulation.model.importing.structure import Legs, Place, Tree, _vec
 
 FOOT_SHARE = 0.05  # a sole centred within this share of its length on the ankle gives no vote
 BEND_SHARE = 0.02  # a knee within this share of the leg of the hip-ankle line is straight

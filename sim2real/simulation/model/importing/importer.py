@@ -2,7 +2,7 @@
 
     result = import_robot("op3.xml", "configs/robots/op3.yaml", servo="XM430-W350")
     print("\\n".join(result.report()))
-    write_robot_yaml(result)          # sim2real.robot.import_yaml: every guess commented
+    write_robot_yaml(result)          # sim2real.simulation.model.importing.robot_yaml: every guess commented
 
 What it infers, at the model's zero pose (``qpos0``), from the robot's structure:
 
@@ -10,13 +10,13 @@ What it infers, at the model's zero pose (``qpos0``), from the robot's structure
   chain (hip, knee, ankle, toe; shoulder, elbow, wrist): :mod:`.structure`;
 * which way the robot faces, from its feet, knees and toes (or ``forward=``): :mod:`.facing`;
 * each hinge's side from its chain, its mirror partner from the geometry
-  (:mod:`sim2real.simulation.model_mirror`), its axis (yaw, roll, pitch) in the facing's
+  (:mod:`sim2real.simulation.model.importing.mirror`), its axis (yaw, roll, pitch) in the facing's
   anatomical frame, its index among hinges of one role along the chain, and its sign,
   anatomical angle = sign * model angle: :mod:`.roles`;
 * its range from the model's (turned anatomical by the sign, cut to its servo's reach), or
   +-90 deg where the model sets none; its home from a keyframe named ``home``, else 0 (``biped
   robot import`` then checks that it stands and proposes a home that does, with leg ranges
-  centred on it: :mod:`sim2real.simulation.import_stand`); servo IDs 1, 2, ... in model order;
+  centred on it: :mod:`sim2real.simulation.standing.imported`); servo IDs 1, 2, ... in model order;
 * the root (the body with the free joint, or a URDF's base), the IMU at the root's origin, each
   foot as the end of its leg, each hand as the end of its arm.
 
@@ -29,8 +29,8 @@ A knee or elbow whose limits let it bend only the wrong way is named as a limit 
 geometry and, where the facing rests on cues (or ``--forward``), written turned to its flexion
 side (a robot no home makes stand otherwise); the note says so.
 
-Only :func:`import_robot` needs MuJoCo (imported inside it): the rest is plain data, so this
-package still imports without MuJoCo.
+Only :func:`import_robot` needs MuJoCo (imported inside it): the rest is plain data, so the
+command line reads :data:`DEFAULT_SERVO` for its help where MuJoCo is not installed.
 """
 
 from __future__ import annotations
@@ -38,14 +38,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Iterable, Sequence
+from typing import TYPE_CHECKING, Iterable, Protocol, Sequence
 
 import numpy as np
 
-from sim2real.robot import structure
+from sim2real.simulation.model.importing import structure
 from sim2real.robot.anatomy import DEFAULT_FORWARD, to_anatomical
-from sim2real.robot.facing import Facing, infer_facing
-from sim2real.robot.roles import (  # noqa: F401 - the constants, JointGuess and number_text: this module's API
+from sim2real.simulation.model.importing.facing import Facing, infer_facing
+from sim2real.simulation.model.importing.roles import (  # noqa: F401 - the constants, JointGuess and number_text: this module's API
     GUESSED,
     MAX_AXIS_OFF_DEG,
     UNLIMITED_RANGE_DEG,
@@ -56,12 +56,11 @@ from sim2real.robot.roles import (  # noqa: F401 - the constants, JointGuess and
     number_text,
     with_note,
 )
-from sim2real.robot.structure import Body, Hinge
+from sim2real.simulation.model.importing.structure import Body, Hinge
 
 if TYPE_CHECKING:  # pragma: no cover
-    from sim2real.simulation.import_stand import ImportStand
-    from sim2real.simulation.model_inertias import InertiaProblem
-    from sim2real.simulation.model_mirror import MirrorInference
+    from sim2real.simulation.model.inertias import InertiaProblem
+    from sim2real.simulation.model.importing.mirror import MirrorInference
 
 DEFAULT_SERVO = "XL430-W250-T"
 DEFAULT_BUS = ("/dev/ttyUSB0", 1_000_000)
@@ -81,6 +80,12 @@ def servo_model_name(name: str) -> str:
         servos = [m for m in available_profiles() if load_profile(m).is_servo]
         raise KeyError(f"{name!r} is no servo profile (servos: {', '.join(servos)})")
     return profile.model
+
+
+class Reported(Protocol):
+    """What the import's report takes from the stand check it is handed."""
+
+    def report(self) -> list[str]: ...
 
 
 @dataclass
@@ -105,7 +110,9 @@ class ImportResult:
     notes: list[str] = field(default_factory=list)  # anything else a person must read
     facing: "Facing | None" = None
     contradictions: list[str] = field(default_factory=list)  # limits against the geometry, one sentence each
-    stand: "ImportStand | None" = None  # the stand check and the home it proposed (simulation.import_stand)
+    # the stand check and the home it proposed: an ImportStand of sim2real.simulation.standing.imported,
+    # which judges the robot this builds (so this module does not import it, not even for its type)
+    stand: "Reported | None" = None
 
     @property
     def forward(self) -> str:
@@ -161,9 +168,9 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
     :class:`~sim2real.errors.ConfigError` naming the file."""
     from sim2real.errors import ConfigError
     from sim2real.robot.profiles import load_profile
-    from sim2real.simulation import model_files as mf
-    from sim2real.simulation import model_inertias
-    from sim2real.simulation.model_mirror import mirror_pairs
+    from sim2real.simulation.model import files as mf
+    from sim2real.simulation.model import inertias as model_inertias
+    from sim2real.simulation.model.importing.mirror import mirror_pairs
 
     model_file, output = Path(model_file), Path(output)
     dirs = tuple(Path(d).expanduser() for d in package_dirs)
@@ -269,8 +276,8 @@ def import_robot(model_file: Path | str, output: Path | str, *, servo: str = DEF
         if left is not None and right is not None and (left.location, left.axis) != (right.location, right.axis):
             result.notes.append(f"{GUESSED}: the mirror pairs {left.name} ({left.location} {left.axis}) with "
                                 f"{right.name} ({right.location} {right.axis})")
-    # the stand check and a home that stands: sim2real.simulation.import_stand.stand_imported(result), which
-    # the command line calls (it needs the simulation, which this module does not import to build a YAML)
+    # the stand check and a home that stands: sim2real.simulation.standing.imported.stand_imported(result), which
+    # the command line calls (standing judges what model building makes, a job above this one)
     return result
 
 
@@ -354,7 +361,7 @@ def _model_facts(model) -> tuple[list[Hinge], dict[str, Body], list[tuple[str, s
     with why they are held."""
     import mujoco
 
-    from sim2real.simulation.robot_model import is_collision_geom
+    from sim2real.simulation.model.robot_model import is_collision_geom
 
     data = mujoco.MjData(model)
     key = next((k for k in range(model.nkey) if model.key(k).name == "home"), None)
@@ -383,7 +390,7 @@ def _model_facts(model) -> tuple[list[Hinge], dict[str, Body], list[tuple[str, s
     kinds = {int(mujoco.mjtJoint.mjJNT_SLIDE): "a slide (prismatic) joint, e.g. a gripper's: not a servo's hinge",
              int(mujoco.mjtJoint.mjJNT_BALL): "a ball joint: not a servo's hinge"}
     for j in range(model.njnt):
-        name = model.joint(j).name or f"joint{j}"  # as model_mirror names it; held below, the map needs a name
+        name = model.joint(j).name or f"joint{j}"  # as mirror.py names it; held below, the map needs a name
         if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
             limited = bool(model.jnt_limited[j])
             hinges.append(Hinge(name, tuple(float(v) for v in data.xanchor[j]),

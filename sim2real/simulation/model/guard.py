@@ -13,7 +13,7 @@ and the element named:
   URDF's ``<mesh filename>``) that exists but is not a regular file, is larger than
   ``MAX_ASSET_BYTES``, or lies outside the folders a model's files may come from; a missing
   include, texture, skin or height field, with a near match (``.STL`` for ``.stl``) named;
-  missing meshes are left to :mod:`.model_files`, which lists them all at once;
+  missing meshes are left to :mod:`.files`, which lists them all at once;
 * includes deeper than ``MAX_INCLUDE_DEPTH`` or in a cycle; XML nested deeper than
   ``MAX_XML_DEPTH`` (the standard library's writer and walks recurse); a DTD (entity
   expansion is how XML bombs grow);
@@ -271,7 +271,7 @@ class _Walk:
         candidates = [Path(name)] if Path(name).is_absolute() else [model_dir / folder / name,
                                                                      place.doc.path.parent / name]
         self._existing(element, place, attr, value, candidates, MAX_ASSET_BYTES,
-                       missing_is_error=element.tag != "mesh")  # missing meshes: model_files lists them all
+                       missing_is_error=element.tag != "mesh")  # missing meshes: files.py lists them all
 
     def _model(self, element: ET.Element, place: _Place, path: Path) -> None:
         if len(place.chain) > MAX_INCLUDE_DEPTH:

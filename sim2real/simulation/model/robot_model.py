@@ -27,7 +27,7 @@ import numpy as np
 from sim2real.controller.channels import turn_rad
 from sim2real.robot import RobotSpec
 from sim2real.robot.spec import ARM_LOCATIONS
-from sim2real.simulation.mujoco_log import no_log_file
+from sim2real.simulation.model.mujoco_log import no_log_file
 
 no_log_file()  # every MuJoCo model passes through here: no MUJOCO_LOG.TXT in the user's folder
 FEET = ("left", "right")  # the order of every per-foot array

@@ -3,7 +3,7 @@
     guesses, held = assign_roles(tree, placed, forward, reach_deg)
 
 ``placed`` lists each chain's hinges in order from the root with the chain's side and each
-hinge's :class:`~sim2real.robot.structure.Place`.  For each hinge:
+hinge's :class:`~sim2real.simulation.model.importing.structure.Place`.  For each hinge:
 
 * its **axis** is the principal direction nearest its world axis seen in the anatomical frame
   of the facing (x forward, y left, z up; more than ``MAX_AXIS_OFF_DEG`` off every one: held);
@@ -32,8 +32,8 @@ from typing import Callable, Sequence
 import numpy as np
 
 from sim2real.robot.anatomy import ANATOMICAL_AXES, anatomical_axis, to_anatomical
-from sim2real.robot.joint_names import axis_of, location_of
-from sim2real.robot.structure import Hinge, Place
+from sim2real.simulation.model.importing.joint_names import axis_of, location_of
+from sim2real.simulation.model.importing.structure import Hinge, Place
 
 MAX_AXIS_OFF_DEG = 30.0  # a hinge farther than this from every principal axis has no role
 ONE_SIDED = 4.0  # an elbow whose limits reach this many times farther one way bends that way
