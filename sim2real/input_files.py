@@ -104,6 +104,16 @@ def read_regular_bytes(path: Path | str, source: str | None = None, limit: int |
             raise ConfigError(source, "", f"cannot read: {exc.strerror or exc}") from None
 
 
+def decode_utf8(raw: bytes, source: str, what: str) -> str:
+    """``raw`` as UTF-8 text, or a :class:`ConfigError` naming ``source``, the first byte that is
+    not UTF-8 and its line, as ``what`` (e.g. "not a YAML file: binary, or not UTF-8 text")."""
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise ConfigError(source, "", f"{what}: byte 0x{raw[exc.start]:02x} at line {line} (offset {exc.start})") from None
+
+
 def refuse_repeats(paths: Sequence[Path | str], what: str = "file") -> None:
     """:class:`UsageError` when two of ``paths`` are one file (the same path, a link and its
     target: the same real path) or hold the same bytes (a copy): a command that takes several

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from sim2real.errors import ConfigError
-from sim2real.input_files import read_regular_bytes
+from sim2real.input_files import decode_utf8, read_regular_bytes
 from sim2real.robot.validation import show
 
 MAX_BYTES = 4 * 1024 * 1024  # a 300-connection controller is < 20 KB; 4 MiB holds ~200,000
@@ -92,12 +92,7 @@ def decode(raw: bytes, source: str) -> Any:
     markers for the check."""
     if raw.startswith(codecs.BOM_UTF8):
         raw = raw[len(codecs.BOM_UTF8):]
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw.count(b"\n", 0, exc.start) + 1
-        raise ConfigError(source, "", f"not UTF-8 text (binary, or another encoding?): byte 0x{raw[exc.start]:02x} "
-                          f"at line {line} (offset {exc.start})") from None
+    text = decode_utf8(raw, source, "not UTF-8 text (binary, or another encoding?)")
     depth, line = nesting_depth(raw)
     if depth > MAX_DEPTH:
         raise ConfigError(source, "", f"JSON nested {depth} levels deep (line {line}); "

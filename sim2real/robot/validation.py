@@ -36,7 +36,7 @@ import yaml
 from yaml.nodes import MappingNode, Node as YamlNode, ScalarNode, SequenceNode
 
 from sim2real.errors import ConfigError
-from sim2real.input_files import read_regular_bytes
+from sim2real.input_files import decode_utf8, read_regular_bytes
 
 MAX_YAML_BYTES = 256 * 1024  # the largest shipped YAML (a firmware profile) is 10 KB
 MAX_YAML_DEPTH = 64  # as controller JSON; the project's formats nest at most 6 deep
@@ -225,12 +225,7 @@ def _read_text(path: Path) -> str:
     unread if larger; UTF-8 without NUL bytes."""
     source = str(path)
     raw = read_regular_bytes(path, source, limit=MAX_YAML_BYTES, what="configuration")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw.count(b"\n", 0, exc.start) + 1
-        raise ConfigError(source, "", f"not a YAML file: binary, or not UTF-8 text (byte 0x{raw[exc.start]:02x} "
-                          f"at line {line})") from None
+    text = decode_utf8(raw, source, "not a YAML file: binary, or not UTF-8 text")
     if "\0" in text:
         line = text.count("\n", 0, text.index("\0")) + 1
         raise ConfigError(source, "", f"not a YAML file: binary (a NUL byte at line {line})")
