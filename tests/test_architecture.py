@@ -18,6 +18,7 @@ not for cycles (it never runs).  No rule has a declared exception.  The rules:
 * ``sim2real.controller`` imports nothing of ``sim2real.hardware`` (a controller is checked
   against its robot's description, not the bus code);
 * library modules of ``evolve`` import no command-line module (:func:`is_command_module`);
+* the simulated bus imports none of the jobs that use it (dry runs, identification, rendering);
 * no import cycle among the modules of ``sim2real`` and ``evolve``;
 * no module of ``sim2real`` or ``evolve`` is over :data:`MAX_MODULE_LINES` lines.
 """
@@ -174,6 +175,15 @@ def test_model_building_imports_no_other_job_of_the_simulation():
     model = "sim2real.simulation.model"
     wrong = [i for i in import_graph() if _in(i.source, model) and _in(i.target, "sim2real.simulation")
              and not _in(i.target, model) and i.target != "sim2real.simulation"]
+    assert not wrong, _where(wrong)
+
+
+def test_the_simulated_bus_sits_below_what_uses_it():
+    """The simulated bus is a device: dry runs, identification and rendering use it, never the
+    reverse (the fault format it plays is its own, :mod:`sim2real.simulation.simbus.faults`)."""
+    users = ("sim2real.simulation.transfer", "sim2real.simulation.identify", "sim2real.simulation.rendering")
+    wrong = [i for i in import_graph() if _in(i.source, "sim2real.simulation.simbus")
+             and any(_in(i.target, user) for user in users)]
     assert not wrong, _where(wrong)
 
 

@@ -147,7 +147,7 @@ def test_current_sensing_servos_report_present_current():
 
 def test_faults_from_a_flag_or_a_yaml_file(tmp_path):
     from sim2real.errors import ConfigError
-    from sim2real.simulation.transfer.dry_run import parse_faults
+    from sim2real.simulation.simbus.faults import parse_faults
 
     flag = parse_faults("silent:4@3,overload:7@5.5,drop:0.02")
     path = tmp_path / "faults.yaml"

@@ -31,7 +31,7 @@ from sim2real.robot import load_robot
 from sim2real.robot.paths import data_root
 from sim2real.robot.profiles import available_profiles
 from sim2real.robot.validation import MAX_YAML_BYTES, MAX_YAML_NODES, load_yaml, parse_yaml, show
-from sim2real.simulation.transfer.dry_run import parse_faults
+from sim2real.simulation.simbus.faults import parse_faults
 from sim2real.simulation.reality.file import PLAUSIBLE, Reality, load_reality
 
 ROOT = data_root()

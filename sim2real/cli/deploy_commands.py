@@ -159,7 +159,7 @@ def check_run(args: argparse.Namespace) -> None:
 
 def check_dry_run(args: argparse.Namespace) -> None:
     from sim2real.controller.activation import check_disabled_modules
-    from sim2real.simulation.transfer.dry_run import check_fault_times, parse_faults
+    from sim2real.simulation.simbus.faults import check_fault_times, parse_faults
 
     data, robot = _servo_robot(args.robot, args.controller)
     check_duration(args.duration, float(data.tick_s))
@@ -169,7 +169,7 @@ def check_dry_run(args: argparse.Namespace) -> None:
 
 
 def check_simbus(args: argparse.Namespace) -> None:
-    from sim2real.simulation.transfer.dry_run import parse_faults
+    from sim2real.simulation.simbus.faults import parse_faults
 
     _, robot = _servo_robot(args.robot)
     if args.baud is not None:

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 from sim2real.arg_types import add_realtime_arguments, realtime_request
 from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.robot import RobotSpec
-from sim2real.simulation.transfer.dry_run import END_OF_RUN, parse_faults
+from sim2real.simulation.simbus.faults import END_OF_RUN, parse_faults
 
 if TYPE_CHECKING:
     from sim2real.simulation.simbus.physics import PhysicsChain
