@@ -76,8 +76,10 @@ def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, rob
     if (run_dir / "checkpoint.json.gz").exists():
         run = Run.resume(run_dir, threads=threads, log=log)
     else:
-        config = load_evolve_config(config_path(config_name)).replace(
-            robot=f"{robot}:{preset}", seed=seed, generations=generations, threads=threads)
+        # the body given as an override, so that what follows from it (a gait clock's period from
+        # its leg length, phase_period_s: auto) is this preset's
+        config = load_evolve_config(config_path(config_name), {"robot": f"{robot}:{preset}"}).replace(
+            seed=seed, generations=generations, threads=threads)
         run = Run.create(config, run_dir, log=log)
     task = run.config.task
     judge = LocomotionEvaluator(run.robot, task, 1, threads=1)

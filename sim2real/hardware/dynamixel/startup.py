@@ -19,7 +19,10 @@ from sim2real.hardware.bus import CommunicationError
 from sim2real.hardware.dynamixel.chain import ServoChain
 from sim2real.hardware.dynamixel.errors import decode_hardware_error
 from sim2real.hardware.dynamixel.registers import POSITION_MODE, Reg
+from sim2real.robot.bus_plan import RETURN_DELAY_US  # the bus time the tick is checked against assumes it
 from sim2real.robot.timing import WATCHDOG_MS, WATCHDOG_UNIT_MS  # the tick's bounds are checked against it too
+
+RETURN_DELAY_UNIT_US = 2.0  # Return Delay Time's unit (e-Manual, every X and MX series: 2 us a step)
 
 
 class StartupError(BipedError):
@@ -56,7 +59,7 @@ def start_up(chain: ServoChain, mapping: ServoMapping, *, attempts: int, patienc
     chain.torque(False, attempts=attempts, patience_s=patience_s)  # EEPROM settings need torque off
     for k, dxl_id in enumerate(chain.servo_ids):
         table = chain.devices[dxl_id].control_table
-        settings = [(Reg.RETURN_DELAY_TIME, 0)]
+        settings = [(Reg.RETURN_DELAY_TIME, round(RETURN_DELAY_US / RETURN_DELAY_UNIT_US))]
         if Reg.OPERATING_MODE in table:
             settings.append((Reg.OPERATING_MODE, POSITION_MODE))
         if Reg.MIN_POSITION_LIMIT in table:
