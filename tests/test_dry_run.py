@@ -158,3 +158,16 @@ def test_faults_from_a_flag_or_a_yaml_file(tmp_path):
         parse_faults(str(path))
     with pytest.raises(ConfigError, match="kind must be silent or overload"):
         parse_faults("melt:3@1")
+
+
+@pytest.mark.parametrize("command, problem", [
+    ({"heading": lambda t_s: 0.5}, "no heading input"),
+    ({"reach_target": (0.1, 0.0, 0.0)}, "no reach input"),
+])
+def test_a_command_the_controller_cannot_take_is_refused_before_the_bus_starts(command, problem, monkeypatch):
+    from sim2real.errors import UsageError
+    from sim2real.simulation.transfer import dry_run as module
+
+    monkeypatch.setattr(module, "SimulatedBusProcess", lambda *a, **k: pytest.fail("the simulated bus was started"))
+    with pytest.raises(UsageError, match=problem):
+        dry_run("configs/controllers/xl430_biped_no_gyro.json", **command)

@@ -17,7 +17,7 @@ neither steering nor reaching.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Iterable
+from typing import Any, Callable, Container, Iterable
 
 import numpy as np
 
@@ -26,10 +26,22 @@ from sim2real.controller.channels import InputWiring, Reach, Readings
 from sim2real.controller.file import Controller
 from sim2real.controller.kinematics import ArmChain
 from sim2real.controller.mapping import hold_pose, max_steps, output_to_angle, rate_limit
-from sim2real.controller.reach import ReachControl, aim_reach
+from sim2real.controller.reach import NO_REACH, ReachControl, aim_reach
 from sim2real.controller.symmetry import joint_outputs
 from sim2real.errors import UsageError
 from sim2real.robot import RobotSpec
+
+
+def refuse_commands(inputs: Container[str], *, heading: object = None, reach_target: object = None) -> None:
+    """Refuse (:class:`UsageError`) a user's command that a controller with these input channels
+    cannot take: a heading to hold without the heading input, a reach target without the reach
+    input.  The dry run asks before it starts the simulated bus, :meth:`Policy.apply_commands`
+    before any servo moves."""
+    if heading is not None and "heading" not in inputs:
+        raise UsageError("a heading to hold was given, but the controller has no heading input "
+                         "(heading_input): it cannot be steered")
+    if reach_target is not None and "reach" not in inputs:
+        raise UsageError(NO_REACH)
 
 
 class Policy:
@@ -87,10 +99,8 @@ class Policy:
         the start [s] (a controller with a heading input, :mod:`sim2real.controller.steering`);
         ``reach_target``, where the right hand reaches in the root body's frame [m] (a reaching
         controller, :func:`~sim2real.controller.reach.aim_reach`).  None: not commanded."""
+        refuse_commands(self.layout.inputs, heading=heading, reach_target=reach_target)
         if heading is not None:
-            if "heading" not in self.layout.inputs:
-                raise UsageError("a heading to hold was given, but the controller has no heading input "
-                                 "(heading_input): it cannot be steered")
             self.heading_command = heading
         if reach_target is not None:
             aim_reach(self.reach, reach_target, log)

@@ -16,8 +16,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 from sim2real.controller.file import Controller
-from sim2real.controller.reach import NO_REACH
-from sim2real.errors import BipedError, UsageError
+from sim2real.controller.policy import refuse_commands
+from sim2real.errors import BipedError
 from sim2real.hardware.deploy import drive
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.hardware.realtime import RealtimeRequest
@@ -98,11 +98,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     data, robot = Controller.load_for_robot(controller_path, robot_name)
     robot_arg = robot_name or data.robot_name
     profile = load_reality(reality)  # every input checked before anything starts
-    if heading is not None and not data.heading_input:
-        raise UsageError("a heading to hold was given, but the controller has no heading input (heading_input): "
-                         "it cannot be steered")
-    if reach_target is not None and "reach" not in data.input_channels:
-        raise UsageError(NO_REACH)
+    refuse_commands(data.input_channels, heading=heading, reach_target=reach_target)
     check_fault_times(parse_faults(faults, robot), duration_s)
     args = ["--robot", robot_arg, "--seed", str(seed), "--fault-delay", str(ramp_s),
             *(["--reality", reality] if reality else []), *(["--faults", faults] if faults else []),
