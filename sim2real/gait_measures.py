@@ -114,15 +114,19 @@ def is_a_walk(m: GaitMeasures) -> bool:
     return not walk_faults(m)
 
 
-def describe(m: GaitMeasures) -> str:
-    """One line for people: ``hip swing 37.9 / 37.4 deg (symmetry 0.99), flight 0 %, ...``."""
+def describe(m: GaitMeasures, brief: bool = False) -> str:
+    """One line for people: ``hip swing 37.9 / 37.4 deg (symmetry 0.99), flight 0 %, ...``;
+    ``brief``: a picture's subtitle (the start-up skipped first, no step count or faults)."""
     if m.empty:
-        return f"not measured: no ticks after the first {m.skipped_s:g} s"
+        return f"{'gait ' if brief else ''}not measured: no ticks after the first {m.skipped_s:g} s"
     left, right = m.hip_swing_deg
+    swing = (f"hip swing {left:.1f} / {right:.1f} deg{'' if brief else ' left / right'} "
+             f"(symmetry {m.symmetry:.2f}), both feet up {m.flight_share:.0%}, both down {m.double_support_share:.0%}, ")
+    if brief:
+        return (f"after {m.skipped_s:g} s: {swing}{m.cadence_steps_min:.0f} steps/min: "
+                f"{'a walk' if is_a_walk(m) else 'not a walk'}")
     verdict = "a walk" if is_a_walk(m) else "not a walk (" + "; ".join(walk_faults(m)) + ")"
-    return (f"hip swing {left:.1f} / {right:.1f} deg left / right (symmetry {m.symmetry:.2f}), "
-            f"both feet up {m.flight_share:.0%}, both down {m.double_support_share:.0%}, "
-            f"{m.steps} steps ({m.cadence_steps_min:.0f} /min) in {m.measured_s:.1f} s: {verdict}")
+    return f"{swing}{m.steps} steps ({m.cadence_steps_min:.0f} /min) in {m.measured_s:.1f} s: {verdict}"
 
 
 def hip_pitch_joints(robot: RobotSpec) -> tuple[str, str]:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sim2real.figures import pyplot, save_figure
-from sim2real.gait_measures import GaitMeasures, is_a_walk
+from sim2real.gait_measures import GaitMeasures, describe
 from sim2real.hardware.trace import PRESENT, Trace
 from sim2real.robot.spec import RobotSpec
 
@@ -86,7 +86,7 @@ def plot_gait(gait: Gait, path: Path | str, dpi: int = 110, measures: GaitMeasur
         _mark_fall(ax, gait)
         if k == 0:
             ax.legend(loc="upper right", fontsize=8, ncol=2)
-            ax.set_title(gait.title + (f"\n{measures_line(measures)}" if measures is not None else ""),
+            ax.set_title(gait.title + (f"\n{describe(measures, brief=True)}" if measures is not None else ""),
                          fontsize=10, loc="left")
     if gait.feet is not None:
         ax = fig.add_subplot(grid[len(rows), 0], sharex=first)
@@ -117,16 +117,6 @@ def plot_gait(gait: Gait, path: Path | str, dpi: int = 110, measures: GaitMeasur
     else:
         portrait.axis("off")
     save_figure(fig, path, dpi=dpi)
-
-
-def measures_line(m: GaitMeasures) -> str:
-    """The gait measures as a picture's subtitle: short, the verdict last."""
-    if m.empty:
-        return f"gait not measured: no ticks after the first {m.skipped_s:g} s"
-    left, right = m.hip_swing_deg
-    return (f"after {m.skipped_s:g} s: hip swing {left:.1f} / {right:.1f} deg (symmetry {m.symmetry:.2f}), "
-            f"both feet up {m.flight_share:.0%}, both down {m.double_support_share:.0%}, "
-            f"{m.cadence_steps_min:.0f} steps/min: {'a walk' if is_a_walk(m) else 'not a walk'}")
 
 
 def _mark_fall(ax, gait: Gait) -> None:
