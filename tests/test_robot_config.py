@@ -56,6 +56,34 @@ def test_torque_cap_in_proportion_to_mass():
     assert large.pd.max_torque_nm == pytest.approx(4.0 * 131.8)
 
 
+def test_pd_no_load_speed_scales_with_leg_and_limits_goals_and_torque():
+    """A PD body's no-load speed in Froude units: the same number moves a short body's joints
+    faster; the goal's step a tick and the joints' damping (cap / w0) follow from it."""
+    import mujoco
+    import numpy as np
+
+    from sim2real.controller.mapping import max_steps
+    from sim2real.simulation.model.builder import build_model
+
+    doc = _doc("human_stepping")
+    assert load_robot("human_stepping").pd_no_load_speed_rad_s == math.inf  # the shipped body: no limit
+    assert np.isinf(max_steps(load_robot("human_stepping"), 0.07)).all()
+    doc["pd_gains"]["no_load_speed_froude"] = 0.94
+    small, large = (parse_robot(doc, "human_stepping.yaml", preset) for preset in ("female_5", "male_95"))
+    for robot in (small, large):
+        w0 = robot.pd_no_load_speed_rad_s
+        assert w0 == pytest.approx(0.94 * math.sqrt(9.81 / robot.leg_length))
+        assert max_steps(robot, 0.07) == pytest.approx(np.full(len(robot.joints), w0 * 0.07))
+        model = build_model(robot)
+        knee = model.joint("left_knee").dofadr[0]
+        assert model.dof_damping[knee] == pytest.approx(robot.pd_torque_cap_nm / w0)
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "left_knee") >= 0
+    assert small.pd_no_load_speed_rad_s > large.pd_no_load_speed_rad_s
+    doc["pd_gains"]["no_load_speed_froude"] = -1.0
+    with pytest.raises(ConfigError, match="no_load_speed_froude"):
+        parse_robot(doc, "human_stepping.yaml")
+
+
 @pytest.mark.parametrize("caps", [{}, {"max_torque_nm": 300.0, "max_torque_nm_per_kg": 4.0}])
 def test_torque_cap_must_be_given_one_way(caps):
     doc = _doc("human")

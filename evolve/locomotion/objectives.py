@@ -22,6 +22,7 @@ import numpy as np
 
 from sim2real.controller.channels import Reach, turn_rad
 from sim2real.controller.reach import REACHING, ReachControl, ReachCycle
+from sim2real.gait_measures import GaitMeter, hip_pitch_joints
 from sim2real.robot.spec import ARM_LOCATIONS
 
 
@@ -96,6 +97,12 @@ class WalkObjective:
     The heading to hold is the start's, turned by the
     episode's command (``evaluator.turns``).  ``turn`` [deg], weighted by nothing, is the
     largest turn from the start's heading while upright (validation can refuse walks that turn).
+
+    With the task's ``selection_gait_coeff`` > 0, a ``gait`` term pays a two-legged walk over a
+    hop or a run (:mod:`sim2real.gait_measures`, after their start-up): the share of the
+    episode upright x the hips' swing symmetry (smaller / larger) x ``exp(-(f / sigma_f)^2)`` of
+    the share f of ticks with both feet up, sigma_f ``selection_gait_flight_sigma``; 0..1, and 0
+    for an episode that fell before its start-up was over.  Left out (not computed) otherwise.
     """
 
     TERMS = ("distance", "time", "progress", "velocity", "yaw_rate", "straight", "turn")
@@ -122,6 +129,8 @@ class WalkObjective:
         self.velocity_sum = np.zeros(n)  # sums of the kernels over live ticks
         self.yaw_sum = np.zeros(n)
         self.straight_sum = np.zeros(n)
+        self.gait = GaitMeter(n, ev.tick_s) if task.selection_gait_coeff > 0 else None
+        self.hips = [ev.robot.joint_names.index(name) for name in hip_pitch_joints(ev.robot)] if self.gait else []
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, task = self.ev, self.task
@@ -144,6 +153,9 @@ class WalkObjective:
         self.fell[alive[down & ~bad]] = True
         yaw = ev.parts.heading(ev.sensordata)[alive]  # the true yaw, as the board's IMU would read it
         self.turned[live] = np.maximum(self.turned[live], np.abs(turn_rad(yaw[ok], self.start_yaw[live])))
+        if self.gait is not None:  # the ticks upright, at the time of this tick (before _steady counts it)
+            self.gait.add(live, self.ticks * ev.tick_s, ev.joint_angles(live)[:, self.hips],
+                          ev.parts.feet_touching(ev.sensordata[live]))
         self._steady(alive, ok, yaw)
         self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
         self.time_term[alive[bad]] = 0.0
@@ -180,8 +192,12 @@ class WalkObjective:
                  "yaw_rate": np.where(unstable, 0.0, self.yaw_sum / ticks),
                  "straight": np.where(unstable, 0.0, self.straight_sum / ticks),
                  "turn": np.degrees(self.turned)}
+        if self.gait is not None:
+            terms["gait"] = np.where(unstable, 0.0, self._gait_term())
         fitness = task.distance_coeff * terms["distance"] + task.time_coeff * terms["time"]
         selection = fitness + task.progress_coeff * terms["progress"]
+        if self.gait is not None:
+            selection = selection + task.selection_gait_coeff * terms["gait"]
         if task.selection_velocity_coeff or task.selection_yaw_coeff or task.selection_straight_coeff:
             selection = (selection + task.selection_velocity_coeff * terms["velocity"]
                          + task.selection_yaw_coeff * terms["yaw_rate"]
@@ -195,6 +211,14 @@ class WalkObjective:
                 walked &= self.turned <= np.radians(task.selection_heading_deg)
             episodes = dataclasses.replace(episodes, selection=selection + task.selection_walk_bonus * walked)
         return episodes
+
+    def _gait_term(self) -> np.ndarray:
+        """Each episode's gait term, 0..1 (see the class docstring)."""
+        measures = self.gait.measures()
+        symmetry = np.array([0.0 if m.empty or not math.isfinite(m.symmetry) else m.symmetry for m in measures])
+        flight = np.array([1.0 if m.empty else m.flight_share for m in measures])
+        upright = np.minimum(self.time_term / self.ev.episode_s, 1.0)
+        return upright * symmetry * np.exp(-(flight / self.task.selection_gait_flight_sigma) ** 2)
 
 
 @dataclass(frozen=True)

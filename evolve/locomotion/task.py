@@ -78,6 +78,8 @@ class TaskConfig:
     selection_yaw_sigma_deg_s: float = 11.5  # [deg/s] the yaw-rate kernel's width (ToddlerBot: exp(-25 e^2), e in rad/s)
     selection_straight_coeff: float = 0.0  # times the straight term: the velocity kernel x the heading kernel
     selection_heading_sigma_deg: float = 15.0  # [deg] the heading kernel's width (the straight term's)
+    selection_gait_coeff: float = 0.0  # times the gait term: upright share x hip swing symmetry x the flight kernel
+    selection_gait_flight_sigma: float = 0.05  # the flight kernel's width [share of ticks with both feet up]
     phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (channels.Clock)
     efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (channels.EfferenceCopy)
     heading_input: bool = False  # the networks get the torso's turn since the start (channels.Heading)
@@ -150,7 +152,8 @@ class TaskConfig:
         if not 0 < config.heading_turn_max_deg <= 180:
             raise ConfigError(source, prefix + "heading_turn_max_deg", f"must be within (0, 180], got "
                               f"{config.heading_turn_max_deg:g}")
-        for key in ("selection_speed_leg_s", "selection_yaw_sigma_deg_s", "selection_heading_sigma_deg"):
+        for key in ("selection_speed_leg_s", "selection_yaw_sigma_deg_s", "selection_heading_sigma_deg",
+                    "selection_gait_flight_sigma"):
             if not getattr(config, key) > 0:
                 raise ConfigError(source, prefix + key, f"must be > 0, got {getattr(config, key):g}")
         if config.output_centre not in OUTPUT_RULES:

@@ -59,8 +59,10 @@ def rate_limit(goal: np.ndarray, previous: np.ndarray, max_step: np.ndarray) -> 
 
 def max_steps(robot: RobotSpec, tick_s: float) -> np.ndarray:
     """(n_joints,) how far each joint's goal may move in one tick [rad]: its servo's
-    :func:`~sim2real.robot.servo_model.max_step_per_tick` (no limit without a servo)."""
-    return np.array([max_step_per_tick(j.servo.profile, tick_s) if j.servo else np.inf for j in robot.joints])
+    :func:`~sim2real.robot.servo_model.max_step_per_tick`; a PD joint's no-load speed times
+    the tick (no limit for a PD robot without one)."""
+    pd_step = robot.pd_no_load_speed_rad_s * tick_s if robot.pd is not None else np.inf
+    return np.array([max_step_per_tick(j.servo.profile, tick_s) if j.servo else pd_step for j in robot.joints])
 
 
 def hold_pose(robot: RobotSpec, driven: Collection[str]) -> np.ndarray:

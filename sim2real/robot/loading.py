@@ -31,6 +31,7 @@ from sim2real.robot.spec import (
     LOCATIONS,
     MAX_TORQUE_NM,
     MAX_TORQUE_NM_PER_KG,
+    NO_LOAD_SPEED_FROUDE,
     PD_KD,
     PD_KP,
     PHYSICS_DT_S,
@@ -297,7 +298,7 @@ def _read_pd(node: Node, mass_kg: float | None) -> PDGains:
     """Eq. 2's gains and the torque cap: ``max_torque_nm`` for every body, or
     ``max_torque_nm_per_kg`` times the body's mass [kg] (strength in proportion to size);
     ``mass_kg`` None (a body measured on its model later) keeps the cap per kg."""
-    node.mapping(required=("kp", "kd"), optional=("max_torque_nm", "max_torque_nm_per_kg"))
+    node.mapping(required=("kp", "kd"), optional=("max_torque_nm", "max_torque_nm_per_kg", "no_load_speed_froude"))
     caps = [key for key in ("max_torque_nm", "max_torque_nm_per_kg") if node.has(key)]
     if len(caps) != 1:
         raise node.error("give exactly one of max_torque_nm (a fixed cap) and max_torque_nm_per_kg "
@@ -312,7 +313,10 @@ def _read_pd(node: Node, mass_kg: float | None) -> PDGains:
         fixed, per_kg = cap * mass_kg, None
     return PDGains(kp=node["kp"].number(positive=True, hi=PD_KP[1], unit="1/s^2"),
                    kd=node["kd"].number(positive=True, hi=PD_KD[1], unit="1/s"),
-                   max_torque_nm=fixed, max_torque_nm_per_kg=per_kg)
+                   max_torque_nm=fixed, max_torque_nm_per_kg=per_kg,
+                   no_load_speed_froude=node["no_load_speed_froude"].number(
+                       positive=True, hi=NO_LOAD_SPEED_FROUDE[1], unit="w0 sqrt(leg/g)")
+                   if node.has("no_load_speed_froude") else None)
 
 
 def _read_joint(node: Node, servo_robot: bool, default_model: str | None, model_robot: bool = False,

@@ -21,6 +21,7 @@ same motion on either side (a symmetric controller relies on it): :mod:`sim2real
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -52,6 +53,7 @@ PD_KP = (0.0, 10_000.0)  # pd_gains.kp, > 0 [1/s^2] (the human's 300: ~17 rad/s)
 PD_KD = (0.0, 1_000.0)  # pd_gains.kd, > 0 [1/s]
 MAX_TORQUE_NM = (0.0, 5_000.0)  # pd_gains.max_torque_nm, > 0 [N m]
 MAX_TORQUE_NM_PER_KG = (0.0, 50.0)  # pd_gains.max_torque_nm_per_kg, > 0 [N m/kg] (the human's 4.08)
+NO_LOAD_SPEED_FROUDE = (0.0, 100.0)  # pd_gains.no_load_speed_froude, > 0 [1] (the XL430 on the biped's leg: 0.94)
 CONTROL_TICK_S = (0.001, 1.0)  # control_tick_s [s]: the controller format's tick_s range
 PHYSICS_DT_S = (0.0002, 0.02)  # physics_dt_s [s]: MuJoCo's timestep
 
@@ -177,6 +179,9 @@ class PDGains:
     # known only once the model is measured: then max_torque_nm_per_kg holds the cap
     max_torque_nm: float | None
     max_torque_nm_per_kg: float | None = None  # [N m/kg]
+    # [1] the no-load speed in Froude units, w0 sqrt(leg / g): torque falls linearly with joint speed from the
+    # cap to zero at w0, and a goal moves at most w0 a second, as a servo's does; None: neither limit
+    no_load_speed_froude: float | None = None
 
 
 @dataclass(frozen=True)
@@ -265,6 +270,14 @@ class RobotSpec:
         if self.pd.max_torque_nm is not None:
             return self.pd.max_torque_nm
         return self.pd.max_torque_nm_per_kg * self.mass
+
+    @property
+    def pd_no_load_speed_rad_s(self) -> float:
+        """A PD robot's no-load joint speed [rad/s]: ``no_load_speed_froude`` times sqrt(g / leg
+        length), so that bodies of every size move alike in Froude-scaled time; inf without one."""
+        if self.pd is None or self.pd.no_load_speed_froude is None:
+            return math.inf
+        return self.pd.no_load_speed_froude * math.sqrt(GRAVITY / self.leg_length)
 
     @property
     def is_servo_robot(self) -> bool:

@@ -247,6 +247,7 @@ def _scale_pd_gains(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel
     """
     assert robot.pd is not None
     cap = robot.pd_torque_cap_nm  # [N m]; a model robot's per-kg cap on its measured mass
+    no_load = robot.pd_no_load_speed_rad_s  # [rad/s]; inf: no speed limit
     data = mujoco.MjData(model)
     JointAngles.of(model, robot.joint_names).place(data.qpos, np.array([j.home_rad for j in robot.joints]))
     mujoco.mj_kinematics(model, data)
@@ -256,3 +257,5 @@ def _scale_pd_gains(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel
         act.set_to_position(kp=inertia * robot.pd.kp, kv=inertia * robot.pd.kd)
         act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         act.forcerange = [-cap, cap]
+        if np.isfinite(no_load):  # a servo's torque-speed line: the cap at rest, nothing left at no-load speed
+            spec.joint(joint.name).damping += cap / no_load

@@ -1,0 +1,45 @@
+"""Selection's gait term (``selection_gait_coeff``): a two-legged walk is paid, a hop is not,
+by the same gait measures ``biped eval`` reports (the slow oracle), and without the
+coefficient nothing is computed or paid."""
+
+import dataclasses
+import math
+
+import pytest
+
+from evolve.locomotion.evaluator import LocomotionEvaluator
+from evolve.locomotion.task import TaskConfig
+from evolve.replay import controller_setup, evaluate_controller
+from sim2real.errors import ConfigError
+
+SECONDS = 6.0
+
+
+def _evaluate(path: str, coeff: float):
+    data, spec, ev, genome = controller_setup(path, None, SECONDS)
+    task = dataclasses.replace(ev.task, selection_gait_coeff=coeff)
+    ev = LocomotionEvaluator(spec, task, 1, threads=1)
+    return ev.evaluate([genome], data.sigmoid_steepness), ev
+
+
+@pytest.mark.parametrize("path, walks", [("configs/controllers/xl430_biped.json", True),
+                                         ("configs/controllers/human_male_50.json", False)])
+def test_the_gait_term_pays_a_walk_and_not_a_hop_as_the_gait_measures_say(path, walks):
+    paid, ev = _evaluate(path, 2.0)
+    unpaid, _ = _evaluate(path, 0.0)
+    assert "gait" not in unpaid.terms  # left out, not computed, without its coefficient
+    term = paid.terms["gait"][0]
+    assert paid.selection[0] - unpaid.selection[0] == pytest.approx(2.0 * term)
+    assert paid.fitness[0] == unpaid.fitness[0]  # eq. 3 is not changed
+    gait = evaluate_controller(path, seconds=SECONDS, gait_measures=True)["gait"]["per_episode"][0]
+    upright = min(paid.upright_s[0] / ev.episode_s, 1.0)  # whole ticks
+    expected = upright * gait["symmetry"] * math.exp(-(gait["flight_share"] / ev.task.selection_gait_flight_sigma) ** 2)
+    assert term == pytest.approx(expected, rel=1e-9, abs=1e-12)
+    assert (term > 0.9) if walks else (term < 0.1)
+
+
+def test_the_gait_term_settings_are_checked():
+    with pytest.raises(ConfigError, match="selection_gait_flight_sigma: must be > 0"):
+        TaskConfig.from_mapping({"selection_gait_flight_sigma": 0.0})
+    with pytest.raises(ConfigError, match="selection_gait_coeff: must not be negative"):
+        TaskConfig.from_mapping({"selection_gait_coeff": -1.0})
