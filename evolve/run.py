@@ -40,6 +40,7 @@ from evolve.run_folder import RunFolder, holds_run, read_config, read_population
 from evolve.run_stats import VALIDATION_COLUMNS, stats_columns, term_columns
 from evolve.stages import Stage, check_stage_joints
 from sim2real.controller.channels import REACH
+from sim2real.controller.symmetry import SIDE_BIAS
 from sim2real.controller.file import Controller
 from sim2real.errors import UsageError
 from sim2real.run_lock import RunLock
@@ -81,14 +82,16 @@ class Run:
         self.lock_borrowed = False  # the lock is its caller's, who releases it
 
     def _silent_inputs(self, stage_index: int) -> frozenset[int]:
-        """The inputs stage ``stage_index``'s networks read as 0 - the reach inputs below a
-        reach stage - from which its module may not link: a weight that never mattered there
-        would, frozen, disturb it once a later stage makes those inputs speak."""
+        """The inputs stage ``stage_index``'s networks may not link from: the reach inputs below
+        a reach stage, which its networks read as 0 (a weight that never mattered there would,
+        frozen, disturb it once a later stage makes those inputs speak), and the side bias
+        node with ``neat.side_bias: false`` (the two networks then differ only by what they sense)."""
         layout = self.evaluator.layout
         stages = self.config.stages
-        if not layout.reach or (stages and stages[stage_index].objective == "reach") or not stages:
-            return frozenset()
-        return frozenset(layout.input_names.index(name) for name in REACH.names([]))
+        silent = set() if self.config.neat.side_bias else {layout.n_inputs + SIDE_BIAS}
+        if layout.reach and stages and stages[stage_index].objective != "reach":
+            silent.update(layout.input_names.index(name) for name in REACH.names([]))
+        return frozenset(silent)
 
     @property
     def stage(self) -> Stage | None:

@@ -430,3 +430,20 @@ def test_with_validation_a_stage_ends_when_its_validated_champion_reaches_the_th
     assert filed["validation"] is not None
     assert pose["solved"] == (filed["fitness"] >= 0.05 * pose["max_fitness"])
     assert pose["solved"] or pose["generations"] == 6
+
+
+@pytest.mark.parametrize("side_bias", [True, False])
+def test_no_link_ever_leaves_the_side_bias_node_when_the_config_says_so(tmp_path, side_bias):
+    """``neat.side_bias: false``: the two networks of a genome differ only by what they sense
+    (the human-gait ablation of the +1/-1 side input): neither the first genomes nor a mutation
+    link from it, and a resumed run keeps the rule."""
+    config = {**SMALL, "generations": 3, "neat": {**SMALL["neat"], "side_bias": side_bias, "add_link_prob": 0.9}}
+    path = tmp_path / "small.yaml"
+    path.write_text(yaml.safe_dump(config))
+    out = tmp_path / "run"
+    assert main(["evolve", str(path), "--out", str(out), "--quiet", "--generations", "2"]) == 0
+    assert main(["evolve", "--resume", "--out", str(out), "--generations", "3", "--quiet"]) == 0
+    controller = Controller.load(out / "controller.json", load_robot())
+    side = len(controller.inputs) + 1  # the network's nodes: inputs, then the biases (+1, then the side's)
+    links = [c for c in controller.connections if c[0] == side]
+    assert bool(links) == side_bias
