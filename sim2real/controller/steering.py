@@ -15,6 +15,11 @@ import numpy as np
 
 
 MAX_SCHEDULE_S = 7 * 24 * 3600.0  # a schedule's last time [s]: a run's longest (a trace's MAX_TIME_S)
+# [deg/s] how fast the heading to hold follows a step of the schedule: the walkers are trained on
+# turns of at most 30 deg at once (configs/evolve/train.yaml), and the heading input reads 1 from
+# 30 deg on.  Told a 90 deg step, biped train's seeds 1 and 3 fell (seed 2 ended 68 deg off);
+# followed at 10 deg/s, both end 2 deg off (benchmarks/records/runs/train-recipe2)
+TURN_RATE_DEG_S = 10.0
 
 
 def parse_schedule(text: str) -> list[tuple[float, float]]:
@@ -40,13 +45,21 @@ def parse_schedule(text: str) -> list[tuple[float, float]]:
     return out
 
 
-def schedule_command(schedule: list[tuple[float, float]]) -> Callable[[float], float]:
-    """The heading to hold [rad] at a time [s] since the start: the schedule's last entry at or
-    before it (0 before the first)."""
+def schedule_command(schedule: list[tuple[float, float]],
+                     turn_rate_deg_s: float = TURN_RATE_DEG_S) -> Callable[[float], float]:
+    """The heading to hold [rad] at a time [s] since the start: from 0, toward the schedule's
+    last entry at or before it, at most ``turn_rate_deg_s`` [deg/s] (``math.inf``: at once)."""
     times = np.array([t for t, _ in schedule])
     angles = np.radians([d for _, d in schedule])
+    rate = np.radians(turn_rate_deg_s)
 
     def command(t_s: float) -> float:
-        k = int(np.searchsorted(times, t_s, side="right")) - 1
-        return float(angles[k]) if k >= 0 else 0.0
+        given = int(np.searchsorted(times, t_s, side="right"))  # the entries at or before t_s
+        if not np.isfinite(rate):
+            return float(angles[given - 1]) if given else 0.0
+        heading = 0.0
+        for k in range(given):  # entry k is in force until the next one (or t_s)
+            step = rate * ((times[k + 1] if k + 1 < given else t_s) - times[k])
+            heading += float(np.clip(angles[k] - heading, -step, step))
+        return heading
     return command
