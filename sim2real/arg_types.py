@@ -254,7 +254,7 @@ def host_port(address: str) -> tuple[str, int]:
 
 HEADING_HELP = ("steer a controller with a heading input: hold the start's heading turned by DEG (left "
                 "positive), or follow a schedule SECONDS:DEG,... (e.g. 0:0,5:90,12:-45: 90 deg left from 5 s on, "
-                "45 deg right from 12 s on)")
+                "45 deg right from 12 s on); the heading to hold turns to each at 10 deg/s")
 
 
 def heading_schedule(text: str):
