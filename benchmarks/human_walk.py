@@ -65,6 +65,12 @@ def run_folder(out: Path, preset: str, seed: int, robot: str = "human") -> Path:
     return out / f"{body}{preset}-seed{seed}"
 
 
+def body_file(robot: str, preset: str) -> str | None:
+    """The body to replay a run's controllers on when ``robot`` is a variant's file (its
+    controllers name the project robot its file is called after), else None: their own."""
+    return f"{robot}:{preset}" if Path(robot).suffix in (".yaml", ".yml") else None
+
+
 def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, robot: str, generations: int,
                   after_walker: int, threads: int, deadline: float, quiet: bool) -> bool:
     """Evolve (or go on evolving) one run until it is finished or ``deadline`` (time.monotonic)
@@ -74,7 +80,7 @@ def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, rob
     run_dir = folder / "run"
     log = lambda line: progress(f"{preset} seed {seed}: {line}", quiet)  # noqa: E731
     if (run_dir / "checkpoint.json.gz").exists():
-        run = Run.resume(run_dir, threads=threads, log=log)
+        run = Run.resume(run_dir, threads=threads, log=log, robot=body_file(robot, preset))
     else:
         # the body given as an override, so that what follows from it (a gait clock's period from
         # its leg length, phase_period_s: auto) is this preset's
@@ -111,19 +117,19 @@ def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, rob
     return done(run.population.generation - 1)
 
 
-def sustained_walk(controller: Path) -> dict:
-    """``controller``'s walk of :data:`SUSTAINED_S` without the stagnation stop: seconds upright,
-    distance before toppling, speed, whether it fell, and its turn [deg]."""
-    walk = evaluate_controller(controller, seconds=SUSTAINED_S, stagnation_stop=False)
+def sustained_walk(controller: Path, body: str | None = None) -> dict:
+    """``controller``'s walk of :data:`SUSTAINED_S` without the stagnation stop (on ``body``,
+    :func:`body_file`): seconds upright, distance before toppling, speed, whether it fell, and its turn [deg]."""
+    walk = evaluate_controller(controller, body, seconds=SUSTAINED_S, stagnation_stop=False)
     return {"sustained_s": walk["upright_s"], "sustained_m": walk["distance_m"],
             "speed_m_s": walk["distance_m"] / walk["upright_s"] if walk["upright_s"] > 0 else 0.0,
             "fell": walk["fell"], "turn_deg": walk["per_episode"][0]["turn_deg"]}
 
 
-def gait_of(controller: Path) -> dict:
-    """``controller``'s gait measures over a :data:`GAIT_S` replay on its nominal body
-    (:func:`~sim2real.gait_measures.GaitMeasures.to_dict`)."""
-    return measure_recorded(gait(controller, seconds=GAIT_S)).to_dict()
+def gait_of(controller: Path, body: str | None = None) -> dict:
+    """``controller``'s gait measures over a :data:`GAIT_S` replay on its nominal body (``body``,
+    :func:`body_file`) (:func:`~sim2real.gait_measures.GaitMeasures.to_dict`)."""
+    return measure_recorded(gait(controller, body, seconds=GAIT_S)).to_dict()
 
 
 def walks_a_walk(covers_2m: bool, gait_measures: dict) -> bool:
@@ -131,14 +137,14 @@ def walks_a_walk(covers_2m: bool, gait_measures: dict) -> bool:
     return covers_2m and is_a_walk(GaitMeasures.from_dict(gait_measures))
 
 
-def judged(run: dict, folder: Path) -> dict:
+def judged(run: dict, folder: Path, body: str | None = None) -> dict:
     """A finished run's result, read back: one finished before the gait measures (its
     ``walked`` was seed 000's test alone) gets ``covers_2m`` from that, its gait measured now
     and ``walked`` judged with it (the file is left as it was)."""
     if "covers_2m" in run:
         return run
     covers = bool(run["walked"])
-    measures = gait_of(folder / "walker.json" if covers else folder / "run" / "controller.json")
+    measures = gait_of(folder / "walker.json" if covers else folder / "run" / "controller.json", body)
     return {**run, "covers_2m": covers, "walked": walks_a_walk(covers, measures), "gait": measures}
 
 
@@ -149,13 +155,13 @@ def tally(runs: list[dict]) -> dict:
             "covers_2m": covered, "covers_2m_rate": covered / len(runs) if runs else None}
 
 
-def finish(preset: str, seed: int, folder: Path, quiet: bool) -> dict:
-    """The run's result: its first walker, its best walker's gait and 60 s walk."""
+def finish(preset: str, seed: int, folder: Path, quiet: bool, body: str | None = None) -> dict:
+    """The run's result: its first walker, its best walker's gait and 60 s walk (on ``body``)."""
     state = read_json(folder / "state.json") if (folder / "state.json").exists() else {"first_walker": None}
     first = state["first_walker"]
     controller = folder / "walker.json" if first else folder / "run" / "controller.json"
     stats = (folder / "run" / "stats.csv").read_text().splitlines()
-    measures = gait_of(controller)
+    measures = gait_of(controller, body)
     result = {
         "preset": preset, "seed": seed, "walked": walks_a_walk(first is not None, measures),
         "covers_2m": first is not None, "gait": measures,
@@ -164,7 +170,7 @@ def finish(preset: str, seed: int, folder: Path, quiet: bool) -> dict:
         "first_walker_m": first["distance_m"] if first else None,
         "generations_run": len(stats) - 1,
         "sustained_of": "best walker" if first else "best controller (no walker)",
-        **sustained_walk(controller),
+        **sustained_walk(controller, body),
     }
     write_json_atomic(folder / "result.json", result)
     progress(f"{preset} seed {seed}: covers 2 m {result['covers_2m']} (generation {result['generation']}), "
@@ -197,7 +203,7 @@ def main(argv=None) -> None:
         for seed in args.seeds:
             folder = run_folder(args.out, preset, seed, args.robot)
             if (folder / "result.json").exists():
-                runs.append(judged(read_json(folder / "result.json"), folder))
+                runs.append(judged(read_json(folder / "result.json"), folder, body_file(args.robot, preset)))
                 continue
             if time.monotonic() > deadline:
                 unfinished.append(folder.name)
@@ -207,7 +213,7 @@ def main(argv=None) -> None:
                              generations=args.generations,
                              after_walker=args.after_walker, threads=args.threads, deadline=deadline,
                              quiet=args.quiet):
-                runs.append(finish(preset, seed, folder, args.quiet))
+                runs.append(finish(preset, seed, folder, args.quiet, body_file(args.robot, preset)))
             else:
                 unfinished.append(folder.name)
     result = {"runs": runs, **tally(runs), "unfinished": unfinished, "generations": args.generations,
@@ -217,9 +223,9 @@ def main(argv=None) -> None:
     report(result, args.json)
 
 
-def walks_here(walker: Path) -> bool:
-    """Does ``walker`` still walk by seed 000's test when replayed on this machine?"""
-    walk = evaluate_controller(walker)
+def walks_here(walker: Path, body: str | None = None) -> bool:
+    """Does ``walker`` still walk by seed 000's test when replayed on this machine (on ``body``)?"""
+    walk = evaluate_controller(walker, body)
     return not walk["fell"] and walked_by_seed_000(walk["upright_s"], walk["distance_m"], walk["seconds"])
 
 
@@ -243,8 +249,8 @@ def ship(runs: list[dict], out: Path, robot: str, into: Path, argv: list[str] | 
         here = []
         for run in (r for r in runs if r["preset"] == preset and r["walked"]):
             walker = run_folder(out, preset, run["seed"], robot) / "walker.json"
-            if walks_here(walker):
-                here.append(({**run, **sustained_walk(walker)}, walker))
+            if walks_here(walker, body_file(robot, preset)):
+                here.append(({**run, **sustained_walk(walker, body_file(robot, preset))}, walker))
             else:
                 progress(f"{preset} seed {run['seed']}: its walker falls when replayed here - not shipped", quiet)
         if here:

@@ -40,8 +40,8 @@ from evolve.run_folder import RunFolder, holds_run, read_config, read_population
 from evolve.run_stats import VALIDATION_COLUMNS, stats_columns, term_columns
 from evolve.stages import Stage, check_stage_joints
 from sim2real.controller.channels import REACH
-from sim2real.controller.symmetry import SIDE_BIAS
 from sim2real.controller.file import Controller
+from sim2real.controller.symmetry import SIDE_BIAS
 from sim2real.errors import UsageError
 from sim2real.run_lock import RunLock
 from sim2real.simulation.model.physique import load_measured
@@ -88,7 +88,7 @@ class Run:
         node with ``neat.side_bias: false`` (the two networks then differ only by what they sense)."""
         layout = self.evaluator.layout
         stages = self.config.stages
-        silent = set() if self.config.neat.side_bias else {layout.n_inputs + SIDE_BIAS}
+        silent = set() if self.config.neat.side_bias else {self.evaluator.neat_layout.bias_ids[SIDE_BIAS]}
         if layout.reach and stages and stages[stage_index].objective != "reach":
             silent.update(layout.input_names.index(name) for name in REACH.names([]))
         return frozenset(silent)

@@ -19,7 +19,7 @@ import os
 from pathlib import Path
 
 from evolve.config import EvolveConfig
-from evolve.locomotion.objectives import DEFAULT_OBJECTIVE, OBJECTIVES
+from evolve.locomotion.objectives import DEFAULT_OBJECTIVE, OBJECTIVES, WalkObjective
 from sim2real.atomic_json import OutputError, write_text_atomic
 from sim2real.errors import BipedError
 from sim2real.figures import pyplot, save_figure
@@ -32,9 +32,13 @@ VALIDATION_COLUMNS = ("validation_walked", "validation_fitness")
 
 
 def term_columns(config: EvolveConfig) -> tuple[str, ...]:
-    """The fitness terms of every objective of the run, in stage order, each once."""
+    """The fitness terms of every objective of the run, in stage order, each once (walking's
+    gait term with its coefficient only: it is computed only then)."""
     kinds = [stage.kind for stage in config.stages] or [OBJECTIVES[DEFAULT_OBJECTIVE]]
-    return tuple(dict.fromkeys(name for kind in kinds for name in kind.terms))
+    names = [name for kind in kinds for name in kind.terms]
+    if config.task.selection_gait_coeff > 0 and any(kind.terms == WalkObjective.TERMS for kind in kinds):
+        names.append(WalkObjective.GAIT_TERM)
+    return tuple(dict.fromkeys(names))
 
 
 def stats_columns(config: EvolveConfig) -> tuple[str, ...]:

@@ -253,8 +253,9 @@ def host_port(address: str) -> tuple[str, int]:
 
 
 HEADING_HELP = ("steer a controller with a heading input: hold the start's heading turned by DEG (left "
-                "positive), or follow a schedule SECONDS:DEG,... (e.g. 0:0,5:90,12:-45: 90 deg left from 5 s on, "
-                "45 deg right from 12 s on); the heading to hold turns to each at 10 deg/s")
+                "positive), or follow a schedule SECONDS:DEG,... (e.g. 0:0,5:90,12:-45: toward 90 deg left from 5 s "
+                "on, toward 45 deg right from 12 s on); the heading to hold turns to each at 10 deg/s "
+                "(sim2real/controller/steering.py, TURN_RATE_DEG_S)")
 
 
 def heading_schedule(text: str):

@@ -43,3 +43,12 @@ def test_the_gait_term_settings_are_checked():
         TaskConfig.from_mapping({"selection_gait_flight_sigma": 0.0})
     with pytest.raises(ConfigError, match="selection_gait_coeff: must not be negative"):
         TaskConfig.from_mapping({"selection_gait_coeff": -1.0})
+
+
+def test_the_gait_term_is_a_stats_column_only_with_its_coefficient():
+    from evolve.config import config_path, load_evolve_config
+    from evolve.run_stats import term_columns
+
+    plain = load_evolve_config(config_path("walk"))
+    paid = load_evolve_config(config_path("walk"), {"task.selection_gait_coeff": 2.0})
+    assert "gait" not in term_columns(plain) and term_columns(paid)[-1] == "gait"

@@ -54,8 +54,9 @@ def _finished_run(folder, first_walker: dict | None) -> None:
     (None, WALK, False, False)])
 def test_a_finished_run_reports_its_walkers_gait_and_both_verdicts(tmp_path, monkeypatch, first, gait, walked, covers):
     measured = []
-    monkeypatch.setattr(human_walk, "gait_of", lambda controller: (measured.append(controller), gait)[1])
-    monkeypatch.setattr(human_walk, "sustained_walk", lambda controller: {"sustained_m": 9.0, "sustained_s": 60.0})
+    monkeypatch.setattr(human_walk, "gait_of", lambda controller, body=None: (measured.append(controller), gait)[1])
+    monkeypatch.setattr(human_walk, "sustained_walk", lambda controller, body=None: {"sustained_m": 9.0,
+                                                                                    "sustained_s": 60.0})
     _finished_run(tmp_path, first)
     result = human_walk.finish("male_50", 1, tmp_path, quiet=True)
     assert (result["walked"], result["covers_2m"], result["gait"]) == (walked, covers, gait)
@@ -80,7 +81,7 @@ def test_finished_runs_read_back_are_counted_both_ways(tmp_path, monkeypatch, ca
     gaits = {"male_50-seed1": HOP, "male_50-seed2": WALK, "female_5-seed1": WALK}
     measured = []
 
-    def gait_of(controller):
+    def gait_of(controller, body=None):
         measured.append(controller.relative_to(out).as_posix())
         return gaits[controller.relative_to(out).parts[0]]
     monkeypatch.setattr(human_walk, "gait_of", gait_of)
@@ -97,3 +98,29 @@ def test_finished_runs_read_back_are_counted_both_ways(tmp_path, monkeypatch, ca
     assert sorted(measured) == ["female_5-seed1/run/controller.json", "male_50-seed1/walker.json",
                                 "male_50-seed2/walker.json"]
     assert {p: p.read_bytes() for p in out.rglob("result.json")} == before  # finished runs are only read
+
+
+def test_a_variant_body_from_a_file_is_resumed_and_judged_on_itself(tmp_path):
+    """An ablation's body is a robot file named like the project's human_stepping but with other
+    ankle ranges: its run resumes (the file given again) and its controllers are replayed on it,
+    not on the project's body (whose joint map they would not match)."""
+    import yaml
+
+    from evolve.replay import evaluate_controller
+    from sim2real.errors import ConfigError
+
+    body = "benchmarks/records/human-gait/configs/human_stepping_ankle0.yaml"
+    config = tmp_path / "tiny.yaml"
+    config.write_text(yaml.safe_dump({"extends": "walk_human", "neat": {"population_size": 10, "target_species": 2},
+                                      "task": {"episode_s": 1.0, "harness_generations": 1}}))
+    out = tmp_path / "runs"
+    folder = human_walk.run_folder(out, "female_5", 1, body)
+    folder.mkdir(parents=True)
+    assert not human_walk.evolve_preset("female_5", 1, folder, config_name=str(config), robot=body, generations=3,
+                                        after_walker=0, threads=1, deadline=0.0, quiet=True)  # cut after one
+    human_walk.main(["--config", str(config), "--robot", body, "--presets", "female_5", "--seeds", "1",
+                     "--generations", "3", "--out", str(out), "--quiet", "--json"])
+    result = json.loads((folder / "result.json").read_text())
+    assert result["generations_run"] == 3 and result["gait"]["ticks"] >= 0
+    with pytest.raises(ConfigError):  # the project's body is not the one it was evolved on
+        evaluate_controller(folder / "run" / "controller.json", seconds=1.0)

@@ -106,6 +106,7 @@ class WalkObjective:
     """
 
     TERMS = ("distance", "time", "progress", "velocity", "yaw_rate", "straight", "turn")
+    GAIT_TERM = "gait"  # with selection_gait_coeff > 0 only
     HEADING_GAIN = 0.5  # [1/s] the yaw rate asked for per radian of turn still to go
 
     def __init__(self, ev, n: int):
@@ -130,7 +131,7 @@ class WalkObjective:
         self.yaw_sum = np.zeros(n)
         self.straight_sum = np.zeros(n)
         self.gait = GaitMeter(n, ev.tick_s) if task.selection_gait_coeff > 0 else None
-        self.hips = [ev.robot.joint_names.index(name) for name in hip_pitch_joints(ev.robot)] if self.gait else []
+        self.hips = [ev.robot.joint_names.index(name) for name in hip_pitch_joints(ev.robot)] if self.gait is not None else []
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, task = self.ev, self.task
@@ -153,9 +154,9 @@ class WalkObjective:
         self.fell[alive[down & ~bad]] = True
         yaw = ev.parts.heading(ev.sensordata)[alive]  # the true yaw, as the board's IMU would read it
         self.turned[live] = np.maximum(self.turned[live], np.abs(turn_rad(yaw[ok], self.start_yaw[live])))
-        if self.gait is not None:  # the ticks upright, at the time of this tick (before _steady counts it)
-            self.gait.add(live, self.ticks * ev.tick_s, ev.joint_angles(live)[:, self.hips],
-                          ev.parts.feet_touching(ev.sensordata[live]))
+        if self.gait is not None:  # every episode still running, at this tick's time, as biped eval measures it
+            self.gait.add(alive, self.ticks * ev.tick_s, ev.joint_angles(alive)[:, self.hips],
+                          ev.parts.feet_touching(ev.sensordata[alive]))
         self._steady(alive, ok, yaw)
         self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
         self.time_term[alive[bad]] = 0.0
@@ -193,11 +194,11 @@ class WalkObjective:
                  "straight": np.where(unstable, 0.0, self.straight_sum / ticks),
                  "turn": np.degrees(self.turned)}
         if self.gait is not None:
-            terms["gait"] = np.where(unstable, 0.0, self._gait_term())
+            terms[self.GAIT_TERM] = np.where(unstable, 0.0, self._gait_term())
         fitness = task.distance_coeff * terms["distance"] + task.time_coeff * terms["time"]
         selection = fitness + task.progress_coeff * terms["progress"]
         if self.gait is not None:
-            selection = selection + task.selection_gait_coeff * terms["gait"]
+            selection = selection + task.selection_gait_coeff * terms[self.GAIT_TERM]
         if task.selection_velocity_coeff or task.selection_yaw_coeff or task.selection_straight_coeff:
             selection = (selection + task.selection_velocity_coeff * terms["velocity"]
                          + task.selection_yaw_coeff * terms["yaw_rate"]

@@ -50,7 +50,7 @@ class NeatConfig:
     add_node_prob: float = 0.03
     add_link_prob: float = 0.05
     allow_recurrent: bool = True  # connections may close cycles and self-loops
-    side_bias: bool = True  # links may leave the side bias node (+1 right, -1 left); False: none ever do
+    side_bias: bool = True  # links may leave the side bias node (+1 right, -1 left); False: none do in this run
     new_link_tries: int = 20
     toggle_enable_prob: float = 0.001
     reenable_prob: float = 0.0001

@@ -2,9 +2,9 @@
 
 ``biped run`` and ``biped dry-run`` take ``--heading DEG`` (hold the start's heading turned by
 DEG, counter-clockwise seen from above: left is positive) or a schedule
-``--heading 0:0,5:90,12:-45`` (from 5 s on 90 deg left of the start's, from 12 s on 45 deg right);
-:class:`~sim2real.controller.policy.Policy` reads it as ``heading_command(t_s)`` [rad].  No
-MuJoCo here.
+``--heading 0:0,5:90,12:-45`` (from 5 s on toward 90 deg left of the start's, from 12 s on toward
+45 deg right), each followed at :data:`TURN_RATE_DEG_S`; :class:`~sim2real.controller.policy.Policy`
+reads it as ``heading_command(t_s)`` [rad].  No MuJoCo here.
 """
 
 from __future__ import annotations
@@ -13,12 +13,14 @@ from typing import Callable
 
 import numpy as np
 
+from sim2real.controller.channels import turn_rad
+
 
 MAX_SCHEDULE_S = 7 * 24 * 3600.0  # a schedule's last time [s]: a run's longest (a trace's MAX_TIME_S)
 # [deg/s] how fast the heading to hold follows a step of the schedule: the walkers are trained on
 # turns of at most 30 deg at once (configs/evolve/train.yaml), and the heading input reads 1 from
 # 30 deg on.  Told a 90 deg step, biped train's seeds 1 and 3 fell (seed 2 ended 68 deg off);
-# followed at 10 deg/s, both end 2 deg off (benchmarks/records/runs/train-recipe2)
+# followed at 10 deg/s, seeds 1 and 3 end 2 deg off (benchmarks/RESULTS.md, "Steering at 10 deg/s")
 TURN_RATE_DEG_S = 10.0
 
 
@@ -48,18 +50,26 @@ def parse_schedule(text: str) -> list[tuple[float, float]]:
 def schedule_command(schedule: list[tuple[float, float]],
                      turn_rate_deg_s: float = TURN_RATE_DEG_S) -> Callable[[float], float]:
     """The heading to hold [rad] at a time [s] since the start: from 0, toward the schedule's
-    last entry at or before it, at most ``turn_rate_deg_s`` [deg/s] (``math.inf``: at once)."""
-    times = np.array([t for t, _ in schedule])
+    last entry at or before it by the shorter way round, at most ``turn_rate_deg_s`` [deg/s]
+    (``math.inf``: at once, as in training)."""
+    if not (turn_rate_deg_s > 0):  # NaN too
+        raise ValueError(f"turn_rate_deg_s: a positive rate or inf, not {turn_rate_deg_s}")
+    times = np.array([t for t, _ in schedule], dtype=float)
     angles = np.radians([d for _, d in schedule])
     rate = np.radians(turn_rate_deg_s)
 
-    def command(t_s: float) -> float:
-        given = int(np.searchsorted(times, t_s, side="right"))  # the entries at or before t_s
+    def toward(heading: float, k: int, dt_s: float) -> float:
+        """From ``heading``, ``dt_s`` seconds toward entry ``k``'s angle."""
         if not np.isfinite(rate):
-            return float(angles[given - 1]) if given else 0.0
-        heading = 0.0
-        for k in range(given):  # entry k is in force until the next one (or t_s)
-            step = rate * ((times[k + 1] if k + 1 < given else t_s) - times[k])
-            heading += float(np.clip(angles[k] - heading, -step, step))
-        return heading
+            return float(angles[k])
+        step = rate * dt_s
+        return heading + float(np.clip(turn_rad(angles[k], heading), -step, step))
+
+    reached = [0.0]  # the heading to hold when each entry comes into force
+    for k in range(len(times) - 1):
+        reached.append(toward(reached[k], k, times[k + 1] - times[k]))
+
+    def command(t_s: float) -> float:
+        k = int(np.searchsorted(times, t_s, side="right")) - 1  # the entry in force
+        return toward(reached[k], k, t_s - times[k]) if k >= 0 else 0.0
     return command

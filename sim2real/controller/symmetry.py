@@ -57,7 +57,7 @@ SIDES = ("right", "left")
 
 
 BIAS = ((1.0, 1.0), (1.0, -1.0))  # the bias nodes of the (right, left) network: +1, and the side
-SIDE_BIAS = 1  # which of them is the side's
+SIDE_BIAS = next(i for i, (right, left) in enumerate(zip(*BIAS)) if right != left)  # which of them is the side's
 CENTER_OUTPUT = "mean of both networks"  # what a centre joint gets
 
 

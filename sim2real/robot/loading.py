@@ -315,7 +315,7 @@ def _read_pd(node: Node, mass_kg: float | None) -> PDGains:
                    kd=node["kd"].number(positive=True, hi=PD_KD[1], unit="1/s"),
                    max_torque_nm=fixed, max_torque_nm_per_kg=per_kg,
                    no_load_speed_froude=node["no_load_speed_froude"].number(
-                       positive=True, hi=NO_LOAD_SPEED_FROUDE[1], unit="w0 sqrt(leg/g)")
+                       positive=True, hi=NO_LOAD_SPEED_FROUDE[1], unit="times sqrt(g/leg) rad/s")
                    if node.has("no_load_speed_froude") else None)
 
 
