@@ -161,6 +161,45 @@ def test_a_speed_polish_that_falls_on_the_model_is_undone_and_the_walker_before_
     assert provenance["made_by"] == "biped train xl430_biped" and provenance["bar"] == record["bar"]
 
 
+def test_a_walker_that_misses_the_bar_gives_way_to_the_newest_robust_one_before_it_that_meets_it(
+        tmp_path, monkeypatch, budget):
+    """The polish kept robust walkers at updates 5, 10 and 15; 15's misses the bar on transfer, 10's
+    too, 5's meets it: 5's ships, and the provenance lists the three measured, newest first."""
+    import json
+
+    folder = tmp_path / "polish"
+    folder.mkdir()
+    data = json.loads(WALKER.read_text())
+    for update in (5, 10, 15):  # each its own file, as each kept update's weights are
+        data["provenance"]["update"] = update
+        (folder / f"robust_update{update}.json").write_text(json.dumps(data))
+    shutil.copyfile(folder / "robust_update15.json", folder / "walker.json")
+    state = _state(tmp_path, neat_robust=False, polish_walker=False)
+    state["stages"]["polish"] = {"walker": str(folder / "walker.json"), "kept": None,
+                                 "tests": [{"update": u, "robust": True} for u in (5, 10, 15)]}
+    state["stages"]["speed"] = {"walker": None, "runs": [], "skipped": "fast enough"}
+    state.update(command="biped train xl430_biped", settings={"seed": 1})
+    missed = _measured(falls=0)
+    missed["transfer"] = {**missed["transfer"], "ratio": 0.74, "passed": False}
+    verdicts = {"walker.json": missed, "robust_update10.json": missed, "robust_update5.json": _measured(falls=0)}
+    measured = []
+    monkeypatch.setattr(wm, "measure_walker", lambda walker, log, **k: (measured.append(Path(walker).name),
+                                                                        verdicts[Path(walker).name])[1])
+    record = tr._measure("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
+    # update 15's file is the walker itself: not measured twice
+    assert measured == ["walker.json", "robust_update10.json", "robust_update5.json"]
+    assert record["walker"] == str(folder / "robust_update5.json") and all(record["bar"].values())
+    from sim2real.controller.file import Controller
+
+    provenance = Controller.load(tmp_path / "controller.json").provenance
+    assert list(provenance["walkers_measured"]) == [str(folder / n) for n in measured] and provenance["update"] == 5
+    # with no budget left after the first measures, the walker ships as it is, its misses named
+    measured.clear()
+    spent = tr.Budget(minutes=60.0, spent_s=3600.0)
+    record = tr._measure("xl430_biped", tmp_path, tr.TrainSettings(), state, spent, lambda s: None)
+    assert measured == ["walker.json"] and record["bar"]["transfer"] is False
+
+
 def test_the_bar_names_each_part_a_walker_misses():
     from evolve.walk_measures import meets_bar
 
