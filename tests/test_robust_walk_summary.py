@@ -57,6 +57,7 @@ def test_a_polish_stage_tests_each_kept_walker_once_and_keeps_the_last_robust(tm
     assert len(tested) == 3
     assert [t["robust"] for t in record["tests"]] == [False, True, False]
     assert record["walker"] == str(tmp_path / "p" / "walker.json")  # update 10's: the last robust one
+    assert sorted(p.name for p in (tmp_path / "p").glob("robust_update*.json")) == ["robust_update10.json"]
     assert calls[0]["seed"] == 4 and calls[0]["robots"] == tr.POLISH["robots"] and not calls[0]["resume"]
     # cut after its tests: the resumed stage meets the same updates and tests none again
     (tmp_path / "p" / "checkpoint.json").write_text("{}")
