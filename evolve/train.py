@@ -354,9 +354,8 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
         f"robots, keeps {measured['transfer']['ratio']:.2f} through the simulated bus; bar "
         + ", ".join(f"{k} {'met' if v else 'missed'}" for k, v in bar.items()))
     return {"walker": str(walker), "walkers_measured": [str(t) for t in tried], "controller": str(out / CONTROLLER),
-            "measures": {
-        k: v for k, v in measured.items() if k != "transfer"}, "transfer": {
-        k: v for k, v in measured["transfer"].items() if k != "runs"}, "bar": bar}
+            "measures": {k: v for k, v in measured.items() if k != "transfer"},
+            "transfer": {k: v for k, v in measured["transfer"].items() if k != "runs"}, "bar": bar}
 
 
 STAGE_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
