@@ -42,7 +42,7 @@ def test_ship_writes_each_presets_farthest_walker_that_walks_here(tmp_path, monk
         (out / name).mkdir(parents=True)
         shutil.copy(CONTROLLERS / "xl430_biped_no_gyro.json", out / name / "walker.json")
     # seed 3 walked farthest where it was evolved but falls here; female_5's only walker too
-    monkeypatch.setattr(human_walk, "walks_here", lambda walker: walker.parent.name.endswith(("seed1", "seed2"))
+    monkeypatch.setattr(human_walk, "walks_here", lambda walker, body=None: walker.parent.name.endswith(("seed1", "seed2"))
                         and "female" not in walker.parent.name)
     # seed 2's copy differs by one weight: here it walks farther (8.6 m against 0.6 m in 60 s),
     # though the runs' records say otherwise - the walk measured here decides
@@ -79,6 +79,6 @@ def test_walks_here_replays_a_walker_by_seed_000s_test(monkeypatch):
         return {"fell": False, "upright_s": 10.0, "distance_m": 2.5, "seconds": 10.0, **walk}
 
     for walk, walks in [({}, True), ({"fell": True}, False), ({"upright_s": 9.9}, False), ({"distance_m": 2.0}, False)]:
-        monkeypatch.setattr(human_walk, "evaluate_controller", lambda path, walk=walk: replay(path, **walk))
+        monkeypatch.setattr(human_walk, "evaluate_controller", lambda path, robot=None, walk=walk: replay(path, **walk))
         assert human_walk.walks_here(CONTROLLERS / "human_male_50.json") is walks, walk
     assert replays == [CONTROLLERS / "human_male_50.json"] * 4  # each judged on its own replay
