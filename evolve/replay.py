@@ -14,6 +14,7 @@ import numpy as np
 
 from evolve.locomotion.evaluator import LocomotionEvaluator
 from evolve.locomotion.export import genome_from_controller
+from evolve.locomotion.gait_tracking import GaitTracker
 from evolve.locomotion.objectives import OBJECTIVES
 from evolve.stages import parse_stages
 from evolve.locomotion.task import TaskConfig
@@ -23,9 +24,7 @@ from sim2real.controller.channels import turn_rad
 from sim2real.controller.file import Controller
 from sim2real.errors import ConfigError, UsageError
 from sim2real.robot.names import ROBOT_FLAG
-from sim2real.robot.spec import RobotSpec
 from sim2real.figures.gait import Gait
-from sim2real.gait_measures import GaitMeter, hip_pitch_joints, is_a_walk
 from sim2real.figures.reach import Reach as ReachPlot
 from sim2real.simulation.model.builder import SimulationUnstable
 from sim2real.simulation.model.physique import measured
@@ -84,27 +83,6 @@ class TurnTracker:
             self.turn[alive] += step[alive]
             self.max_turn[alive] = np.maximum(self.max_turn[alive], np.abs(self.turn[alive]))
         self.last = yaw
-
-
-class GaitTracker:
-    """``on_tick`` hook: every episode's gait measures (:mod:`sim2real.gait_measures`), fed
-    tick by tick at the times :func:`gait` records (tick index x tick)."""
-
-    def __init__(self, robot: RobotSpec, n: int, tick_s: float):
-        self.hips = [robot.joint_names.index(name) for name in hip_pitch_joints(robot)]
-        self.meter = GaitMeter(n, tick_s)
-        self.tick = 0
-
-    def __call__(self, evaluator: LocomotionEvaluator, alive: np.ndarray) -> None:
-        hips = evaluator.joint_angles(alive)[:, self.hips]
-        feet = evaluator.parts.feet_touching(evaluator.sensordata[alive])
-        self.meter.add(alive, self.tick * evaluator.tick_s, hips, feet)
-        self.tick += 1
-
-    def report(self) -> dict[str, Any]:
-        """How many episodes walk a walk, and each one's measures (JSON-ready)."""
-        measures = self.meter.measures()
-        return {"walks": sum(map(is_a_walk, measures)), "per_episode": [m.to_dict() for m in measures]}
 
 
 def evaluate_controller(path: Path | str, robot: str | None = None, seconds: float | None = None,

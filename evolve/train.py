@@ -337,8 +337,9 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
         log(f"{walker} misses the bar ({', '.join(k for k, v in bar.items() if not v)}); measuring {earlier}")
         tried.append(earlier)
         again = wm.measure_walker(earlier, log, threads=settings.threads, robot=robot_name)
-        if all(wm.meets_bar(again).values()):
-            walker, measured, bar = earlier, again, wm.meets_bar(again)
+        again_bar = wm.meets_bar(again)
+        if all(again_bar.values()):
+            walker, measured, bar = earlier, again, again_bar
             break
     made = {"made_by": state["command"], "trained": {
         "robot": robot_name, "settings": state["settings"],

@@ -20,9 +20,9 @@ from typing import Any, Callable, Mapping, Protocol
 
 import numpy as np
 
+from evolve.locomotion.gait_tracking import GaitTracker
 from sim2real.controller.channels import Reach, turn_rad
 from sim2real.controller.reach import REACHING, ReachControl, ReachCycle
-from sim2real.gait_measures import GaitMeter, hip_pitch_joints
 from sim2real.robot.spec import ARM_LOCATIONS
 
 
@@ -130,8 +130,7 @@ class WalkObjective:
         self.velocity_sum = np.zeros(n)  # sums of the kernels over live ticks
         self.yaw_sum = np.zeros(n)
         self.straight_sum = np.zeros(n)
-        self.gait = GaitMeter(n, ev.tick_s) if task.selection_gait_coeff > 0 else None
-        self.hips = [ev.robot.joint_names.index(name) for name in hip_pitch_joints(ev.robot)] if self.gait is not None else []
+        self.gait = GaitTracker(ev.robot, n, ev.tick_s) if task.selection_gait_coeff > 0 else None
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, task = self.ev, self.task
@@ -154,9 +153,8 @@ class WalkObjective:
         self.fell[alive[down & ~bad]] = True
         yaw = ev.parts.heading(ev.sensordata)[alive]  # the true yaw, as the board's IMU would read it
         self.turned[live] = np.maximum(self.turned[live], np.abs(turn_rad(yaw[ok], self.start_yaw[live])))
-        if self.gait is not None:  # every episode still running, at this tick's time, as biped eval measures it
-            self.gait.add(alive, self.ticks * ev.tick_s, ev.joint_angles(alive)[:, self.hips],
-                          ev.parts.feet_touching(ev.sensordata[alive]))
+        if self.gait is not None:  # every episode still running, as biped eval measures it
+            self.gait(ev, alive)
         self._steady(alive, ok, yaw)
         self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
         self.time_term[alive[bad]] = 0.0
@@ -215,7 +213,7 @@ class WalkObjective:
 
     def _gait_term(self) -> np.ndarray:
         """Each episode's gait term, 0..1 (see the class docstring)."""
-        measures = self.gait.measures()
+        measures = self.gait.meter.measures()
         symmetry = np.array([0.0 if m.empty or not math.isfinite(m.symmetry) else m.symmetry for m in measures])
         flight = np.array([1.0 if m.empty else m.flight_share for m in measures])
         upright = np.minimum(self.time_term / self.ev.episode_s, 1.0)

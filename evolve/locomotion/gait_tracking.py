@@ -1,0 +1,36 @@
+"""Gait measures of many episodes at once, fed from an evaluator tick by tick: the one
+reading of hip angles and foot contacts that ``biped eval`` and selection's gait term share."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sim2real.gait_measures import GaitMeter, hip_pitch_joints, is_a_walk
+from sim2real.robot.spec import RobotSpec
+
+if TYPE_CHECKING:  # pragma: no cover - the evaluator imports the objectives, which use this
+    from evolve.locomotion.evaluator import LocomotionEvaluator
+
+
+class GaitTracker:
+    """Every episode's gait measures (:mod:`sim2real.gait_measures`), fed once a tick with the
+    episodes still running, at the times :func:`evolve.replay.gait` records (tick index x tick):
+    ``biped eval``'s ``on_tick`` hook, and selection's gait term (:class:`WalkObjective`)."""
+
+    def __init__(self, robot: RobotSpec, n: int, tick_s: float):
+        self.hips = [robot.joint_names.index(name) for name in hip_pitch_joints(robot)]
+        self.meter = GaitMeter(n, tick_s)
+        self.tick = 0
+
+    def __call__(self, evaluator: "LocomotionEvaluator", alive: np.ndarray) -> None:
+        hips = evaluator.joint_angles(alive)[:, self.hips]
+        feet = evaluator.parts.feet_touching(evaluator.sensordata[alive])
+        self.meter.add(alive, self.tick * evaluator.tick_s, hips, feet)
+        self.tick += 1
+
+    def report(self) -> dict[str, Any]:
+        """How many episodes walk a walk, and each one's measures (JSON-ready)."""
+        measures = self.meter.measures()
+        return {"walks": sum(map(is_a_walk, measures)), "per_episode": [m.to_dict() for m in measures]}
