@@ -123,6 +123,34 @@ def test_the_simulated_bus_takes_a_reality_profile():
     assert limp.data.actuator_force == pytest.approx(0.0)
 
 
+def test_faults_are_timed_from_the_first_torque_on_not_from_the_bus_start():
+    """A runtime slow to open the port and check the bus (a loaded CI machine took over 0.6 s)
+    must still meet the servos healthy: the fault clock starts when the run does."""
+    from sim2real.hardware.dynamixel.registers import Reg
+    from sim2real.simulation.simbus.physics import PhysicsChain
+
+    now = [0.0]
+    physics = PhysicsChain(ROBOT, clock=lambda: now[0])
+    physics.overload_at[9], physics.silent_at[4] = 0.3, 0.5
+    silenced = []
+    physics.on_silent = silenced.append
+    now[0] = 2.0
+    physics.advance(max_s=10.0)  # two seconds of start-up checks, torque still off
+    assert physics.devices[9].get_named(Reg.HARDWARE_ERROR_STATUS) == 0 and silenced == []
+    for device in physics.devices.values():
+        if Reg.TORQUE_ENABLE in device.profile.control_table:
+            device.set_named(Reg.TORQUE_ENABLE, 1)
+    now[0] = 2.2
+    physics.advance(max_s=10.0)
+    assert physics.devices[9].get_named(Reg.HARDWARE_ERROR_STATUS) == 0 and silenced == []
+    now[0] = 2.4
+    physics.advance(max_s=10.0)
+    assert physics.devices[9].get_named(Reg.HARDWARE_ERROR_STATUS) != 0 and silenced == []
+    now[0] = 2.6
+    physics.advance(max_s=10.0)
+    assert silenced == [4]
+
+
 def test_a_dry_run_under_the_default_reality_profile(standing_controller):
     result = dry_run(standing_controller, duration_s=1.0, log=lambda s: None, ramp_s=0.3, reality="default")
     assert result["reality"] == "default" and result["stop_reason"] == "duration reached"

@@ -79,8 +79,8 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
     dry.add_argument("controller", type=Path, help="controller JSON (biped export, biped train or configs/controllers/)")
     dry.add_argument("--robot", type=robot_name, help="robot (default: the one the controller was made for)")
     dry.add_argument("--duration", type=RUN_SECONDS, default=10.0, help="seconds of the loop (default 10)")
-    dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS,drop:RATE,corrupt:RATE "
-                     "or a YAML file of them")
+    dry.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (seconds into the "
+                     "loop, after the start ramp),drop:RATE,corrupt:RATE or a YAML file of them")
     dry.add_argument("--reality", type=reality_name, metavar="PROFILE",
                      help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
     dry.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts (default: %(default)s)")

@@ -16,6 +16,10 @@ free play (backlash joints, whose angle the encoders see and the motor does not)
 what the servos and the board report; and, only here, effects the model leaves out
 (:class:`ServoEffects`).  ``suspended`` hangs the robot by its root (a box robot's pelvis), feet off the floor,
 for ``biped excite``.
+
+Injected faults (:mod:`.faults`) are timed from the first Torque Enable of any servo - the
+moment a runtime starts its run - not from this process's start: how long a runtime takes to
+open the port and check the bus must not decide whether a fault lands before or after it.
 """
 
 from __future__ import annotations
@@ -101,7 +105,11 @@ class PhysicsChain:
                         if reality.effects else None)
         self.board = robot.sensor_board.id if robot.sensor_board else None
         self.saturated = np.zeros(len(names))
-        self.overload_at: dict[int, float] = {}  # fault injection: servo id -> simulated time
+        # fault injection: servo id -> seconds after the first torque on (see the module docstring)
+        self.overload_at: dict[int, float] = {}
+        self.silent_at: dict[int, float] = {}
+        self.on_silent: Callable[[int], None] = lambda dxl_id: None  # the serving chain's
+        self.torque_on_at: float | None = None  # simulated time [s] of the first torque on
         self.end_of_run: dict[str, float | bool] | None = None  # ground truth when the loop ended
         self.lock = threading.Lock()
         # a delayed IMU: its readings after each physics step, as long back as the delay reaches
@@ -140,6 +148,8 @@ class PhysicsChain:
             if steps <= 0:
                 return False
             goal, on = self._goals()
+            if self.torque_on_at is None and on.any():
+                self.torque_on_at = self.data.time
             # torque off: limp (kp 0 below), the goal at the motor's own angle (no stale goal
             # waits in the latency history for torque on)
             self.data.ctrl[:] = np.where(on, goal, self.angles.servo(self.data.qpos))
@@ -153,6 +163,7 @@ class PhysicsChain:
                 self._check_overload(on)
                 if self._imu_history is not None:
                     self._imu_history.append((self.data.time, self.parts.imu(self.data.sensordata)))
+            self._silence_due()
             self._publish()
             return steps < behind
 
@@ -162,11 +173,19 @@ class PhysicsChain:
         if not self.overload_at and not np.any(self.saturated >= self.overload_s):
             return  # the common case, without a Python loop over the servos every step
         for k, dxl_id in enumerate(self.ids):
-            due = self.overload_at.get(dxl_id)
-            if self.saturated[k] >= self.overload_s or (due is not None and self.data.time >= due):
+            if self.saturated[k] >= self.overload_s or self._due(self.overload_at.get(dxl_id)):
                 self.overload_at.pop(dxl_id, None)
                 self.saturated[k] = 0.0
                 self.devices[dxl_id].raise_hardware_error(OVERLOAD_BIT)
+
+    def _due(self, after_torque_on_s: float | None) -> bool:
+        return (after_torque_on_s is not None and self.torque_on_at is not None
+                and self.data.time >= self.torque_on_at + after_torque_on_s)
+
+    def _silence_due(self) -> None:
+        for dxl_id in [i for i, at in self.silent_at.items() if self._due(at)]:
+            del self.silent_at[dxl_id]
+            self.on_silent(dxl_id)
 
     def _publish(self) -> None:
         p = self.perturbation

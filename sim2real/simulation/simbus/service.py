@@ -52,7 +52,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", type=robot_name, default=DEFAULT_ROBOT,
                         help="robot name from configs/robots/ or a path to a robot YAML (default: xl430_biped)")
     parser.add_argument("--baud", type=baud_rate, help="pace replies like the wire at this baud (default: the robot's)")
-    parser.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (from start),"
+    parser.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (after the first torque on),"
                         "drop:RATE,corrupt:RATE or a YAML file of them")
     parser.add_argument("--reality", type=reality_name, metavar="PROFILE",
                         help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
@@ -81,7 +81,7 @@ def serve(args: argparse.Namespace) -> int:
     # In chunks of REPLY_CATCH_UP_S: after a stall the physics catches up between
     # instructions, and a reply waits for one chunk at most, not for all it missed
     chain = EmulatedChain(physics.devices, advance=functools.partial(physics.advance, REPLY_CATCH_UP_S))
-    timers, rates = arm_faults(args.faults, chain, physics, delay_s=args.fault_delay, robot=robot)
+    rates = arm_faults(args.faults, chain, physics, delay_s=args.fault_delay, robot=robot)
     # Everything built so far lives as long as the process: a full collection scanned its
     # ~50,000 objects for 15 ms (45 ms on a loaded core), on whichever reply was due.
     gc.collect()
@@ -102,16 +102,12 @@ def serve(args: argparse.Namespace) -> int:
         print(server.port, flush=True)
         if grant.refused:
             print(f"simbus: {grant.describe()}", file=sys.stderr, flush=True)
-        for timer in timers:
-            timer.start()
         warned = 0
         try:
             while not done.wait(0.2):
                 warned = _warn_of_stalls(server.stalls, warned)
         except KeyboardInterrupt:
             pass
-        for timer in timers:
-            timer.cancel()
         _warn_of_stalls(server.stalls, warned)
     if args.report:
         print(json.dumps({**physics.ground_truth(), "realtime": grant.summary(),
@@ -136,18 +132,18 @@ def _warn_of_stalls(stalls: list[tuple[float, float]], warned: int) -> int:
 
 
 def arm_faults(spec: str | None, chain: "EmulatedChain", physics: "PhysicsChain",
-               delay_s: float = 0.0, robot: RobotSpec | None = None) -> tuple[list[threading.Timer], dict[str, float]]:
-    """Timers for silent servos and overload times (``delay_s`` after start), and the wire's
-    drop/corrupt rates as :class:`PtyServer` keyword arguments."""
-    timers, rates = [], {}
+               delay_s: float = 0.0, robot: RobotSpec | None = None) -> dict[str, float]:
+    """Give ``physics`` the silent servos and overloads (timed ``delay_s`` after the first
+    torque on, see :mod:`.physics`); return the wire's drop/corrupt rates as
+    :class:`PtyServer` keyword arguments."""
+    rates = {}
+    physics.on_silent = chain.silent.add
     for kind, dxl_id, at in parse_faults(spec, robot):
-        if kind == "silent":
-            timers.append(threading.Timer(delay_s + at, chain.silent.add, (dxl_id,)))
-        elif kind == "overload":
-            physics.overload_at[dxl_id] = delay_s + at
+        if kind in ("silent", "overload"):
+            (physics.silent_at if kind == "silent" else physics.overload_at)[dxl_id] = delay_s + at
         else:
             rates[f"{kind}_rate"] = at
-    return timers, rates
+    return rates
 
 
 
