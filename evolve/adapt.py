@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 from evolve.config import EvolveConfig, RandomizeConfig, ValidationConfig
 from evolve.locomotion.evaluator import neat_layout
@@ -37,6 +37,15 @@ from sim2real.simulation.reality.file import centred, load_reality
 from sim2real.run_lock import RunLock, holds_folder
 
 TEST_SEED = 271_828  # the judging robots' episode seeds [TEST_SEED, e]: no training or validation key
+
+
+def evolved_with_side_bias(data: Controller) -> bool:
+    """Whether the run that made ``data`` let links leave the side bias node, as its provenance
+    records (``config.neat.side_bias``; yes when it does not say): an adapted walker keeps the
+    rule, so two networks that differed only by what they sense still do."""
+    config = data.provenance.get("config")
+    neat = config.get("neat") if isinstance(config, Mapping) else None
+    return not (isinstance(neat, Mapping) and neat.get("side_bias") is False)
 
 
 @holds_folder("out", what="biped adapt")  # held to adapt.json, past the run's own lock
@@ -64,7 +73,8 @@ def adapt(controller: Path, identified: str | Path, out: Path, *, ranges: str = 
                                 validation=ValidationConfig(draws=validation, every=5, candidates=8, consistency=0.8))
     config = EvolveConfig(robot=data.robot_name, seed=seed,  # a project robot's name (load_for_robot)
                           generations=generations, threads=threads, task=task,
-                          neat=NeatConfig(population_size=population, sigmoid_steepness=data.sigmoid_steepness),
+                          neat=NeatConfig(population_size=population, sigmoid_steepness=data.sigmoid_steepness,
+                                          side_bias=evolved_with_side_bias(data)),
                           randomize=randomize)
     grown = Population.from_genome(config.neat, neat_layout(data.layout(robot)), seed, genome_from_controller(data))
     started = time.monotonic()

@@ -25,6 +25,7 @@ from typing import Any, Callable
 from sim2real.errors import BipedError
 from sim2real.hardware.realtime import DEFAULT_PRIORITY, RealtimeRequest
 from sim2real.input_files import regular_file_problem
+from sim2real.controller.steering import TURN_RATE_DEG_S
 from sim2real.robot.validation import show
 
 MAX_SEED = 2**32 - 1  # numpy seeds are non-negative; keys are stored as 64-bit integers
@@ -254,8 +255,7 @@ def host_port(address: str) -> tuple[str, int]:
 
 HEADING_HELP = ("steer a controller with a heading input: hold the start's heading turned by DEG (left "
                 "positive), or follow a schedule SECONDS:DEG,... (e.g. 0:0,5:90,12:-45: toward 90 deg left from 5 s "
-                "on, toward 45 deg right from 12 s on); the heading to hold turns to each at 10 deg/s "
-                "(sim2real/controller/steering.py, TURN_RATE_DEG_S)")
+                f"on, toward 45 deg right from 12 s on); the heading to hold turns to each at {TURN_RATE_DEG_S:g} deg/s")
 
 
 def heading_schedule(text: str):

@@ -45,3 +45,17 @@ def test_adapt_refuses_ranges_as_the_identified_robot(tmp_path):
     with pytest.raises(ConfigError, match="fixed values"):
         adapt(WALKER, "randomize", tmp_path / "x", ranges="randomize", generations=1, population=4,
               log=lambda line: None)
+
+
+def test_adapt_keeps_a_walker_evolved_without_the_side_bias_without_it():
+    import dataclasses
+
+    from evolve.adapt import evolved_with_side_bias
+
+    walker = Controller.load(WALKER)
+    config = dict(walker.provenance.get("config") or {})
+    without = dataclasses.replace(walker, provenance={**walker.provenance,
+                                                       "config": {**config, "neat": {"side_bias": False}}})
+    assert evolved_with_side_bias(walker) and not evolved_with_side_bias(without)
+    odd = dataclasses.replace(walker, provenance={"config": {"neat": "not a mapping"}})
+    assert evolved_with_side_bias(odd)  # free-form provenance that does not say: the default
