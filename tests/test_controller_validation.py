@@ -87,7 +87,9 @@ def test_controllers_the_project_writes_load_and_match_the_schema(valid_path, va
     jsonschema.validate(valid, SCHEMA)
 
 
-def test_a_300_connection_controller_validates_in_well_under_10_ms(valid, tmp_path):
+def test_a_300_connection_controller_validates_in_well_under_a_second(valid, tmp_path):
+    """The old validation took minutes on such a controller (a guard against that, not a
+    speed measurement: about 1 ms here, but a loaded CI machine is many times slower)."""
     data = copy.deepcopy(valid)
     interface = len(data["inputs"]) + 2 + len(data["outputs"])
     data["hidden"] = [[interface + i, i % 2] for i in range(40)]
@@ -104,7 +106,7 @@ def test_a_300_connection_controller_validates_in_well_under_10_ms(valid, tmp_pa
         start = time.perf_counter()
         Controller.load(path, ROBOT)
         times.append(time.perf_counter() - start)
-    assert min(times) < 0.010, times
+    assert min(times) < 0.5, times
 
 
 # -- every field broken in every way -------------------------------------------------------------

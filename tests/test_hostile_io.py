@@ -9,6 +9,7 @@ import argparse
 import errno
 import math
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -86,7 +87,14 @@ def test_two_polishes_into_one_folder_the_second_refused_the_first_unharmed(tmp_
         deadline = time.monotonic() + 120
         while not (out / ".lock").exists() and first.poll() is None and time.monotonic() < deadline:
             time.sleep(0.02)
-        second = subprocess.run(argv, capture_output=True, text=True, env=ENV, timeout=120)
+        assert (out / ".lock").exists(), "the first polish took no lock within 2 min"
+        # held still while the second starts: a short polish could otherwise end and release the
+        # lock before a slow machine's second process reached its check
+        first.send_signal(signal.SIGSTOP)
+        try:
+            second = subprocess.run(argv, capture_output=True, text=True, env=ENV, timeout=120)
+        finally:
+            first.send_signal(signal.SIGCONT)
         assert second.returncode == 2, second.stderr
         assert second.stderr.strip() == (f"biped: error: {out}: another biped polish is working in this folder (process "
                                          f"id {first.pid}); two in one folder would overwrite each other's files. Wait "

@@ -140,7 +140,8 @@ def test_a_controller_for_an_imported_robot_runs_on_the_mock_bus_the_simulated_b
     report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert not report["torque_off"]["unconfirmed"] and len(report["torque_off"]["confirmed"]) == 20
     trace = tmp_path / "dry.csv"
-    assert main(["dry-run", str(path), *where, "--duration", "1", "--trace", str(trace), "--json"]) == 0
+    assert main(["dry-run", str(path), *where, "--duration", "1", "--trace", str(trace), "--json",
+                 "--lost-after-ms", "2000"]) == 0  # a loaded machine can hold the simulated bus up ~100 ms
     dry = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     # (a network's resting output, 0.5, is the middle of each range: this robot's crouch, where it
     # falls; what matters here is that the loop ran on the simulated bus and stopped safely)

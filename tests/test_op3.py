@@ -76,7 +76,8 @@ def test_evolution_and_the_runtime_run_on_op3(tmp_path, capsys):
     report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert len(report["torque_off"]["confirmed"]) == 20 and not report["torque_off"]["unconfirmed"]
     trace = tmp_path / "dry.csv"
-    assert main(["dry-run", str(path), "--duration", "1", "--trace", str(trace), "--json"]) == 0
+    assert main(["dry-run", str(path), "--duration", "1", "--trace", str(trace), "--json",
+                 "--lost-after-ms", "2000"]) == 0  # a loaded machine can hold the simulated bus up ~100 ms
     dry = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert dry["ticks"] >= 20 and not dry["torque_off"]["unconfirmed"]
     assert main(["compare", str(trace), "--json"]) == 0

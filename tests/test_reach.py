@@ -271,7 +271,8 @@ def test_a_walker_takes_no_reach_target(capsys):
 def test_a_dry_run_reaches_through_the_simulated_bus(path, reaches, reacher_file):
     from sim2real.simulation.transfer.dry_run import dry_run
 
-    result = dry_run(reacher_file if path == "hand-made" else path, duration_s=4.0, log=lambda s: None, ramp_s=0.3)
+    result = dry_run(reacher_file if path == "hand-made" else path, duration_s=4.0, log=lambda s: None, ramp_s=0.3,
+                     lost_after_s=2.0)  # a loaded machine can hold the simulated bus up ~100 ms
     assert result["reach"]["reaches"] >= reaches and not result["fell"]
     assert not result["torque_off"]["unconfirmed"]
 

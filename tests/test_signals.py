@@ -33,6 +33,7 @@ from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
 from sim2real.hardware.trace import TraceWriter
 from sim2real.robot import load_robot
 from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
+from tests.test_stop_paths import Hooks
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOT = load_robot()
@@ -67,12 +68,9 @@ def assert_all_off(chain, report):
 @pytest.mark.parametrize("signum", STOP_SIGNALS, ids=lambda s: signal.Signals(s).name)
 def test_every_stop_signal_ends_in_a_safe_stop(served_chain, controller, signum):
     chain, port = served_chain
-    timer = threading.Timer(0.35, os.kill, (os.getpid(), signum))  # inside the loop
-    timer.start()
-    try:
-        report = run(port, controller, duration_s=5.0)
-    finally:
-        timer.cancel()
+    # sent from the loop's own sleep, not a timer: a timer that fired before drive() had its
+    # handlers (a slow start-up) would meet the signal's default action, in pytest itself
+    report = run(port, controller, duration_s=5.0, sleep=Hooks(in_loop=lambda: os.kill(os.getpid(), signum)))
     name = signal.Signals(signum).name
     assert report.stop_signal == name and report.stop_reason == signal_stop_reason(name)
     assert_all_off(chain, report)
@@ -121,12 +119,9 @@ def read_line(child: subprocess.Popen, lines: "queue.Queue[str]", timeout_s: flo
 
 def test_a_second_signal_during_the_stop_only_cuts_the_ramp_short(served_chain, controller):
     chain, port = served_chain
-    timers = [threading.Timer(t, os.kill, (os.getpid(), s)) for t, s in ((0.3, signal.SIGHUP), (0.45, signal.SIGINT))]
-    for t in timers:
-        t.start()
-    report = run(port, controller, duration_s=5.0, ramp_s=1.0)
-    for t in timers:
-        t.join()
+    hooks = Hooks(in_loop=lambda: os.kill(os.getpid(), signal.SIGHUP),
+                  in_final_ramp=lambda: os.kill(os.getpid(), signal.SIGINT), ramp_s=1.0)
+    report = run(port, controller, duration_s=5.0, ramp_s=1.0, sleep=hooks)
     assert report.stop_signal == "SIGHUP"
     assert "ramp to rest cut short by SIGINT" in report.stop_notes
     assert_all_off(chain, report)
@@ -298,7 +293,7 @@ def test_dry_run_signalled_as_a_terminal_does_stops_safely(controller_file, tmp_
     """A terminal's Ctrl-C (or hang-up) reaches the whole foreground process group: the simulated
     bus the dry run started must outlive the run's safe stop (it crashed at once before)."""
     trace = tmp_path / "t.csv"
-    proc = biped("dry-run", str(controller_file), "--duration", "30", "--trace", str(trace),
+    proc = biped("dry-run", str(controller_file), "--duration", "30", "--trace", str(trace), "--lost-after-ms", "2000",
                  start_new_session=True)  # its own group, so that this test's runner is not signalled
     wait_for_loop(trace)
     time.sleep(random.uniform(0.0, 1.0))
@@ -332,7 +327,7 @@ def test_a_held_up_simulated_bus_says_so(monkeypatch, capsys):
         give_up = time.monotonic() + 10
         while not server.stalls and time.monotonic() < give_up:
             time.sleep(0.05)
-    assert len(server.stalls) >= 1 and server.stalls[0][1] >= 3 * STALL_S
+    assert max(length for _, length in server.stalls) >= 3 * STALL_S  # a natural stall may come first
     summary = stall_summary(server.stalls)
     assert summary["count"] == len(server.stalls) and summary["longest_ms"] >= 3e3 * STALL_S
     assert _warn_of_stalls(server.stalls, 0) == len(server.stalls)

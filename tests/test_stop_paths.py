@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -44,10 +45,10 @@ class Hooks:
     """A sleep that runs ``in_loop`` at the loop's n-th sleep and ``in_final_ramp`` at the
     final ramp's n-th step (ramp steps sleep exactly RAMP_TICK_S; the loop's sleeps do not)."""
 
-    def __init__(self, in_loop=None, in_final_ramp=None, n=3):
+    def __init__(self, in_loop=None, in_final_ramp=None, n=3, ramp_s=RAMP_S):
         self.in_loop, self.in_final_ramp, self.n = in_loop, in_final_ramp, n
         self.loop_sleeps = self.ramp_sleeps = 0
-        self.start_ramp_steps = int(np.ceil(RAMP_S / RAMP_TICK_S))
+        self.start_ramp_steps = int(np.ceil(ramp_s / RAMP_TICK_S))
 
     def __call__(self, seconds: float) -> None:
         if seconds == RAMP_TICK_S:
@@ -71,6 +72,9 @@ def kill(signum):
 
 
 def run(port, controller, hooks=None, duration_s=0.5, **kw):
+    # 1 s, not the runtime's 100 ms, unless a test sets it: a loaded machine can hold the serving
+    # thread up for longer than 100 ms, and only the tests of lost communication are about that
+    kw.setdefault("lost_after_s", 1.0)
     return drive(DynamixelBus(port, 1_000_000, ROBOT), ROBOT, controller, duration_s=duration_s,
                  log=lambda s: None, ramp_s=RAMP_S, sleep=hooks or Hooks(), **kw)
 
@@ -238,7 +242,8 @@ def test_sigterm_during_the_final_ramp_of_biped_run_still_turns_torque_off(contr
 
 def test_a_silent_servo_makes_the_run_fail_naming_it_and_asking_to_cut_power(controller_file):
     out = subprocess.run([sys.executable, "-m", "evolve.cli", "dry-run", str(controller_file), "--duration", "3",
-                          "--faults", "silent:4@0.3", "--json", "--no-mlock"],
+                          "--faults", "silent:4@0.3", "--json", "--no-mlock",
+                          "--lost-after-ms", "2000"],  # only servo 4 goes silent, even on a loaded machine
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 3, out.stderr
     result = json.loads(out.stdout.splitlines()[-1])
@@ -265,8 +270,10 @@ def test_missed_replies_hold_the_goals_and_only_a_long_silence_stops_the_run(ser
 
     chain._read = flaky_read
     report = run(port, controller, Hooks(in_loop=lambda: misses.update(on=True)), duration_s=1.0)
-    assert report.stop_reason == "duration reached"
-    assert report.retries >= 5 and report.missed_ticks >= 1
+    assert report.stop_reason == "duration reached" and misses["n"] == 6
+    # How the six misses split between retries and held ticks depends on how long each wait
+    # for a reply took (a loaded machine fits fewer in a tick's read budget): both happen.
+    assert report.retries >= 1 and report.missed_ticks >= 1
     assert_all_off(chain, report)
 
 
@@ -275,11 +282,12 @@ def test_lost_communication_waits_for_lost_after_s(served_chain, controller):
     stopped = {}
     hooks = Hooks(in_loop=lambda: (chain.silent.add(3), stopped.setdefault("silent_at", time.monotonic())), n=5)
     report = run(port, controller, hooks, duration_s=5, lost_after_s=0.3)
+    ended_s = time.monotonic() - stopped["silent_at"]
     assert report.stop_reason.startswith("lost communication: servo 3")
-    assert "no good reply for" in report.stop_reason
-    ticks_while_silent = report.ticks - 5
-    assert ticks_while_silent * controller.tick_s >= 0.3 - controller.tick_s
-    assert report.missed_ticks == ticks_while_silent
+    # the loop's own count of the silence, not ticks: a loaded machine runs fewer in 0.3 s
+    silence_ms = float(re.search(r"no good reply for (\d+) ms", report.stop_reason).group(1))
+    assert 300 <= silence_ms <= ended_s * 1e3 + 1
+    assert 1 <= report.missed_ticks <= report.ticks - 5  # every tick it held came after the silence began
 
 
 def test_a_device_that_answers_only_corrupt_packets_is_named_as_such(controller):

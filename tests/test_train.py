@@ -56,6 +56,9 @@ def trained(imported, tmp_path_factory) -> tuple[Path, str, str]:
         if line.startswith("[polish") and "weights," in line:  # the polish has begun its search
             break
         assert time.monotonic() < deadline, "no polish stage within 10 min:\n" + "".join(first)
+    else:  # NEAT overran the polish's share of the budget: nothing to cut
+        proc.wait(timeout=600)
+        pytest.fail("the training ended before its polish began:\n" + "".join(first))
     proc.send_signal(signal.SIGINT)
     rest_out, rest_err = proc.communicate(timeout=120)
     first.append(rest_err)

@@ -43,6 +43,13 @@ RUN_SECONDS = positive_float_at_most(MAX_TIME_S, "a week: run without --duration
 LOST_AFTER_MS = positive_float_at_most(60_000.0, "a minute")
 
 
+def add_lost_after_argument(parser: argparse.ArgumentParser) -> None:
+    """``--lost-after-ms``, as ``biped run`` and ``biped dry-run`` take it."""
+    parser.add_argument("--lost-after-ms", type=LOST_AFTER_MS, default=LOST_AFTER_S * 1e3, metavar="MS",
+                        help="stop when no read has succeeded for this long (default %(default).0f ms; single "
+                        "missed replies are retried and their ticks hold the last goals)")
+
+
 def add_commands(sub: argparse._SubParsersAction) -> None:
     run = sub.add_parser("run", help="drive a robot with a controller (real bus or mock)",
                          description="Drive the robot with a controller: start-up checks, a slow ramp, "
@@ -59,9 +66,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--trace", type=TRACE_FILE, help="write a trace CSV (+ JSON sidecar) here")
     run.add_argument("--disable-module", action="append", default=[], metavar="NAME",
                      help="switch a control module off (repeatable)")
-    run.add_argument("--lost-after-ms", type=LOST_AFTER_MS, default=LOST_AFTER_S * 1e3, metavar="MS",
-                     help="stop when no read has succeeded for this long (default %(default).0f ms; single "
-                     "missed replies are retried and their ticks hold the last goals)")
+    add_lost_after_argument(run)
     run.add_argument("--heading", type=heading_schedule, metavar="DEG|T:DEG,...", help=HEADING_HELP)
     run.add_argument("--reach-target", type=reach_target, metavar="X,Y,Z", help=REACH_HELP)
     run.add_argument("--json", action="store_true", help="print the report as one JSON object")
@@ -89,6 +94,7 @@ def add_simulated_bus_commands(sub: argparse._SubParsersAction) -> None:
                      help="switch a control module off (repeatable)")
     dry.add_argument("--heading", type=heading_schedule, metavar="DEG|T:DEG,...", help=HEADING_HELP)
     dry.add_argument("--reach-target", type=reach_target, metavar="X,Y,Z", help=REACH_HELP)
+    add_lost_after_argument(dry)
     dry.add_argument("--json", action="store_true", help="print the report as one JSON object")
     add_realtime_arguments(dry)
     dry.set_defaults(func=cmd_dry_run, check=check_dry_run)
@@ -215,7 +221,8 @@ def cmd_dry_run(args: argparse.Namespace) -> int:
     result = dry_run(args.controller, args.robot, args.duration, args.trace, args.faults, log=log,
                      reality=args.reality, seed=args.seed, disabled_modules=tuple(args.disable_module),
                      realtime=realtime_request(args),
-                     simbus_realtime=realtime_flags(args), heading=args.heading, reach_target=args.reach_target)
+                     simbus_realtime=realtime_flags(args), heading=args.heading, reach_target=args.reach_target,
+                     lost_after_s=args.lost_after_ms / 1e3)
     print_result(result, args.json)
     return run_exit_code(result, log)
 
@@ -246,7 +253,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         log("no --port: running on the simulated bus (MuJoCo behind a pseudo-terminal)")
         result = dry_run(args.controller, robot.name if args.robot else None, args.duration or 10.0,
                          args.trace, log=log, disabled_modules=tuple(args.disable_module), realtime=realtime,
-                         simbus_realtime=realtime_flags(args), heading=args.heading, reach_target=args.reach_target)
+                         simbus_realtime=realtime_flags(args), heading=args.heading, reach_target=args.reach_target,
+                         lost_after_s=args.lost_after_ms / 1e3)
     print_result(result, args.json)
     return run_exit_code(result, log)
 

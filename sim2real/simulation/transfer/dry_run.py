@@ -20,6 +20,7 @@ from sim2real.controller.policy import refuse_commands
 from sim2real.errors import BipedError
 from sim2real.hardware.deploy import drive
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
+from sim2real.hardware.loop import LOST_AFTER_S
 from sim2real.hardware.realtime import RealtimeRequest
 from sim2real.simulation.reality.file import load_reality  # reality files, read without MuJoCo
 from sim2real.simulation.simbus.faults import END_OF_RUN, check_fault_times, parse_faults
@@ -84,7 +85,8 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
             disabled_modules: tuple[str, ...] = (), reality: str | None = None, seed: int = 0,
             realtime: RealtimeRequest | None = None, simbus_realtime: list[str] | None = None,
             heading: Callable[[float], float] | None = None,
-            reach_target: tuple[float, float, float] | None = None) -> dict[str, Any]:
+            reach_target: tuple[float, float, float] | None = None,
+            lost_after_s: float = LOST_AFTER_S) -> dict[str, Any]:
     """Run a controller through the real runtime on the simulated bus, the robot behind it
     perturbed by the reality profile ``reality`` (None: nominal); see ``biped dry-run``.
 
@@ -92,7 +94,8 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
     request (None: none; this process keeps its scheduling); ``simbus_realtime`` the simulated
     bus's as its command-line flags (None: its default, real-time scheduling - a simulated
     robot starved of CPU would fall, or go silent, for the wrong reason); ``heading`` the
-    heading to hold over time and ``reach_target`` where a reaching controller's hand reaches
+    heading to hold over time, ``reach_target`` where a reaching controller's hand reaches and
+    ``lost_after_s`` [s] how long without a good read stops the loop
     (:func:`sim2real.hardware.deploy.drive`).
     """
     data, robot = Controller.load_for_robot(controller_path, robot_name)
@@ -107,7 +110,7 @@ def dry_run(controller_path: Path | str, robot_name: str | None = None, duration
         report = drive(DynamixelBus(simbus.port, robot.bus.baud, robot), robot, data, duration_s=duration_s,
                        trace_path=trace_path, log=log, ramp_s=ramp_s, disabled_modules=disabled_modules,
                        realtime=realtime, on_loop_end=simbus.mark_end_of_run, heading=heading,
-                       reach_target=reach_target)
+                       reach_target=reach_target, lost_after_s=lost_after_s)
     truth = simbus.ground_truth
     if "distance_m" not in truth:
         raise BipedError("the simulated bus ended without its report (it crashed?)")
