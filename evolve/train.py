@@ -9,7 +9,8 @@ measuring counted):
 1. **neat** - NEAT (population 512 in 30 species, ``configs/evolve/train.yaml``) with the gait
    clock's period from the robot's leg length (``phase_period_s: auto``), until a champion passes the robustness bar
    (:func:`evolve.walk_measures.robustness`: 8 of 10 unseen randomized robots and 3 of 3
-   ``default.yaml`` robots) or until ``NEAT_SHARE`` of the budget is spent;
+   ``default.yaml`` robots) or until ``NEAT_SHARE`` of the budget is spent; started again from a
+   new seed when nothing walks off the harness (``NEAT_RESTART_AFTER``, :func:`_restart_due`);
 2. **polish** - CMA-ES on the walker's weights (:func:`evolve.polish.polish`), ranked on the
    walk rate over common robots, until its validation plateaus or ``POLISH_UNTIL`` of the
    budget is spent;
@@ -68,6 +69,12 @@ SPEED = {"popsize": 16, "robots": 32, "sigma": 0.05, "validation": 100, "worst":
 SPEED_GOAL_M_S = 0.15  # the straight-walk goal's speed: the speed polish counts no slower walk than this
 SPEED_MARGIN = 1.1  # a walker this much faster than the goal on both 60 s walks skips the speed polish
 MAX_UPDATES = 100_000  # a stage's update cap; the budget ends it long before
+# NEAT starts again from a new seed (the training's seed + k x RESTART_SEED) when no candidate has
+# walked on a validation robot this many generations after the harness came off: every seed that
+# made a walker had its first such walk within 14 (biped seeds, OP3 seed 1); OP3's seed 2 had none
+# in 95 and its polish could not start from it (benchmarks/RESULTS.md, "biped train op3")
+NEAT_RESTART_AFTER = 25
+RESTART_SEED = 1000
 PATIENCE = 4  # validations (5 updates each) without a kept walker before a polish stage stops
 STAGES = ("neat", "polish", "speed", "measure")
 # the joints a walker drives, by control set name in order of preference: seed 000's table 1 "Walk"
@@ -197,50 +204,26 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
 # -- the stages --------------------------------------------------------------------------------
 def _neat(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
           log: Callable[[str], None]) -> dict[str, Any]:
-    """NEAT until a champion passes the robustness bar or its share of the budget is spent."""
-    from evolve import walk_measures as wm
-
-    from evolve.run import Run
-
-    folder = out / "neat"
-    if (folder / "checkpoint.json.gz").exists():
-        run = Run.resume(folder, threads=settings.threads, log=log, robot=robot_name)
-        log(f"resuming NEAT at generation {run.population.generation}")
-    else:
-        config = neat_config(robot_name, settings)
-        log(f"NEAT: {robot_name}, population {config.neat.population_size}, gait clock "
-            f"{config.task.phase_period_s:g} s, {settings.threads} threads")
-        run = Run.create(config, folder, log=log)
-    run.open_ended = True
-    tests_file = folder / "tests.json"
-    found: dict[str, Any] = read_json(tests_file) if tests_file.exists() else {"tests": [], "robust": None}
-    tested = {(t["generation"], t["key"]) for t in found["tests"]}
+    """NEAT until a champion passes the robustness bar or its share of the budget is spent;
+    started again from a new seed (:func:`_restart_due`) when nothing walks off the harness."""
+    found_file = out / "neat" / "tests.json"  # the stage's record, across its attempts
+    found: dict[str, Any] = read_json(found_file) if found_file.exists() else {"tests": [], "robust": None}
+    restarts = found.setdefault("restarts", [])  # each abandoned attempt: seed, generations, minutes
+    while True:
+        attempt = len(restarts)
+        folder = out / "neat" if attempt == 0 else out / f"neat-{attempt + 1}"
+        found.setdefault("attempt", {"seed": settings.seed + attempt * RESTART_SEED, "started_s": budget.elapsed_s,
+                                     "walked_generation": None})
+        run, restart = _neat_attempt(robot_name, folder, settings, found, found_file, budget, log)
+        if not restart:
+            break
+        done = found.pop("attempt")
+        restarts.append({"seed": done["seed"], "generations": run.generation_offset + run.population.generation,
+                         "minutes": (budget.elapsed_s - done["started_s"]) / 60.0, "folder": str(folder)})
+        write_json_atomic(found_file, found)
+        log(f"no candidate walked on a validation robot within {NEAT_RESTART_AFTER} generations off the "
+            f"harness: NEAT starts again from seed {settings.seed + len(restarts) * RESTART_SEED}")
     candidate = folder / "champion.json"
-
-    def stop(run: Run, row: dict) -> bool:
-        best = run.best
-        if best is not None and not best.harness and (best.generation, best.genome.key) not in tested:
-            tested.add((best.generation, best.genome.key))
-            run.controller(best).save(candidate)
-            test = wm.robustness(candidate, threads=settings.threads, robot=robot_name)
-            robust = wm.is_robust(test)
-            found["tests"].append({"generation": best.generation, "key": best.genome.key, **_short(test),
-                                   "robust": robust})
-            log(f"champion of generation {best.generation}: walks on {test['randomized']['walked']}/{wm.DRAWS} unseen "
-                f"robots, {test['default']['walked']}/{test['default_episodes']} default"
-                f"{' - robust' if robust else ''}")
-            if robust:
-                shutil.copyfile(candidate, folder / "walker.json")
-                found["robust"] = best.generation
-            write_json_atomic(tests_file, found)
-            if robust:
-                return True
-        return budget.until(NEAT_SHARE) <= 0
-
-    if found["robust"] is None:
-        run.evolve(stop=stop)
-    else:
-        run.close()
     walker = folder / "walker.json" if found["robust"] is not None else candidate
     if not walker.exists():  # no champion off the harness yet (a small budget): the polish starts from the best
         if run.best is None:
@@ -251,7 +234,80 @@ def _neat(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, 
         run.controller(run.best).save(candidate)
     return {"walker": str(walker), "robust": found["robust"] is not None, "robust_generation": found["robust"],
             "generations": run.generation_offset + run.population.generation, "tests": found["tests"],
-            "config": str(folder / "config.yaml")}
+            "seed": found["attempt"]["seed"], "restarts": restarts, "config": str(folder / "config.yaml")}
+
+
+def _neat_attempt(robot_name: str, folder: Path, settings: TrainSettings, found: dict[str, Any], found_file: Path,
+                  budget: Budget, log: Callable[[str], None]) -> tuple[Any, bool]:
+    """One NEAT run in ``folder`` (resumed from its checkpoint if it has one) from the seed of
+    ``found["attempt"]``; returns the run and whether it stopped for a restart."""
+    from evolve import walk_measures as wm
+
+    from evolve.run import Run
+
+    attempt = found["attempt"]
+    if (folder / "checkpoint.json.gz").exists():
+        run = Run.resume(folder, threads=settings.threads, log=log, robot=robot_name)
+        log(f"resuming NEAT at generation {run.population.generation}")
+    else:
+        config = neat_config(robot_name, dataclasses.replace(settings, seed=attempt["seed"]))
+        log(f"NEAT: {robot_name}, population {config.neat.population_size}, gait clock "
+            f"{config.task.phase_period_s:g} s, {settings.threads} threads"
+            + (f", seed {attempt['seed']}" if attempt["seed"] != settings.seed else ""))
+        run = Run.create(config, folder, log=log)
+    write_json_atomic(found_file, found)  # the attempt's seed and start, for a resume
+    run.open_ended = True
+    tested = {(t.get("seed", settings.seed), t["generation"], t["key"]) for t in found["tests"]}
+    candidate = folder / "champion.json"
+    restart = False
+
+    def walked(generation: int) -> None:
+        if attempt["walked_generation"] is None:
+            attempt["walked_generation"] = generation
+            write_json_atomic(found_file, found)
+
+    def stop(run: Run, row: dict) -> bool:
+        nonlocal restart
+        generation = run.generation_offset + run.population.generation
+        if isinstance(row.get("validation_walked"), (int, float)) and row["validation_walked"] > 0:
+            walked(generation)
+        best = run.best
+        if best is not None and not best.harness and (attempt["seed"], best.generation, best.genome.key) not in tested:
+            tested.add((attempt["seed"], best.generation, best.genome.key))
+            run.controller(best).save(candidate)
+            test = wm.robustness(candidate, threads=settings.threads, robot=robot_name)
+            robust = wm.is_robust(test)
+            found["tests"].append({"seed": attempt["seed"], "generation": best.generation, "key": best.genome.key,
+                                   **_short(test), "robust": robust})
+            log(f"champion of generation {best.generation}: walks on {test['randomized']['walked']}/{wm.DRAWS} unseen "
+                f"robots, {test['default']['walked']}/{test['default_episodes']} default"
+                f"{' - robust' if robust else ''}")
+            if test["randomized"]["walked"]:
+                walked(generation)
+            if robust:
+                shutil.copyfile(candidate, folder / "walker.json")
+                found["robust"] = best.generation
+            write_json_atomic(found_file, found)
+            if robust:
+                return True
+        restart = _restart_due(attempt, generation, run.config.task.harness_generations, budget)
+        return restart or budget.until(NEAT_SHARE) <= 0
+
+    if found["robust"] is None:
+        run.evolve(stop=stop)
+    else:
+        run.close()
+    return run, restart
+
+
+def _restart_due(attempt: dict[str, Any], generation: int, harness_generations: int, budget: Budget) -> bool:
+    """Whether NEAT should start again from a new seed: no candidate of this attempt has walked on
+    a validation robot (nor its champion on a test robot) ``NEAT_RESTART_AFTER`` generations after
+    the harness came off, and NEAT's share of the budget has at least as long left as this
+    attempt has taken (a restart that cannot catch up is no better than going on)."""
+    if attempt["walked_generation"] is not None or generation < harness_generations + NEAT_RESTART_AFTER:
+        return False
+    return budget.until(NEAT_SHARE) >= budget.elapsed_s - attempt["started_s"]
 
 
 def _polish(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,

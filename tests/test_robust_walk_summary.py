@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -74,6 +75,83 @@ def test_a_polish_stage_past_its_share_of_the_budget_does_not_start(tmp_path, mo
     spent = tr.Budget(minutes=10.0, spent_s=7 * 60.0)
     record = tr.polish_stage(WALKER, tmp_path / "p", tr.TrainSettings(), spent, 0.65, lambda s: None, dict(tr.POLISH))
     assert record["skipped"] and record["walker"] is None
+
+
+class FakeNeatRun:
+    """A stand-in for evolve.run.Run in the NEAT stage: each generation costs ``seconds`` of the
+    budget; the seeds in ``walks_at`` have a candidate walk on validation robots from that
+    generation on.  Off the harness (generation 25) its champion never changes."""
+
+    def __init__(self, config, folder, budget, walks_at, seconds):
+        self.config, self.folder, self.budget, self.walks_at, self.seconds = config, Path(folder), budget, walks_at, seconds
+        self.generation_offset, self.best = 0, None
+        self.population = type("P", (), {"generation": 0})()
+        self.folder.mkdir(parents=True, exist_ok=True)
+
+    def evolve(self, stop):
+        while True:
+            self.population.generation += 1
+            self.budget.spent_s += self.seconds
+            g = self.population.generation
+            self.best = SimpleNamespace(generation=min(g, 25), harness=g < 25, genome=SimpleNamespace(key=7))
+            walks = self.walks_at.get(self.config.seed)
+            row = {"validation_walked": 3 if walks is not None and g >= walks else (0 if g % 5 == 0 else "")}
+            if stop(self, row):
+                return self.best
+
+    def controller(self, best):
+        return SimpleNamespace(save=lambda path: Path(path).write_text("{}"))
+
+    def close(self):
+        pass
+
+
+def _fake_neat(monkeypatch, budget, walks_at: dict, seconds: float) -> list:
+    """Run.create replaced by :class:`FakeNeatRun`; the budget's clock stands still (only the
+    fake generations spend it)."""
+    import evolve.run
+
+    monkeypatch.setattr(tr, "time", SimpleNamespace(monotonic=lambda: 0.0))
+
+    created = []
+
+    def create(config, folder, log):
+        created.append((config.seed, Path(folder).name))
+        return FakeNeatRun(config, folder, budget, walks_at, seconds)
+
+    monkeypatch.setattr(evolve.run, "Run", SimpleNamespace(create=create))
+    monkeypatch.setattr(wm, "robustness", lambda *a, **k: _test(0, 0))
+    return created
+
+
+def test_neat_starts_again_from_a_new_seed_when_nothing_walks_off_the_harness(tmp_path, monkeypatch):
+    """Seed 1 never walks: 25 generations after the harness (generation 50) NEAT starts again
+    from seed 1001, which walks at generation 30 and runs to NEAT's share of the budget."""
+    budget = tr.Budget(minutes=10.0, started=0.0)  # NEAT's share: 270 s; a generation costs 1 s
+    created = _fake_neat(monkeypatch, budget, {1001: 30}, seconds=1.0)
+    record = tr._neat("xl430_biped", tmp_path, tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
+    assert created == [(1, "neat"), (1001, "neat-2")]
+    assert record["seed"] == 1001 and [r["seed"] for r in record["restarts"]] == [1]
+    assert record["restarts"][0]["generations"] == 25 + tr.NEAT_RESTART_AFTER
+    assert record["walker"] == str(tmp_path / "neat-2" / "champion.json") and not record["robust"]
+    assert record["restarts"][0]["minutes"] == pytest.approx(50 / 60)
+    budget = tr.Budget(minutes=10.0, started=0.0)  # the stage again in its folder, as a resume runs it
+    created = _fake_neat(monkeypatch, budget, {1001: 30}, seconds=1.0)
+    again = tr._neat("xl430_biped", tmp_path, tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
+    assert created == [(1001, "neat-2")] and again["restarts"] == record["restarts"]
+
+
+def test_no_restart_that_could_not_catch_up_nor_for_a_seed_that_walks(tmp_path, monkeypatch):
+    """With less of NEAT's share left than the attempt took, NEAT goes on; a seed with a walk
+    (generation 40) is never restarted."""
+    budget = tr.Budget(minutes=3.0, started=0.0)  # NEAT's share: 81 s; at generation 50, 31 s left < 50 s taken
+    created = _fake_neat(monkeypatch, budget, {}, seconds=1.0)
+    record = tr._neat("xl430_biped", tmp_path / "a", tr.TrainSettings(minutes=3.0), {}, budget, lambda s: None)
+    assert created == [(1, "neat")] and record["restarts"] == [] and record["generations"] == 81
+    budget = tr.Budget(minutes=10.0, started=0.0)
+    created = _fake_neat(monkeypatch, budget, {1: 40}, seconds=1.0)
+    record = tr._neat("xl430_biped", tmp_path / "b", tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
+    assert created == [(1, "neat")] and record["restarts"] == [] and record["generations"] == 270
 
 
 def _state(tmp_path: Path, neat_robust: bool, polish_walker: bool) -> dict:
