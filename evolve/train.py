@@ -319,8 +319,12 @@ def _polish(robot_name: str, out: Path, settings: TrainSettings, state: dict[str
     source = Path(neat["walker"])
     folder = out / "polish"
     end = 1.0 - MEASURE_SHARE
-    until = lambda: POLISH_UNTIL if neat["robust"] or (folder / "walker.json").exists() else end  # noqa: E731
-    return polish_stage(source, folder, settings, budget, until, log, dict(POLISH), robot_name)
+    robust = lambda: neat["robust"] or (folder / "walker.json").exists()  # noqa: E731
+    until = lambda: POLISH_UNTIL if robust() else end  # noqa: E731
+    # no plateau stops a polish that has no robust walker yet: nothing after it would use the
+    # minutes (biped seed 5 stopped on one with 13 of its 60 minutes left, unused)
+    return polish_stage(source, folder, settings, budget, until, log, dict(POLISH), robot_name,
+                        patience=PATIENCE if robust() else None)
 
 
 def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
@@ -421,11 +425,11 @@ STAGE_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
 
 def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Budget,
                  until: float | Callable[[], float], log: Callable[[str], None], stage: dict[str, Any],
-                 robot: str | None = None) -> dict[str, Any]:
-    """Polish ``source`` in ``folder`` until a plateau or ``until`` (a share of the budget, or a
-    function giving it) is spent, testing each walker its validation keeps against the robustness
-    bar; ``walker``: the last that passed (None: none), ``kept``: the weights validation kept.
-    A cut stage resumes from the polish's checkpoint and ``folder/tests.json``."""
+                 robot: str | None = None, patience: int | None = PATIENCE) -> dict[str, Any]:
+    """Polish ``source`` in ``folder`` until a plateau (``patience`` validations keeping nothing;
+    None: no plateau) or ``until`` (a share of the budget, or a function giving it) is spent,
+    testing each walker its validation keeps against the robustness bar; ``walker``: the last
+    that passed (None: none), ``kept``: the weights validation kept.  A cut stage resumes from the polish's checkpoint and ``folder/tests.json``."""
     from evolve import walk_measures as wm
 
     share = until if callable(until) else (lambda: until)
@@ -459,7 +463,7 @@ def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Bu
 
     options = {k: v for k, v in stage.items() if k != "popsize"}
     record = polish(source, folder, updates=MAX_UPDATES, popsize=stage["popsize"], seed=settings.seed,
-                    on_best=on_best, resume=resume, patience=PATIENCE, threads=settings.threads, test=0,
+                    on_best=on_best, resume=resume, patience=patience, threads=settings.threads, test=0,
                     should_stop=lambda: budget.until(share()) <= 0, robot=robot, log=log, **options)
     return {"source": str(source), "walker": str(walker) if walker.exists() else None,
             "kept": record["polished"] if record["kept_update"] else None,

@@ -29,7 +29,8 @@ def fake_polish(kept_updates: list[int], calls: list):
     """A stand-in for evolve.polish.polish: validation keeps the walker at ``kept_updates``."""
     def polish(source, out, *, updates, popsize, seed, on_best, resume, patience, threads, test, should_stop, log,
                **options):
-        calls.append({"source": Path(source), "out": Path(out), "resume": resume, "seed": seed, **options})
+        calls.append({"source": Path(source), "out": Path(out), "resume": resume, "seed": seed, "patience": patience,
+                      **options})
         history = [{"update": 0}]
         for update in kept_updates:
             shutil.copyfile(source, Path(out) / "kept.json")
@@ -66,6 +67,18 @@ def test_a_polish_stage_tests_each_kept_walker_once_and_keeps_the_last_robust(tm
     again = tr.polish_stage(WALKER, tmp_path / "p", tr.TrainSettings(seed=4), budget, 0.65, lambda s: None,
                             dict(tr.POLISH))
     assert calls[-1]["resume"] and again["tests"] == record["tests"] and again["walker"] == record["walker"]
+
+
+@pytest.mark.parametrize("neat_robust", [True, False])
+def test_the_walk_rate_polish_stops_on_a_plateau_only_with_a_robust_walker(tmp_path, monkeypatch, budget, neat_robust):
+    """Without a robust walker nothing after the polish would use its minutes: no plateau stops it."""
+    import evolve.polish
+
+    calls = []
+    monkeypatch.setattr(evolve.polish, "polish", fake_polish([], calls))
+    state = {"stages": {"neat": {"walker": str(WALKER), "robust": neat_robust}}}
+    tr._polish("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
+    assert calls[0]["patience"] == (tr.PATIENCE if neat_robust else None)
 
 
 def test_a_polish_stage_past_its_share_of_the_budget_does_not_start(tmp_path, monkeypatch):
