@@ -45,10 +45,10 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
-from typing import TYPE_CHECKING
-
+from evolve.train_record import (STATE, STATE_VERSION, earlier_walkers, latest_walker, new_record, robust_walker,
+                                 short_test, stage_summary)
 from sim2real.run_lock import RunLock
 from sim2real.atomic_json import read_json, write_json_atomic
 from sim2real.errors import UsageError
@@ -56,8 +56,6 @@ from sim2real.errors import UsageError
 if TYPE_CHECKING:  # pragma: no cover - the simulation side is imported where a stage needs it, so that
     from evolve.config import EvolveConfig  # `biped run` on the robot's lean install (no MuJoCo) can load the CLI
 
-STATE = "train.json"  # in the training folder: the settings and each finished stage
-STATE_VERSION = 1
 CONTROLLER = "controller.json"  # the trained walker
 DEFAULT_MINUTES = 60.0
 NEAT_SHARE = 0.45  # NEAT may spend this share of the budget before the polish starts anyway
@@ -155,7 +153,7 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
     _check_folder(out, resume)
     out.mkdir(parents=True, exist_ok=True)
     with RunLock.acquire(out, what="biped train"):
-        state = _load_state(out, robot_name, settings) if resume else _new_state(robot_name, settings, command)
+        state = _load_state(out, robot_name, settings) if resume else new_record(robot_name, dataclasses.asdict(settings), command)
         budget = Budget(settings.minutes, spent_s=state.get("elapsed_s", 0.0))
         cpu_before, cpu_at_start = state.get("cpu_s", 0.0), _cpu_s()  # CPU seconds of earlier sessions, and now
         progress = Progress(budget, quiet) if log is None else log
@@ -242,7 +240,6 @@ def _neat_attempt(robot_name: str, folder: Path, settings: TrainSettings, found:
     """One NEAT run in ``folder`` (resumed from its checkpoint if it has one) from the seed of
     ``found["attempt"]``; returns the run and whether it stopped for a restart."""
     from evolve import walk_measures as wm
-
     from evolve.run import Run
 
     attempt = found["attempt"]
@@ -278,7 +275,7 @@ def _neat_attempt(robot_name: str, folder: Path, settings: TrainSettings, found:
             test = wm.robustness(candidate, threads=settings.threads, robot=robot_name)
             robust = wm.is_robust(test)
             found["tests"].append({"seed": attempt["seed"], "generation": best.generation, "key": best.genome.key,
-                                   **_short(test), "robust": robust})
+                                   **short_test(test), "robust": robust})
             log(f"champion of generation {best.generation}: walks on {test['randomized']['walked']}/{wm.DRAWS} unseen "
                 f"robots, {test['default']['walked']}/{test['default_episodes']} default"
                 f"{' - robust' if robust else ''}")
@@ -332,10 +329,10 @@ def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str,
     """The speed polish and its restart, each from the walker the one before kept."""
     from evolve import walk_measures as wm
 
-    if not _robust_walker(state):
+    if not robust_walker(state):
         log("no robust walker to polish for speed")
         return {"runs": [], "walker": None, "skipped": True}
-    source = Path(_latest_walker(state))
+    source = Path(latest_walker(state))
     until = 1.0 - MEASURE_SHARE
     # no walk slower than the walker's own counts (the lower of its 60 s walks'), so the polish keeps
     # no slower walker; but at most the goal's speed, which no 10 s episode of a fast walker (its
@@ -365,13 +362,12 @@ def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str,
 def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
              log: Callable[[str], None]) -> dict[str, Any]:
     """Measure the final walker, undo a speed polish that lost the walk on the model; when the walker
-    misses the bar, measure the robust walkers before it (:func:`_earlier_walkers`) while the budget
-    lasts and take the first that meets it; ship the walker."""
+    misses the bar, measure the robust walkers before it (:func:`evolve.train_record.earlier_walkers`)
+    while the budget lasts and take the first that meets it; ship the walker."""
     from evolve import walk_measures as wm
-
     from sim2real.controller.file import Controller
 
-    walker = Path(_latest_walker(state))
+    walker = Path(latest_walker(state))
     log(f"measuring {walker}")
     started = time.monotonic()
     measured = wm.measure_walker(walker, log, threads=settings.threads, robot=robot_name)
@@ -379,7 +375,7 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
     tried = [walker]
     speed = state["stages"]["speed"]
     if speed["walker"] and measured["sustained"]["nominal"]["falls"]:
-        before = Path(_latest_walker(state, skip_speed=True))
+        before = Path(latest_walker(state, skip_speed=True))
         log(f"the speed polish's walker falls on the nominal model at "
             f"{measured['sustained']['nominal']['upright_s']:.1f} s; measuring the walker it started from")
         earlier = wm.measure_walker(before, log, threads=settings.threads, robot=robot_name)
@@ -388,7 +384,7 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
             speed["undone"] = "falls on the nominal model in the 60 s walk; the walker it started from does not"
             walker, measured = before, earlier
     bar = wm.meets_bar(measured)
-    for earlier in _earlier_walkers(state) if not all(bar.values()) else ():
+    for earlier in earlier_walkers(state) if not all(bar.values()) else ():
         if any(earlier.read_bytes() == t.read_bytes() for t in tried):
             continue
         if budget.until(1.0) < took_s:
@@ -403,7 +399,7 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
             break
     made = {"made_by": state["command"], "trained": {
         "robot": robot_name, "settings": state["settings"],
-        "stages": {name: _stage_summary(record) for name, record in state["stages"].items()},
+        "stages": {name: stage_summary(record) for name, record in state["stages"].items()},
         "minutes": budget.elapsed_s / 60.0},
         "walk_rate": measured["rate"], "transfer_ratio": measured["transfer"]["ratio"],
         "transfer_passed": measured["transfer"]["passed"],
@@ -450,7 +446,7 @@ def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Bu
         done = [t for t in tests["tests"] if t["update"] == entry["update"]]
         if not done:
             test = wm.robustness(kept, threads=settings.threads, robot=robot)
-            done = [{"update": entry["update"], **_short(test), "robust": wm.is_robust(test)}]
+            done = [{"update": entry["update"], **short_test(test), "robust": wm.is_robust(test)}]
             tests["tests"].append(done[0])
             write_json_atomic(tests_file, tests)
             log(f"{folder.name}: kept walker of update {entry['update']}: walks on {test['randomized']['walked']}"
@@ -472,48 +468,6 @@ def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Bu
 
 
 # -- helpers -----------------------------------------------------------------------------------
-def _robust_walker(state: dict[str, Any]) -> str | None:
-    """The newest walker that passed the robustness bar: the polish's, else NEAT's (None: none)."""
-    stages = state["stages"]
-    if stages.get("polish", {}).get("walker"):
-        return stages["polish"]["walker"]
-    return stages["neat"]["walker"] if stages["neat"]["robust"] else None
-
-
-def _latest_walker(state: dict[str, Any], skip_speed: bool = False) -> str:
-    """The walker to ship: the speed polish's robust walker, else the newest robust one; with none
-    robust, the weights the walk-rate polish's validation kept, else NEAT's champion."""
-    stages = state["stages"]
-    if not skip_speed and stages.get("speed", {}).get("walker"):
-        return stages["speed"]["walker"]
-    return _robust_walker(state) or stages.get("polish", {}).get("kept") or stages["neat"]["walker"]
-
-
-def _earlier_walkers(state: dict[str, Any]) -> list[Path]:
-    """Every robust walker the polish stages kept, newest first (the speed polish's, then the walk-rate
-    polish's), then NEAT's robust champion: where the measure stage looks when its walker misses the bar."""
-    stages = state["stages"]
-    records = [*reversed(stages.get("speed", {}).get("runs", [])), stages.get("polish", {})]
-    found = [Path(r["walker"]).parent / f"robust_update{t['update']}.json"
-             for r in records if r.get("walker") for t in reversed(r.get("tests", [])) if t["robust"]]
-    found += [Path(stages["neat"]["walker"])] if stages["neat"]["robust"] else []
-    return [path for path in found if path.exists()]
-
-
-def _short(test: dict[str, Any]) -> dict[str, Any]:
-    return {"randomized_walked": test["randomized"]["walked"], "default_walked": test["default"]["walked"]}
-
-
-def _stage_summary(record: dict[str, Any]) -> dict[str, Any]:
-    """A stage's record without its long lists (what a controller's provenance carries)."""
-    return {k: v for k, v in record.items() if k not in ("tests", "history", "runs", "measures", "transfer")}
-
-
-def _new_state(robot_name: str, settings: TrainSettings, command: str | None) -> dict[str, Any]:
-    return {"version": STATE_VERSION, "robot": robot_name, "command": command or "biped train",
-            "settings": dataclasses.asdict(settings), "stages": {}, "elapsed_s": 0.0, "cpu_s": 0.0}
-
-
 def _load_state(out: Path, robot_name: str, settings: TrainSettings) -> dict[str, Any]:
     path = out / STATE
     if not path.exists():

@@ -12,6 +12,7 @@ import pytest
 
 from evolve import train as tr
 from evolve import walk_measures as wm
+from evolve.train_record import latest_walker
 
 WALKER = Path("configs/controllers/xl430_biped.json")
 
@@ -217,14 +218,14 @@ def test_no_speed_polish_without_a_robust_walker(tmp_path, monkeypatch, budget):
 
 def test_the_shipped_walker_is_the_newest_robust_one_else_the_polish_kept_weights(tmp_path):
     state = _state(tmp_path, neat_robust=True, polish_walker=False)
-    assert tr._latest_walker(state) == state["stages"]["neat"]["walker"]
+    assert latest_walker(state) == state["stages"]["neat"]["walker"]
     state = _state(tmp_path, neat_robust=True, polish_walker=True)
     state["stages"]["speed"] = {"walker": "speed/walker.json"}
-    assert tr._latest_walker(state) == "speed/walker.json"
-    assert tr._latest_walker(state, skip_speed=True) == state["stages"]["polish"]["walker"]
+    assert latest_walker(state) == "speed/walker.json"
+    assert latest_walker(state, skip_speed=True) == state["stages"]["polish"]["walker"]
     none = _state(tmp_path, neat_robust=False, polish_walker=False)
     none["stages"]["polish"]["kept"] = "polish/polished.json"
-    assert tr._latest_walker(none) == "polish/polished.json"
+    assert latest_walker(none) == "polish/polished.json"
 
 
 def _measured(falls: int, rate: float = 0.96) -> dict:

@@ -1,0 +1,55 @@
+"""What a training's record (``DIR/train.json``) says, read back: which of its walkers ships,
+which are the measure stage's fallbacks, and the short forms its stages and provenance keep.
+Pure functions of the record's dictionary (see :mod:`evolve.train` for the stages that write it)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+STATE = "train.json"  # in the training folder: the settings and each finished stage
+STATE_VERSION = 1
+
+
+def new_record(robot_name: str, settings: dict[str, Any], command: str | None) -> dict[str, Any]:
+    """A training's record before its first stage (``settings``: its TrainSettings as a dict)."""
+    return {"version": STATE_VERSION, "robot": robot_name, "command": command or "biped train",
+            "settings": settings, "stages": {}, "elapsed_s": 0.0, "cpu_s": 0.0}
+
+
+def robust_walker(state: dict[str, Any]) -> str | None:
+    """The newest walker that passed the robustness bar: the polish's, else NEAT's (None: none)."""
+    stages = state["stages"]
+    if stages.get("polish", {}).get("walker"):
+        return stages["polish"]["walker"]
+    return stages["neat"]["walker"] if stages["neat"]["robust"] else None
+
+
+def latest_walker(state: dict[str, Any], skip_speed: bool = False) -> str:
+    """The walker to ship: the speed polish's robust walker, else the newest robust one; with none
+    robust, the weights the walk-rate polish's validation kept, else NEAT's champion."""
+    stages = state["stages"]
+    if not skip_speed and stages.get("speed", {}).get("walker"):
+        return stages["speed"]["walker"]
+    return robust_walker(state) or stages.get("polish", {}).get("kept") or stages["neat"]["walker"]
+
+
+def earlier_walkers(state: dict[str, Any]) -> list[Path]:
+    """Every robust walker the polish stages kept, newest first (the speed polish's, then the walk-rate
+    polish's), then NEAT's robust champion: where the measure stage looks when its walker misses the bar."""
+    stages = state["stages"]
+    records = [*reversed(stages.get("speed", {}).get("runs", [])), stages.get("polish", {})]
+    found = [Path(r["walker"]).parent / f"robust_update{t['update']}.json"
+             for r in records if r.get("walker") for t in reversed(r.get("tests", [])) if t["robust"]]
+    found += [Path(stages["neat"]["walker"])] if stages["neat"]["robust"] else []
+    return [path for path in found if path.exists()]
+
+
+def short_test(test: dict[str, Any]) -> dict[str, Any]:
+    """A robustness test (:func:`evolve.walk_measures.robustness`) as a stage's record keeps it."""
+    return {"randomized_walked": test["randomized"]["walked"], "default_walked": test["default"]["walked"]}
+
+
+def stage_summary(record: dict[str, Any]) -> dict[str, Any]:
+    """A stage's record without its long lists (what a controller's provenance carries)."""
+    return {k: v for k, v in record.items() if k not in ("tests", "history", "runs", "measures", "transfer")}
