@@ -67,10 +67,9 @@ SPEED = {"popsize": 16, "robots": 32, "sigma": 0.05, "validation": 100, "worst":
 SPEED_GOAL_M_S = 0.15  # the straight-walk goal's speed: the speed polish counts no slower walk than this
 SPEED_MARGIN = 1.1  # a walker this much faster than the goal on both 60 s walks skips the speed polish
 MAX_UPDATES = 100_000  # a stage's update cap; the budget ends it long before
-# NEAT starts again from a new seed (the training's seed + k x RESTART_SEED) when no candidate has
-# walked on a validation robot this many generations after the harness came off: every seed that
-# made a walker had its first such walk within 14 (biped seeds, OP3 seed 1); OP3's seed 2 had none
-# in 95 and its polish could not start from it (benchmarks/RESULTS.md, "biped train op3")
+# NEAT starts again from a new seed (seed + k x RESTART_SEED) when no candidate has walked on a validation
+# robot this many generations after the harness came off: every seed that made a walker had its first
+# such walk within 14; OP3's seed 2 had none in 95 (benchmarks/RESULTS.md, "biped train op3")
 NEAT_RESTART_AFTER = 25
 RESTART_SEED = 1000
 PATIENCE = 4  # validations (5 updates each) without a kept walker before a polish stage stops
@@ -153,7 +152,8 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
     _check_folder(out, resume)
     out.mkdir(parents=True, exist_ok=True)
     with RunLock.acquire(out, what="biped train"):
-        state = _load_state(out, robot_name, settings) if resume else new_record(robot_name, dataclasses.asdict(settings), command)
+        state = (_load_state(out, robot_name, settings) if resume
+                 else new_record(robot_name, dataclasses.asdict(settings), command))
         budget = Budget(settings.minutes, spent_s=state.get("elapsed_s", 0.0))
         cpu_before, cpu_at_start = state.get("cpu_s", 0.0), _cpu_s()  # CPU seconds of earlier sessions, and now
         progress = Progress(budget, quiet) if log is None else log
@@ -219,8 +219,7 @@ def _neat(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, 
         restarts.append({"seed": done["seed"], "generations": run.generation_offset + run.population.generation,
                          "minutes": (budget.elapsed_s - done["started_s"]) / 60.0, "folder": str(folder)})
         write_json_atomic(found_file, found)
-        log(f"no candidate walked on a validation robot within {NEAT_RESTART_AFTER} generations off the "
-            f"harness: NEAT starts again from seed {settings.seed + len(restarts) * RESTART_SEED}")
+        log(f"nothing walked on a validation robot {NEAT_RESTART_AFTER} generations off the harness: a new seed")
     candidate = folder / "champion.json"
     walker = folder / "walker.json" if found["robust"] is not None else candidate
     if not walker.exists():  # no champion off the harness yet (a small budget): the polish starts from the best
@@ -425,7 +424,8 @@ def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Bu
     """Polish ``source`` in ``folder`` until a plateau (``patience`` validations keeping nothing;
     None: no plateau) or ``until`` (a share of the budget, or a function giving it) is spent,
     testing each walker its validation keeps against the robustness bar; ``walker``: the last
-    that passed (None: none), ``kept``: the weights validation kept.  A cut stage resumes from the polish's checkpoint and ``folder/tests.json``."""
+    that passed (None: none), ``kept``: the weights validation kept.  A cut stage resumes from
+    the polish's checkpoint and ``folder/tests.json``."""
     from evolve import walk_measures as wm
 
     share = until if callable(until) else (lambda: until)

@@ -12,6 +12,7 @@ import time
 from dataclasses import dataclass
 
 import pytest
+from conftest import REPLY_ALLOWANCE_US
 
 from sim2real.hardware import CommunicationError, MockBus, ServoChain, ServoError
 from sim2real.hardware.bus import Bus
@@ -33,11 +34,10 @@ ROBOT = load_robot()
 SERVOS = [j.servo.id for j in ROBOT.joints if j.servo is not None]
 BOARD = ROBOT.sensor_board.id
 SERVO = ROBOT.joints[0].servo.profile  # every servo of the default robot is this model
-# Timing is not part of this contract (test_dynamixel_bus.py checks the wire's timeouts): on a
-# shared, busy host the SDK's client allows each reply this much longer than the wire needs,
-# and the simulated robot lives at a tenth of real time, so that stepping it in the test's
-# own process stays cheap (a dry run serves it from a process of its own).
-REPLY_ALLOWANCE_US = 25_000
+# Timing is not part of this contract (test_dynamixel_bus.py checks the wire's timeouts): the
+# SDK's client allows each reply REPLY_ALLOWANCE_US more, and the simulated robot lives at a
+# tenth of real time, so that stepping it in the test's own process stays cheap (a dry run
+# serves it from a process of its own).
 SIMULATED_PACE = 0.1
 
 

@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import REPLY_ALLOWANCE_US
 
 from evolve.locomotion.evaluator import neat_layout
 from evolve.locomotion.export import controller_from_genome
@@ -86,8 +87,8 @@ def test_simbus_prints_its_port_first_and_answers_the_sdk():
     try:
         port = proc.stdout.readline().strip()
         assert port.startswith("/dev/pts/")
-        # the first replies of a process just started can be late on a busy host: 25 ms allowed
-        bus = DynamixelBus(port, 1_000_000, ROBOT, return_delay_us=25_000)
+        # the first replies of a process just started can be late on a busy host
+        bus = DynamixelBus(port, 1_000_000, ROBOT, return_delay_us=REPLY_ALLOWANCE_US)
         bus.open()
         assert bus.ping(1) == 1060 and bus.ping(200) == 32512
         bus.close()

@@ -10,6 +10,7 @@ import tty
 
 import numpy as np
 import pytest
+from conftest import REPLY_ALLOWANCE_US
 
 from sim2real.hardware import CommunicationError, MockBus, ServoChain
 from sim2real.hardware.dynamixel.sdk_bus import DynamixelBus
@@ -19,12 +20,6 @@ from sim2real.simulation.simbus.protocol2 import crc16, status
 from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
 
 ROBOT = load_robot()
-
-
-# A reply from a thread of this process, on a busy host, can come later than the wire needs:
-# the SDK's client allows each this much longer (as the bus contract does), except where the
-# timeout itself is under test
-REPLY_ALLOWANCE_US = 25_000
 
 
 def _serve(return_delay_us: float):

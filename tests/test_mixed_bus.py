@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REPLY_ALLOWANCE_US
 import yaml
 
 from sim2real.controller.mapping import ServoMapping
@@ -43,7 +44,6 @@ from sim2real.simulation.simbus.server import EmulatedChain, PtyServer
 
 AX_JOINTS = ("ankle_pitch", "ankle_roll")  # IDs 5, 6, 10, 11
 MX_P1 = "mx28_p1" if (profiles_dir() / "mx28_p1.yaml").exists() else None  # knees, IDs 4 and 9
-REPLY_ALLOWANCE_US = 25_000  # as in test_bus_contract.py: a loaded host must not lose replies
 INSTRUCTIONS = {(2.0, p2.SYNC_READ): SYNC_READ, (2.0, p2.READ): READ, (2.0, p2.SYNC_WRITE): SYNC_WRITE,
                 (2.0, p2.BULK_READ): BULK_READ, (1.0, p1.READ): READ, (1.0, p1.SYNC_WRITE): SYNC_WRITE,
                 (1.0, p1.BULK_READ): BULK_READ}

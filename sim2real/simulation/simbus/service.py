@@ -52,8 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", type=robot_name, default=DEFAULT_ROBOT,
                         help="robot name from configs/robots/ or a path to a robot YAML (default: xl430_biped)")
     parser.add_argument("--baud", type=baud_rate, help="pace replies like the wire at this baud (default: the robot's)")
-    parser.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (after the first torque on),"
-                        "drop:RATE,corrupt:RATE or a YAML file of them")
+    parser.add_argument("--faults", help="inject faults: silent:ID@SECONDS,overload:ID@SECONDS (after the "
+                        "first torque on),drop:RATE,corrupt:RATE or a YAML file of them")
     parser.add_argument("--reality", type=reality_name, metavar="PROFILE",
                         help="perturb the simulated robot: a configs/reality/ name (e.g. default) or a path")
     parser.add_argument("--seed", type=seed, default=0, help="seed of the reality profile's random parts (default: %(default)s)")
