@@ -192,7 +192,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
            speed_leg_s: float | None = None, min_speed_m_s: float | None = None, walk_bonus: float | None = None,
            nominal: bool = False, lr_adapt: bool = False, worst: float = 1.0,
            on_best: Callable[[Path, dict[str, Any]], bool] | None = None, resume: bool = False,
-           patience: int | None = None, threads: int = 1, should_stop: Callable[[], bool] | None = None,
+           patience: int | Callable[[], int | None] | None = None, threads: int = 1, should_stop: Callable[[], bool] | None = None,
            robot: str | None = None,
            log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
@@ -220,7 +220,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     ``resume``: continue from ``out/checkpoint.json`` (the same walker and settings; ``updates``
     may grow); without it a folder holding a checkpoint is refused, so no polish is lost.
     ``patience``: stop once this many validations in a row kept nothing (a plateau; None:
-    run every update).  ``threads``: simulation threads (0: every core); the search does
+    run every update; a function: asked at each validation, so a caller's rule can change).  ``threads``: simulation threads (0: every core); the search does
     not depend on them.  ``should_stop()``: asked after every update (a time budget); True
     ends the search there.  ``test`` 0: no final test (the caller measures the walker itself).
     ``robot``: the walker's robot, a name or a file (None: the one the controller names)."""
@@ -317,8 +317,9 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
             if improved and on_best is not None:
                 save(best["weights"], out / "kept.json", {"kept_update": update, "validation_walk_rate": best["walk_rate"]})
                 told["stopped"] = on_best(out / "kept.json", entry)
-            if patience is not None and plateaued(history, best["update"], patience):
-                log(f"validation kept nothing in the last {patience} validations: a plateau")
+            limit = patience() if callable(patience) else patience
+            if limit is not None and plateaued(history, best["update"], limit):
+                log(f"validation kept nothing in the last {limit} validations: a plateau")
                 told["stopped"] = True
         if should_stop is not None and not told["stopped"] and should_stop():
             log(f"out of time at update {update}")

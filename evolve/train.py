@@ -317,10 +317,10 @@ def _polish(robot_name: str, out: Path, settings: TrainSettings, state: dict[str
     end = 1.0 - MEASURE_SHARE
     robust = lambda: neat["robust"] or (folder / "walker.json").exists()  # noqa: E731
     until = lambda: POLISH_UNTIL if robust() else end  # noqa: E731
-    # no plateau stops a polish that has no robust walker yet: nothing after it would use the
-    # minutes (biped seed 5 stopped on one with 13 of its 60 minutes left, unused)
+    # no plateau before a robust walker: nothing after it would use the minutes (biped seed 5 left
+    # 13 unused); asked at each validation, so a walker found mid-stage brings it back, as a resume
     return polish_stage(source, folder, settings, budget, until, log, dict(POLISH), robot_name,
-                        patience=PATIENCE if robust() else None)
+                        patience=lambda: PATIENCE if robust() else None)
 
 
 def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
@@ -420,12 +420,12 @@ STAGE_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
 
 def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Budget,
                  until: float | Callable[[], float], log: Callable[[str], None], stage: dict[str, Any],
-                 robot: str | None = None, patience: int | None = PATIENCE) -> dict[str, Any]:
+                 robot: str | None = None, patience: int | Callable[[], int | None] | None = PATIENCE) -> dict[str, Any]:
     """Polish ``source`` in ``folder`` until a plateau (``patience`` validations keeping nothing;
-    None: no plateau) or ``until`` (a share of the budget, or a function giving it) is spent,
-    testing each walker its validation keeps against the robustness bar; ``walker``: the last
-    that passed (None: none), ``kept``: the weights validation kept.  A cut stage resumes from
-    the polish's checkpoint and ``folder/tests.json``."""
+    None: none; a function: asked at each validation) or ``until`` (a share of the budget, or a
+    function giving it) is spent, testing each walker its validation keeps against the robustness
+    bar; ``walker``: the last that passed (None: none), ``kept``: the weights validation kept.
+    A cut stage resumes from the polish's checkpoint and ``folder/tests.json``."""
     from evolve import walk_measures as wm
 
     share = until if callable(until) else (lambda: until)

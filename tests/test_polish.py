@@ -217,3 +217,8 @@ def test_a_polish_without_a_final_test_stops_on_its_plateau_or_when_told(tmp_pat
     assert r["test"]["polished"]["walk_rate"] is None and (tmp_path / "told" / "polished.json").exists()
     flat = polish(Path(WALKER), tmp_path / "flat", updates=50, patience=2, **settings)
     assert len(flat["history"]) - 1 - flat["kept_update"] == 2, "stopped two validations after its last keep"
+    asked = []  # a rule asked at each validation: no plateau for three, then one of two
+    rule = polish(Path(WALKER), tmp_path / "rule", updates=50, patience=lambda: asked.append(1) or
+                  (None if len(asked) <= 3 else 2), **settings)
+    assert len(rule["history"]) - 1 >= 4 and len(rule["history"]) - 1 - rule["kept_update"] == 2
+    assert len(asked) == len(rule["history"]) - 1

@@ -79,7 +79,10 @@ def test_the_walk_rate_polish_stops_on_a_plateau_only_with_a_robust_walker(tmp_p
     monkeypatch.setattr(evolve.polish, "polish", fake_polish([], calls))
     state = {"stages": {"neat": {"walker": str(WALKER), "robust": neat_robust}}}
     tr._polish("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
-    assert calls[0]["patience"] == (tr.PATIENCE if neat_robust else None)
+    patience = calls[0]["patience"]  # asked at each validation
+    assert patience() == (tr.PATIENCE if neat_robust else None)
+    (tmp_path / "polish" / "walker.json").write_text("{}")  # a robust walker kept mid-stage
+    assert patience() == tr.PATIENCE, "a robust walker brings the plateau back"
 
 
 def test_a_polish_stage_past_its_share_of_the_budget_does_not_start(tmp_path, monkeypatch):
