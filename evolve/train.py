@@ -31,26 +31,30 @@ robust walkers kept before it that meets it, measured newest first while the bud
 
 Everything is resumable: ``DIR/train.json`` records the settings and each finished stage;
 each stage resumes from its own checkpoint (NEAT's ``neat/checkpoint.json.gz``, a polish's
-``checkpoint.json``), so Ctrl-C leaves a folder that ``--resume`` continues.  A seed fixes each
+``checkpoint.json``), so Ctrl-C, SIGTERM or SIGHUP leaves a folder that ``--resume`` continues,
+and a decision made before a cut (NEAT's restart, a polish's stop) is kept, not made again.  A seed fixes each
 stage's search; where a stage stops depends on the budget, and the generations and updates run
 are recorded, so the stopping points of a run can be read back from its ``train.json``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
-import shutil
+import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, Iterator
 
+from evolve.train_polish import PATIENCE, begun, polish_stage
 from evolve.train_record import (STATE, STATE_VERSION, earlier_walkers, latest_walker, new_record, robust_walker,
                                  short_test, stage_summary)
 from sim2real.run_lock import RunLock
-from sim2real.atomic_json import read_json, write_json_atomic
+from sim2real.atomic_json import copy_file_atomic, read_json, write_json_atomic
 from sim2real.errors import UsageError
 
 if TYPE_CHECKING:  # pragma: no cover - the simulation side is imported where a stage needs it, so that
@@ -66,13 +70,11 @@ POLISH = {"popsize": 16, "robots": 16, "sigma": 0.1, "validation": 30, "worst": 
 SPEED = {"popsize": 16, "robots": 32, "sigma": 0.05, "validation": 100, "worst": 0.25, "speed_leg_s": 0.8}
 SPEED_GOAL_M_S = 0.15  # the straight-walk goal's speed: the speed polish counts no slower walk than this
 SPEED_MARGIN = 1.1  # a walker this much faster than the goal on both 60 s walks skips the speed polish
-MAX_UPDATES = 100_000  # a stage's update cap; the budget ends it long before
 # NEAT starts again from a new seed (seed + k x RESTART_SEED) when no candidate has walked on a validation
 # robot this many generations after the harness came off: every seed that made a walker had its first
 # such walk within 14; OP3's seed 2 had none in 95 (benchmarks/RESULTS.md, "biped train op3")
 NEAT_RESTART_AFTER = 25
 RESTART_SEED = 1000
-PATIENCE = 4  # validations (5 updates each) without a kept walker before a polish stage stops
 STAGES = ("neat", "polish", "speed", "measure")
 # the joints a walker drives, by control set name in order of preference: seed 000's table 1 "Walk"
 # set (waist yaw, hips, knees) where the robot has one, else every leg joint (what import writes)
@@ -151,7 +153,7 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
     out = Path(out)
     _check_folder(out, resume)
     out.mkdir(parents=True, exist_ok=True)
-    with RunLock.acquire(out, what="biped train"):
+    with RunLock.acquire(out, what="biped train"), _termination_as_interrupt():
         state = (_load_state(out, robot_name, settings) if resume
                  else new_record(robot_name, dataclasses.asdict(settings), command))
         budget = Budget(settings.minutes, spent_s=state.get("elapsed_s", 0.0))
@@ -187,6 +189,7 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
                 cut = state.get("cut") or {}
                 earlier = (cut["wall_s"], cut["cpu_s"]) if cut.get("stage") == stage else (0.0, 0.0)
                 current.update(stage=stage, t0=time.monotonic(), cpu0=_cpu_s(), wall_s=earlier[0], cpu_s=earlier[1])
+                save()  # resumable from the first stage on, even after a SIGKILL
                 record = STAGE_FUNCTIONS[stage](robot_name, out, settings, state, budget, progress)
                 wall_s, cpu_s = stage_s()
                 record.update(wall_minutes=wall_s / 60.0, cpu_minutes=cpu_s / 60.0)
@@ -273,26 +276,33 @@ def _neat_attempt(robot_name: str, folder: Path, settings: TrainSettings, found:
             run.controller(best).save(candidate)
             test = wm.robustness(candidate, threads=settings.threads, robot=robot_name)
             robust = wm.is_robust(test)
-            found["tests"].append({"seed": attempt["seed"], "generation": best.generation, "key": best.genome.key,
-                                   **short_test(test), "robust": robust})
             log(f"champion of generation {best.generation}: walks on {test['randomized']['walked']}/{wm.DRAWS} unseen "
                 f"robots, {test['default']['walked']}/{test['default_episodes']} default"
                 f"{' - robust' if robust else ''}")
-            if test["randomized"]["walked"]:
-                walked(generation)
-            if robust:
-                shutil.copyfile(candidate, folder / "walker.json")
+            if robust:  # the walker before the record naming it: a cut between them only tests it again
+                copy_file_atomic(candidate, folder / "walker.json")
                 found["robust"] = best.generation
+            if test["randomized"]["walked"] and attempt["walked_generation"] is None:
+                attempt["walked_generation"] = generation
+            found["tests"].append({"seed": attempt["seed"], "generation": best.generation, "key": best.genome.key,
+                                   **short_test(test), "robust": robust})
             write_json_atomic(found_file, found)
             if robust:
                 return True
         restart = _restart_due(attempt, generation, run.config.task.harness_generations, budget)
-        return restart or budget.until(NEAT_SHARE) <= 0
+        if restart or budget.until(NEAT_SHARE) <= 0:  # decided once: a resume takes it, not one more generation
+            attempt["stopped"] = "restart" if restart else "budget"
+            write_json_atomic(found_file, found)
+            return True
+        return False
 
-    if found["robust"] is None:
+    if attempt.get("stopped") == "budget" and budget.until(NEAT_SHARE) > 0:
+        del attempt["stopped"]  # resumed with more --minutes: NEAT goes on
+    if found["robust"] is None and "stopped" not in attempt:
         run.evolve(stop=stop)
     else:
         run.close()
+        restart = attempt.get("stopped") == "restart"
     return run, restart
 
 
@@ -345,13 +355,13 @@ def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str,
     min_speed = min(SPEED_GOAL_M_S, *own)
     log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s; the speed polish counts walks from "
         f"{min_speed:.3f} m/s")
-    records = []
-    for restart in (0, 1):
-        folder = out / ("speed" if not restart else f"speed_restart{restart}")
-        stage = dict(SPEED, min_speed_m_s=min_speed)
-        record = polish_stage(source, folder, settings, budget, until, log, stage, robot_name)
+    records, folders = [], (out / "speed", out / "speed_restart1")
+    for restart, folder in enumerate(folders):
+        record = polish_stage(source, folder, settings, budget, until, log, dict(SPEED, min_speed_m_s=min_speed),
+                              robot_name)
         records.append(record)
-        if record["walker"] is None or budget.until(until) <= 0:
+        # out of time, the restart is not begun; but one a cut left behind is finished, as uncut
+        if restart or record["walker"] is None or (budget.until(until) <= 0 and not begun(folders[1])):
             break
         source = Path(record["walker"])
     kept = [r for r in records if r["walker"]]
@@ -418,55 +428,6 @@ STAGE_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
     "neat": _neat, "polish": _polish, "speed": _speed, "measure": _measure}
 
 
-def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Budget,
-                 until: float | Callable[[], float], log: Callable[[str], None], stage: dict[str, Any],
-                 robot: str | None = None, patience: int | Callable[[], int | None] | None = PATIENCE) -> dict[str, Any]:
-    """Polish ``source`` in ``folder`` until a plateau (``patience`` validations keeping nothing;
-    None: none; a function: asked at each validation) or ``until`` (a share of the budget, or a
-    function giving it) is spent, testing each walker its validation keeps against the robustness
-    bar; ``walker``: the last that passed (None: none), ``kept``: the weights validation kept.
-    A cut stage resumes from the polish's checkpoint and ``folder/tests.json``."""
-    from evolve import walk_measures as wm
-
-    share = until if callable(until) else (lambda: until)
-    from evolve.polish import CHECKPOINT, polish
-
-    folder.mkdir(parents=True, exist_ok=True)
-    tests_file, walker = folder / "tests.json", folder / "walker.json"
-    resume = (folder / CHECKPOINT).exists()
-    tests: dict[str, Any] = read_json(tests_file) if resume and tests_file.exists() else {"tests": []}
-    if not resume:
-        walker.unlink(missing_ok=True)
-    if budget.until(share()) <= 0:
-        log(f"no budget left for {folder.name}")
-        return {"source": str(source), "walker": str(walker) if walker.exists() else None, "skipped": True,
-                **tests}
-
-    def on_best(kept: Path, entry: dict[str, Any]) -> bool:
-        done = [t for t in tests["tests"] if t["update"] == entry["update"]]
-        if not done:
-            test = wm.robustness(kept, threads=settings.threads, robot=robot)
-            done = [{"update": entry["update"], **short_test(test), "robust": wm.is_robust(test)}]
-            tests["tests"].append(done[0])
-            write_json_atomic(tests_file, tests)
-            log(f"{folder.name}: kept walker of update {entry['update']}: walks on {test['randomized']['walked']}"
-                f"/{wm.DRAWS} unseen robots, {test['default']['walked']}/{test['default_episodes']} default"
-                f"{' - robust' if done[0]['robust'] else ''}")
-        if done[0]["robust"]:  # the last one is the stage's walker; the ones before, the measure's fallbacks
-            shutil.copyfile(kept, walker)
-            shutil.copyfile(kept, folder / f"robust_update{entry['update']}.json")
-        return False
-
-    options = {k: v for k, v in stage.items() if k != "popsize"}
-    record = polish(source, folder, updates=MAX_UPDATES, popsize=stage["popsize"], seed=settings.seed,
-                    on_best=on_best, resume=resume, patience=patience, threads=settings.threads, test=0,
-                    should_stop=lambda: budget.until(share()) <= 0, robot=robot, log=log, **options)
-    return {"source": str(source), "walker": str(walker) if walker.exists() else None,
-            "kept": record["polished"] if record["kept_update"] else None,
-            **{k: v for k, v in record.items() if k in ("kept_update", "history", "physics_steps", "minutes")},
-            "updates": len(record["history"]) and record["history"][-1]["update"], **tests}
-
-
 # -- helpers -----------------------------------------------------------------------------------
 def _load_state(out: Path, robot_name: str, settings: TrainSettings) -> dict[str, Any]:
     path = out / STATE
@@ -492,6 +453,27 @@ def _check_folder(out: Path, resume: bool) -> None:
         raise UsageError(f"--out {out}: already holds {what}; give an empty or new folder")
     if resume and not out.is_dir():
         raise UsageError(f"--resume: {out} does not exist")
+
+
+@contextlib.contextmanager
+def _termination_as_interrupt() -> Iterator[None]:
+    """SIGTERM (a kill, a scheduler's stop) and SIGHUP (a closed terminal or SSH session) end a
+    training as Ctrl-C does: every file is written atomically, so it may stop anywhere, and the
+    record's ``finally`` keeps the cut stage's minutes for ``--resume``."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    wanted = [s for s in ("SIGTERM", "SIGHUP") if hasattr(signal, s)]
+    previous = {name: signal.signal(getattr(signal, name), interrupt) for name in wanted}
+    try:
+        yield
+    finally:
+        for name, handler in previous.items():
+            signal.signal(getattr(signal, name), handler)
 
 
 def _cpu_s() -> float:

@@ -99,13 +99,15 @@ class FakeNeatRun:
     budget; the seeds in ``walks_at`` have a candidate walk on validation robots from that
     generation on.  Off the harness (generation 25) its champion never changes."""
 
-    def __init__(self, config, folder, budget, walks_at, seconds):
+    def __init__(self, config, folder, budget, walks_at, seconds, cut_after_stop=False):
         self.config, self.folder, self.budget, self.walks_at, self.seconds = config, Path(folder), budget, walks_at, seconds
-        self.generation_offset, self.best = 0, None
+        self.cut_after_stop = cut_after_stop  # Ctrl-C while the run writes its last checkpoint
+        self.generation_offset, self.best, self.evolved = 0, None, False
         self.population = type("P", (), {"generation": 0})()
         self.folder.mkdir(parents=True, exist_ok=True)
 
     def evolve(self, stop):
+        self.evolved = True
         while True:
             self.population.generation += 1
             self.budget.spent_s += self.seconds
@@ -114,6 +116,8 @@ class FakeNeatRun:
             walks = self.walks_at.get(self.config.seed)
             row = {"validation_walked": 3 if walks is not None and g >= walks else (0 if g % 5 == 0 else "")}
             if stop(self, row):
+                if self.cut_after_stop:
+                    raise KeyboardInterrupt
                 return self.best
 
     def controller(self, best):
@@ -123,9 +127,9 @@ class FakeNeatRun:
         pass
 
 
-def _fake_neat(monkeypatch, budget, walks_at: dict, seconds: float) -> list:
+def _fake_neat(monkeypatch, budget, walks_at: dict, seconds: float, cut_after_stop: bool = False) -> list:
     """Run.create replaced by :class:`FakeNeatRun`; the budget's clock stands still (only the
-    fake generations spend it)."""
+    fake generations spend it).  Returns (seed, folder name, run) of each run made."""
     import evolve.run
 
     monkeypatch.setattr(tr, "time", SimpleNamespace(monotonic=lambda: 0.0))
@@ -133,8 +137,9 @@ def _fake_neat(monkeypatch, budget, walks_at: dict, seconds: float) -> list:
     created = []
 
     def create(config, folder, log):
-        created.append((config.seed, Path(folder).name))
-        return FakeNeatRun(config, folder, budget, walks_at, seconds)
+        run = FakeNeatRun(config, folder, budget, walks_at, seconds, cut_after_stop)
+        created.append((config.seed, Path(folder).name, run))
+        return run
 
     monkeypatch.setattr(evolve.run, "Run", SimpleNamespace(create=create))
     monkeypatch.setattr(wm, "robustness", lambda *a, **k: _test(0, 0))
@@ -147,7 +152,7 @@ def test_neat_starts_again_from_a_new_seed_when_nothing_walks_off_the_harness(tm
     budget = tr.Budget(minutes=10.0, started=0.0)  # NEAT's share: 270 s; a generation costs 1 s
     created = _fake_neat(monkeypatch, budget, {1001: 30}, seconds=1.0)
     record = tr._neat("xl430_biped", tmp_path, tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
-    assert created == [(1, "neat"), (1001, "neat-2")]
+    assert [c[:2] for c in created] == [(1, "neat"), (1001, "neat-2")]
     assert record["seed"] == 1001 and [r["seed"] for r in record["restarts"]] == [1]
     assert record["restarts"][0]["generations"] == 25 + tr.NEAT_RESTART_AFTER
     assert record["walker"] == str(tmp_path / "neat-2" / "champion.json") and not record["robust"]
@@ -155,7 +160,7 @@ def test_neat_starts_again_from_a_new_seed_when_nothing_walks_off_the_harness(tm
     budget = tr.Budget(minutes=10.0, started=0.0)  # the stage again in its folder, as a resume runs it
     created = _fake_neat(monkeypatch, budget, {1001: 30}, seconds=1.0)
     again = tr._neat("xl430_biped", tmp_path, tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
-    assert created == [(1001, "neat-2")] and again["restarts"] == record["restarts"]
+    assert [c[:2] for c in created] == [(1001, "neat-2")] and again["restarts"] == record["restarts"]
 
 
 def test_no_restart_that_could_not_catch_up_nor_for_a_seed_that_walks(tmp_path, monkeypatch):
@@ -164,11 +169,58 @@ def test_no_restart_that_could_not_catch_up_nor_for_a_seed_that_walks(tmp_path, 
     budget = tr.Budget(minutes=3.0, started=0.0)  # NEAT's share: 81 s; at generation 50, 31 s left < 50 s taken
     created = _fake_neat(monkeypatch, budget, {}, seconds=1.0)
     record = tr._neat("xl430_biped", tmp_path / "a", tr.TrainSettings(minutes=3.0), {}, budget, lambda s: None)
-    assert created == [(1, "neat")] and record["restarts"] == [] and record["generations"] == 81
+    assert [c[:2] for c in created] == [(1, "neat")] and record["restarts"] == [] and record["generations"] == 81
     budget = tr.Budget(minutes=10.0, started=0.0)
     created = _fake_neat(monkeypatch, budget, {1: 40}, seconds=1.0)
     record = tr._neat("xl430_biped", tmp_path / "b", tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
-    assert created == [(1, "neat")] and record["restarts"] == [] and record["generations"] == 270
+    assert [c[:2] for c in created] == [(1, "neat")] and record["restarts"] == [] and record["generations"] == 270
+
+
+def test_neats_decision_to_restart_is_kept_through_a_cut(tmp_path, monkeypatch):
+    """Cut while NEAT writes its last checkpoint after deciding to restart: the resume takes the
+    decision and evolves no generation more from the seed it left."""
+    budget = tr.Budget(minutes=10.0, started=0.0)
+    _fake_neat(monkeypatch, budget, {1001: 30}, seconds=1.0, cut_after_stop=True)
+    with pytest.raises(KeyboardInterrupt):
+        tr._neat("xl430_biped", tmp_path, tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
+    created = _fake_neat(monkeypatch, budget, {1001: 30}, seconds=1.0)
+    record = tr._neat("xl430_biped", tmp_path, tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
+    assert [c[:2] for c in created] == [(1, "neat"), (1001, "neat-2")]
+    assert not created[0][2].evolved, "the cut attempt evolved again"
+    assert [r["seed"] for r in record["restarts"]] == [1] and record["seed"] == 1001
+
+
+def test_a_cut_polish_stage_resumes_past_its_share_and_a_begun_speed_restart_is_finished(tmp_path, monkeypatch):
+    """A polish cut after its share ran out is finished from its checkpoint (its kept walker
+    stands), and so is the speed polish's restart, if it had begun."""
+    import evolve.polish
+
+    calls = []
+    monkeypatch.setattr(evolve.polish, "polish", fake_polish([5], calls))
+    monkeypatch.setattr(wm, "robustness", lambda path, **k: _test(9))
+    monkeypatch.setattr(wm, "sustained", lambda *a, **k: {"speed_m_s": 0.11})
+    spent = tr.Budget(minutes=10.0, spent_s=9.9 * 60.0)
+    for name in ("speed", "speed_restart1"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "checkpoint.json").write_text("{}")
+    state = _state(tmp_path, neat_robust=True, polish_walker=True)
+    record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, spent, lambda s: None)
+    assert [(c["out"].name, c["resume"]) for c in calls] == [("speed", True), ("speed_restart1", True)]
+    assert record["walker"] == str(tmp_path / "speed_restart1" / "walker.json")
+    assert not any(r.get("skipped") for r in record["runs"])
+
+
+def test_sigterm_and_sighup_end_a_training_as_ctrl_c_does():
+    """The training's ``finally`` records the cut stage only if the signal becomes an exception."""
+    import os
+    import signal
+
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(KeyboardInterrupt):
+        with tr._termination_as_interrupt():
+            os.kill(os.getpid(), signal.SIGTERM)  # os.kill runs the handler before it returns
+            pytest.fail("SIGTERM did not interrupt")
+    assert signal.getsignal(signal.SIGTERM) is before
 
 
 def _state(tmp_path: Path, neat_robust: bool, polish_walker: bool) -> dict:
