@@ -393,7 +393,8 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
             speed["undone"] = "falls on the nominal model in the 60 s walk; the walker it started from does not"
             walker, measured = before, earlier
     bar = wm.meets_bar(measured)
-    for earlier in earlier_walkers(state) if not all(bar.values()) else ():
+    missed = {str(walker): [k for k, v in bar.items() if not v]} if not all(bar.values()) else {}
+    for earlier in earlier_walkers(state) if missed else ():
         if any(earlier.read_bytes() == t.read_bytes() for t in tried):
             continue
         if budget.until(1.0) < took_s:
@@ -406,6 +407,7 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
         if all(again_bar.values()):
             walker, measured, bar = earlier, again, again_bar
             break
+        missed[str(earlier)] = [k for k, v in again_bar.items() if not v]
     made = {"made_by": state["command"], "trained": {
         "robot": robot_name, "settings": state["settings"],
         "stages": {name: stage_summary(record) for name, record in state["stages"].items()},
@@ -421,7 +423,8 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
         + ", ".join(f"{k} {'met' if v else 'missed'}" for k, v in bar.items()))
     return {"walker": str(walker), "walkers_measured": [str(t) for t in tried], "controller": str(out / CONTROLLER),
             "measures": {k: v for k, v in measured.items() if k != "transfer"},
-            "transfer": {k: v for k, v in measured["transfer"].items() if k != "runs"}, "bar": bar}
+            "transfer": {k: v for k, v in measured["transfer"].items() if k != "runs"}, "bar": bar,
+            "missed": missed}  # every walker measured that missed the bar: the parts it missed
 
 
 STAGE_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {

@@ -337,6 +337,7 @@ def test_a_walker_that_misses_the_bar_gives_way_to_the_newest_robust_one_before_
     # update 15's file is the walker itself: not measured twice
     assert measured == ["walker.json", "robust_update10.json", "robust_update5.json"]
     assert record["walker"] == str(folder / "robust_update5.json") and all(record["bar"].values())
+    assert record["missed"] == {str(folder / n): ["transfer"] for n in ("walker.json", "robust_update10.json")}
     from sim2real.controller.file import Controller
 
     provenance = Controller.load(tmp_path / "controller.json").provenance
