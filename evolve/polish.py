@@ -192,8 +192,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
            speed_leg_s: float | None = None, min_speed_m_s: float | None = None, walk_bonus: float | None = None,
            nominal: bool = False, lr_adapt: bool = False, worst: float = 1.0,
            on_best: Callable[[Path, dict[str, Any]], bool] | None = None, resume: bool = False,
-           patience: int | Callable[[], int | None] | None = None, threads: int = 1, should_stop: Callable[[], bool] | None = None,
-           robot: str | None = None,
+           patience: int | Callable[[], int | None] | None = None, threads: int = 1,
+           should_stop: Callable[[], bool] | None = None, robot: str | None = None,
            log: Callable[[str], None] = print) -> dict[str, Any]:
     """Polish the walker in ``path``; writes ``out/polished.json`` (the kept weights) and
     ``out/result.json`` (every judgement), returns the latter.  ``sigma``: CMA-ES's first
@@ -220,8 +220,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     ``resume``: continue from ``out/checkpoint.json`` (the same walker and settings; ``updates``
     may grow); without it a folder holding a checkpoint is refused, so no polish is lost.
     ``patience``: stop once this many validations in a row kept nothing (a plateau; None:
-    run every update; a function: asked at each validation, so a caller's rule can change).  ``threads``: simulation threads (0: every core); the search does
-    not depend on them.  ``should_stop()``: asked after every update (a time budget); True
+    run every update; a function: asked at each validation, so a caller's rule can change).
+    ``threads``: simulation threads (0: every core); the search does not depend on them.  ``should_stop()``: asked after every update (a time budget); True
     ends the search there.  ``test`` 0: no final test (the caller measures the walker itself).
     ``robot``: the walker's robot, a name or a file (None: the one the controller names)."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
