@@ -221,9 +221,10 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
     may grow); without it a folder holding a checkpoint is refused, so no polish is lost.
     ``patience``: stop once this many validations in a row kept nothing (a plateau; None:
     run every update; a function: asked at each validation, so a caller's rule can change).
-    ``threads``: simulation threads (0: every core); the search does not depend on them.  ``should_stop()``: asked after every update (a time budget); True
-    ends the search there.  ``test`` 0: no final test (the caller measures the walker itself).
-    ``robot``: the walker's robot, a name or a file (None: the one the controller names)."""
+    ``threads``: simulation threads (0: every core); the search does not depend on them.
+    ``should_stop()``: asked after every update (a time budget); True ends the search there.
+    ``test`` 0: no final test (the caller measures the walker itself).  ``robot``: the walker's
+    robot, a name or a file (None: the one the controller names)."""
     from cmaes import CMA  # the `sim` extra's: only the polish needs it
 
     data, _ = Controller.load_for_robot(path, robot, robot_flag=None)  # refused before the folder is made

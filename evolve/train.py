@@ -33,8 +33,9 @@ Everything is resumable: ``DIR/train.json`` records the settings and each finish
 each stage resumes from its own checkpoint (NEAT's ``neat/checkpoint.json.gz``, a polish's
 ``checkpoint.json``), so Ctrl-C, SIGTERM or SIGHUP leaves a folder that ``--resume`` continues,
 and a decision made before a cut (NEAT's restart, a polish's stop) is kept, not made again.  A
-seed fixes each stage's search; where a stage stops depends on the budget, and the generations and updates run
-are recorded, so the stopping points of a run can be read back from its ``train.json``.
+seed fixes each stage's search; where a stage stops depends on the budget, and the generations
+and updates run are recorded, so the stopping points of a run can be read back from its
+``train.json``.
 """
 
 from __future__ import annotations
@@ -260,16 +261,19 @@ def _neat_attempt(robot_name: str, folder: Path, settings: TrainSettings, found:
     candidate = folder / "champion.json"
     restart = False
 
-    def walked(generation: int) -> None:
-        if attempt["walked_generation"] is None:
+    def walked(generation: int) -> bool:
+        """Note the attempt's first walk; whether this was it (the record is then to be written)."""
+        first = attempt["walked_generation"] is None
+        if first:
             attempt["walked_generation"] = generation
-            write_json_atomic(found_file, found)
+        return first
 
     def stop(run: Run, row: dict) -> bool:
         nonlocal restart
         generation = run.generation_offset + run.population.generation
-        if isinstance(row.get("validation_walked"), (int, float)) and row["validation_walked"] > 0:
-            walked(generation)
+        on_validation = isinstance(row.get("validation_walked"), (int, float)) and row["validation_walked"] > 0
+        if on_validation and walked(generation):
+            write_json_atomic(found_file, found)
         best = run.best
         if best is not None and not best.harness and (attempt["seed"], best.generation, best.genome.key) not in tested:
             tested.add((attempt["seed"], best.generation, best.genome.key))
@@ -282,8 +286,8 @@ def _neat_attempt(robot_name: str, folder: Path, settings: TrainSettings, found:
             if robust:  # the walker before the record naming it: a cut between them only tests it again
                 copy_file_atomic(candidate, folder / "walker.json")
                 found["robust"] = best.generation
-            if test["randomized"]["walked"] and attempt["walked_generation"] is None:
-                attempt["walked_generation"] = generation
+            if test["randomized"]["walked"]:
+                walked(generation)  # written with the test below
             found["tests"].append({"seed": attempt["seed"], "generation": best.generation, "key": best.genome.key,
                                    **short_test(test), "robust": robust})
             write_json_atomic(found_file, found)
@@ -356,12 +360,12 @@ def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str,
     log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s; the speed polish counts walks from "
         f"{min_speed:.3f} m/s")
     records, folders = [], (out / "speed", out / "speed_restart1")
-    for restart, folder in enumerate(folders):
+    for folder in folders:
         record = polish_stage(source, folder, settings, budget, until, log, dict(SPEED, min_speed_m_s=min_speed),
                               robot_name)
         records.append(record)
         # out of time, the restart is not begun; but one a cut left behind is finished, as uncut
-        if restart or record["walker"] is None or (budget.until(until) <= 0 and not begun(folders[1])):
+        if record["walker"] is None or (budget.until(until) <= 0 and not begun(folders[1])):
             break
         source = Path(record["walker"])
     kept = [r for r in records if r["walker"]]
@@ -392,22 +396,25 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
         if not earlier["sustained"]["nominal"]["falls"]:
             speed["undone"] = "falls on the nominal model in the 60 s walk; the walker it started from does not"
             walker, measured = before, earlier
+    def misses(bar: dict[str, bool]) -> list[str]:
+        return [part for part, met in bar.items() if not met]
+
     bar = wm.meets_bar(measured)
-    missed = {str(walker): [k for k, v in bar.items() if not v]} if not all(bar.values()) else {}
+    missed = {str(walker): misses(bar)} if misses(bar) else {}
     for earlier in earlier_walkers(state) if missed else ():
         if any(earlier.read_bytes() == t.read_bytes() for t in tried):
             continue
         if budget.until(1.0) < took_s:
             log("no budget left to measure the robust walkers before it")
             break
-        log(f"{walker} misses the bar ({', '.join(k for k, v in bar.items() if not v)}); measuring {earlier}")
+        log(f"{walker} misses the bar ({', '.join(misses(bar))}); measuring {earlier}")
         tried.append(earlier)
         again = wm.measure_walker(earlier, log, threads=settings.threads, robot=robot_name)
         again_bar = wm.meets_bar(again)
         if all(again_bar.values()):
             walker, measured, bar = earlier, again, again_bar
             break
-        missed[str(earlier)] = [k for k, v in again_bar.items() if not v]
+        missed[str(earlier)] = misses(again_bar)
     made = {"made_by": state["command"], "trained": {
         "robot": robot_name, "settings": state["settings"],
         "stages": {name: stage_summary(record) for name, record in state["stages"].items()},

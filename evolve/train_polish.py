@@ -21,14 +21,14 @@ PATIENCE = 4  # validations (5 updates each) without a kept walker before a poli
 
 def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Budget,
                  until: float | Callable[[], float], log: Callable[[str], None], stage: dict[str, Any],
-                 robot: str | None = None, patience: int | Callable[[], int | None] | None = PATIENCE) -> dict[str, Any]:
+                 robot: str | None = None,
+                 patience: int | Callable[[], int | None] | None = PATIENCE) -> dict[str, Any]:
     """Polish ``source`` in ``folder`` until a plateau (``patience`` validations keeping nothing;
     None: none; a function: asked at each validation) or ``until`` (a share of the budget, or a
     function giving it) is spent, testing each walker its validation keeps against the robustness
     bar; ``walker``: the last that passed (None: none), ``kept``: the weights validation kept.
     A cut stage resumes from the polish's checkpoint and ``folder/tests.json``."""
     from evolve import walk_measures as wm
-
     from evolve.polish import polish
 
     share = until if callable(until) else (lambda: until)
