@@ -158,6 +158,9 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
         state = (_load_state(out, robot_name, settings) if resume
                  else new_record(robot_name, dataclasses.asdict(settings), command))
         budget = Budget(settings.minutes, spent_s=state.get("elapsed_s", 0.0))
+        # each session's command and budget: a resume may give more --minutes or other --threads
+        state.setdefault("sessions", []).append({"command": command or "biped train", "minutes": settings.minutes,
+                                                 "threads": settings.threads, "from_minute": budget.spent_s / 60.0})
         cpu_before, cpu_at_start = state.get("cpu_s", 0.0), _cpu_s()  # CPU seconds of earlier sessions, and now
         progress = Progress(budget, quiet) if log is None else log
         if isinstance(progress, Progress):
@@ -416,7 +419,7 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
             break
         missed[str(earlier)] = misses(again_bar)
     made = {"made_by": state["command"], "trained": {
-        "robot": robot_name, "settings": state["settings"],
+        "robot": robot_name, "settings": state["settings"], "sessions": state.get("sessions", []),
         "stages": {name: stage_summary(record) for name, record in state["stages"].items()},
         "minutes": budget.elapsed_s / 60.0},
         "walk_rate": measured["rate"], "transfer_ratio": measured["transfer"]["ratio"],

@@ -80,6 +80,9 @@ def test_a_cut_training_resumes_without_redoing_a_finished_stage(trained):
     for name in STAGES:
         assert state["stages"][name]["wall_minutes"] >= 0 and state["stages"][name]["cpu_minutes"] >= 0
     assert state["elapsed_s"] > 0 and "cut" not in state
+    first_session, second = state["sessions"]  # each session's command and budget
+    assert "--resume" in second["command"] and "--resume" not in first_session["command"]
+    assert first_session["from_minute"] == 0 and 0 < second["from_minute"] < state["elapsed_s"] / 60
     # the cut polish's minutes count both sessions: at least the polish's own clock, which resumes
     assert state["stages"]["polish"]["wall_minutes"] >= state["stages"]["polish"]["minutes"] * 0.99
     assert state["cpu_s"] / 60 >= sum(state["stages"][name]["cpu_minutes"] for name in STAGES) * 0.99
