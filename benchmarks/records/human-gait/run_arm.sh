@@ -2,9 +2,9 @@
 # One human-gait ablation arm: 2 bodies x 3 seeds, 200 generations each, one thread a run.
 # Resumable: run the same line again and finished runs are read back, cut ones continued.
 #   sh benchmarks/records/human-gait/run_arm.sh ARM [OUT]      (from the project's root)
-# ARM: baseline, clock, ankle0, speed, clock_speed, no_side_bias, no_sideways_harness, gait_term
+# ARM: baseline, clock, ankle0, speed, clock_speed, clock_speed_gait, no_side_bias, no_sideways_harness, gait_term
 set -eu
-arm=${1:?"give an arm: baseline clock ankle0 speed clock_speed no_side_bias no_sideways_harness gait_term"}
+arm=${1:?"give an arm: baseline clock ankle0 speed clock_speed clock_speed_gait no_side_bias no_sideways_harness gait_term"}
 out=${2:-runs/human-gait/$arm}
 here=benchmarks/records/human-gait/configs
 config=$here/base.yaml
@@ -15,6 +15,7 @@ case $arm in
   ankle0) robot=$here/human_stepping_ankle0.yaml ;;
   speed) robot=$here/human_stepping_speed.yaml ;;
   clock_speed) config=$here/clock.yaml; robot=$here/human_stepping_speed.yaml ;;
+  clock_speed_gait) config=$here/clock_gait_term.yaml; robot=$here/human_stepping_speed.yaml ;;
   *) echo "unknown arm: $arm" >&2; exit 2 ;;
 esac
 exec python -m benchmarks.human_walk --config "$config" --robot "$robot" --presets female_50 male_50 \
