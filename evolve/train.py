@@ -399,25 +399,22 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
         if not earlier["sustained"]["nominal"]["falls"]:
             speed["undone"] = "falls on the nominal model in the 60 s walk; the walker it started from does not"
             walker, measured = before, earlier
-    def misses(bar: dict[str, bool]) -> list[str]:
-        return [part for part, met in bar.items() if not met]
-
     bar = wm.meets_bar(measured)
-    missed = {str(walker): misses(bar)} if misses(bar) else {}
+    missed = {str(walker): _misses(bar)} if not all(bar.values()) else {}
     for earlier in earlier_walkers(state) if missed else ():
         if any(earlier.read_bytes() == t.read_bytes() for t in tried):
             continue
         if budget.until(1.0) < took_s:
             log("no budget left to measure the robust walkers before it")
             break
-        log(f"{walker} misses the bar ({', '.join(misses(bar))}); measuring {earlier}")
+        log(f"{walker} misses the bar ({', '.join(_misses(bar))}); measuring {earlier}")
         tried.append(earlier)
         again = wm.measure_walker(earlier, log, threads=settings.threads, robot=robot_name)
         again_bar = wm.meets_bar(again)
         if all(again_bar.values()):
             walker, measured, bar = earlier, again, again_bar
             break
-        missed[str(earlier)] = misses(again_bar)
+        missed[str(earlier)] = _misses(again_bar)
     made = {"made_by": state["command"], "trained": {
         "robot": robot_name, "settings": state["settings"], "sessions": state.get("sessions", []),
         "stages": {name: stage_summary(record) for name, record in state["stages"].items()},
@@ -435,6 +432,11 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
             "measures": {k: v for k, v in measured.items() if k != "transfer"},
             "transfer": {k: v for k, v in measured["transfer"].items() if k != "runs"}, "bar": bar,
             "missed": missed}  # every walker measured that missed the bar: the parts it missed
+
+
+def _misses(bar: dict[str, bool]) -> list[str]:
+    """The parts of the bar (:func:`evolve.walk_measures.meets_bar`) a walker missed."""
+    return [part for part, met in bar.items() if not met]
 
 
 STAGE_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {

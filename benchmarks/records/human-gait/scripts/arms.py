@@ -37,7 +37,8 @@ def rows(runs: Path) -> list[str]:
             g = r["gait"]
             walker = f"yes ({r['generation']})" if r["generation"] is not None else "none in 200"
             swing = " / ".join(fmt(g["hip_swing_deg"][side], ".0f") for side in ("left", "right"))
-            walk = f"{r['sustained_m']:.1f} m, {'fell at ' + format(r['sustained_s'], '.1f') + ' s' if r['fell'] else 'upright'}"
+            ended = f"fell at {r['sustained_s']:.1f} s" if r["fell"] else "upright"
+            walk = f"{r['sustained_m']:.1f} m, {ended}"
             minutes = "" if r["minutes"] is None else f"{r['minutes']:.1f}"
             out.append(f"| {arm.name} | {body_seed(run.name)} | {walker} | {swing} | {fmt(g['symmetry'], '.2f')} | "
                        f"{fmt(g['flight_share'], '.0%')} | {fmt(g['double_support_share'], '.0%')} | "

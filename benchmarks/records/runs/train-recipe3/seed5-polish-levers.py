@@ -5,8 +5,9 @@ another polish lift seed 5's champion?"): 25 updates, 16 candidates x 16 robots,
     python seed5-polish-levers.py seed1005 1005 0.1 1.0 0          # another seed
     python seed5-polish-levers.py bonus20 5 0.1 1.0 0 - 20         # the walk bonus at 20
 
-It writes OUT/NAME (OUT: /work/bench-runs/s5lever) and prints the validation walk rate of every
-fifth update and the minutes. Run from the project root.
+It writes runs/seed5-polish-levers/NAME (the session that measured them wrote
+/work/bench-runs/s5lever/NAME) and prints the validation walk rate of every fifth update and the
+minutes. Run from the project root.
 """
 
 import json
@@ -20,7 +21,7 @@ name, seed, sigma, worst, lr = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
 bonus = float(sys.argv[7]) if len(sys.argv) > 7 else None
 src = Path(sys.argv[6]) if len(sys.argv) > 6 and sys.argv[6] != "-" else \
     Path("benchmarks/records/runs/train-recipe3/seed5/neat/champion.json")
-out = Path("/work/bench-runs/s5lever") / name
+out = Path("runs/seed5-polish-levers") / name
 t = time.time()
 r = polish(src, out, updates=25, popsize=16, robots=16, sigma=sigma, validation=30, worst=worst, seed=seed,
            lr_adapt=lr, walk_bonus=bonus, test=0, threads=1, log=lambda s: None)
