@@ -8,10 +8,12 @@ support harness for the first 100 generations, eq. 3, a 0.07 s tick) on each pre
 ``human`` character, one run per preset and seed, at most ``--generations``.  After every
 generation without the harness the generation's champion is replayed without it; it
 **walked** when it stays upright for the whole 10 s episode and goes more than 2 m (seed
-000's criterion).  A run stops ``--after-walker`` generations after its first walker (so its
-best walker can improve a little) or at the generation limit; its best walker (farthest of
-those judged) then walks 60 s in simulation without a stagnation stop: seconds upright,
-distance before toppling, speed.
+000's criterion); its gait is measured as below.  A run stops ``--after-walker`` generations
+after its first walker whose gait is a walk (so its best walker can improve a little) or at
+the generation limit; its best walker (a walk's gait first, then the farthest:
+:func:`better_walker`) then walks 60 s in simulation without a stagnation stop: seconds
+upright, distance before toppling, speed.  (Before issue 51 a run stopped after its first
+walker of any gait and kept its farthest: runs begun so keep the first walker's generation.)
 
 A run **covers 2 m** (``covers_2m``, what ``walked`` meant before issue 51) when it found such a
 walker; it **walked** only when its best walker's gait is also a walk (issue 51): measured over
@@ -91,7 +93,7 @@ def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, rob
     judge = LocomotionEvaluator(run.robot, task, 1, threads=1)
 
     def done(generation: int) -> bool:
-        first = state["first_walker"]
+        first = state.get("first_walk")
         return generation + 1 >= generations or (first is not None and generation >= first["generation"] + after_walker)
 
     def stop(run: Run, row: dict) -> bool:
@@ -100,13 +102,22 @@ def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, rob
             result = judge.evaluate([run.champion.genome], run.config.neat.sigmoid_steepness, harness=0.0)
             distance, upright = float(result.distance_m[0]), float(result.upright_s[0])
             if walked_by_seed_000(upright, distance, judge.episode_s):
-                walker = {"generation": generation, "minutes": run.wall_s / 60.0, "distance_m": distance}
+                candidate = folder / "candidate.json"
+                run.controller(run.champion).save(candidate)
+                walk = is_a_walk(GaitMeasures.from_dict(gait_of(candidate, body_file(robot, preset))))
+                walker = {"generation": generation, "minutes": run.wall_s / 60.0, "distance_m": distance,
+                          "a_walk": walk}
                 if state["first_walker"] is None:
                     state["first_walker"] = walker
                     log(f"first walker at generation {generation}: {distance:.2f} m in {judge.episode_s:.1f} s")
-                if state["best_walker"] is None or distance > state["best_walker"]["distance_m"]:
+                if walk and state.get("first_walk") is None:
+                    state["first_walk"] = walker
+                    log(f"first walker with a walk's gait at generation {generation}: {distance:.2f} m")
+                if state["best_walker"] is None or better_walker(walker, state["best_walker"]):
                     state["best_walker"] = walker
-                    run.controller(run.champion).save(folder / "walker.json")
+                    candidate.replace(folder / "walker.json")
+                else:
+                    candidate.unlink()
                 write_json_atomic(state_path, state)
         return done(generation) or time.monotonic() > deadline
 
@@ -115,6 +126,13 @@ def evolve_preset(preset: str, seed: int, folder: Path, *, config_name: str, rob
         return True
     run.evolve(stop=stop)
     return done(run.population.generation - 1)
+
+
+def better_walker(new: dict, best: dict) -> bool:
+    """Is the walker ``new`` a better one to keep than ``best``?  A walk's gait first, then
+    distance: the farthest of a run's walkers is most often its fastest gait, a run or a gallop
+    (issue 51).  Walkers judged before the gait measures count as no walk."""
+    return (new.get("a_walk", False), new["distance_m"]) > (best.get("a_walk", False), best["distance_m"])
 
 
 def sustained_walk(controller: Path, body: str | None = None) -> dict:
@@ -168,6 +186,9 @@ def finish(preset: str, seed: int, folder: Path, quiet: bool, body: str | None =
         "generation": first["generation"] if first else None,
         "minutes": first["minutes"] if first else None,
         "first_walker_m": first["distance_m"] if first else None,
+        # the first walker whose gait is a walk (issue 51; None in runs begun before)
+        "walk_generation": state["first_walk"]["generation"] if state.get("first_walk") else None,
+        "walk_minutes": state["first_walk"]["minutes"] if state.get("first_walk") else None,
         "generations_run": len(stats) - 1,
         "sustained_of": "best walker" if first else "best controller (no walker)",
         **sustained_walk(controller, body),

@@ -54,8 +54,8 @@ def controller_setup(path: Path | str, robot: str | None, seconds: float | None,
     changes = {"episode_s": float(seconds)} if seconds is not None else {}
     if keep_going:
         changes.update(fall_height=1e-6, fall_tilt_deg=180.0)
-    if keep_going or not stagnation_stop:
-        changes.update(stagnation_s=1e9)
+    if keep_going or not stagnation_stop:  # selection's stopping rules off too: only a fall ends an episode
+        changes.update(stagnation_s=1e9, flight_stop_share=0.0)
     task = dataclasses.replace(task, **changes)
     evaluator = LocomotionEvaluator(spec, task, max(1, episodes), threads=threads, reality=reality)
     if evaluator.n_ticks < 1:

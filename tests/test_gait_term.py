@@ -52,3 +52,42 @@ def test_the_gait_term_is_a_stats_column_only_with_its_coefficient():
     plain = load_evolve_config(config_path("walk"))
     paid = load_evolve_config(config_path("walk"), {"task.selection_gait_coeff": 2.0})
     assert "gait" not in term_columns(plain) and term_columns(paid)[-1] == "gait"
+
+
+def _flight_stopped(path: str, share: float):
+    data, spec, ev, genome = controller_setup(path, None, SECONDS)
+    ev = LocomotionEvaluator(spec, dataclasses.replace(ev.task, flight_stop_share=share), 1, threads=1)
+    return ev.evaluate([genome], data.sigmoid_steepness, harness=0.0), ev
+
+
+def test_the_flight_rule_ends_a_hop_as_a_fall_when_its_flight_passes_the_share():
+    """The shipped human_male_50 has both feet up in about 12 % of its ticks: with the rule at
+    2 % its episode ends as a fall at the tick its airborne ticks pass 2 % of the episode's,
+    as the recorded foot contacts (the slow oracle, ``biped plot gait``'s) count them."""
+    from evolve.replay import gait
+
+    path = "configs/controllers/human_male_50.json"
+    stopped, ev = _flight_stopped(path, 0.02)
+    free, _ = _flight_stopped(path, 0.0)
+    recorded = gait(path, seconds=SECONDS)
+    airborne = (~recorded.feet.any(axis=1)).cumsum()
+    last = int((airborne > 0.02 * ev.n_ticks).argmax())  # the tick that ends it
+    assert airborne[-1] > 0.02 * ev.n_ticks and not free.fell[0]
+    assert stopped.fell[0] and stopped.upright_s[0] == pytest.approx(recorded.times_s[last])  # the tick before
+    assert stopped.terms["time"][0] == pytest.approx(recorded.times_s[last])  # the tick before's terms are kept
+    assert stopped.fitness[0] < free.fitness[0]
+
+
+def test_the_flight_rule_leaves_a_walk_alone_and_replays_without_stopping_rules_drop_it():
+    walk, _ = _flight_stopped("configs/controllers/xl430_biped.json", 0.02)
+    plain, _ = _flight_stopped("configs/controllers/xl430_biped.json", 0.0)
+    assert not walk.fell[0] and walk.selection[0] == plain.selection[0]
+    data, spec, ev, genome = controller_setup("configs/controllers/human_male_50.json", None, SECONDS,
+                                              stagnation_stop=False)
+    assert ev.task.flight_stop_share == 0.0 and ev.task.stagnation_s == 1e9
+
+
+@pytest.mark.parametrize("share", [-0.1, 1.0])
+def test_the_flight_rule_takes_a_share(share):
+    with pytest.raises(ConfigError, match="task.flight_stop_share: (must not be negative|is a share of the ticks)"):
+        TaskConfig.from_mapping({"flight_stop_share": share})

@@ -124,3 +124,30 @@ def test_a_variant_body_from_a_file_is_resumed_and_judged_on_itself(tmp_path):
     assert result["generations_run"] == 3 and result["gait"]["ticks"] >= 0
     with pytest.raises(ConfigError):  # the project's body is not the one it was evolved on
         evaluate_controller(folder / "run" / "controller.json", seconds=1.0)
+
+
+def test_a_walks_gait_beats_a_farther_hop_and_a_run_stops_after_its_first_walk(tmp_path, monkeypatch):
+    """Every champion judged covers 2 m (a stand-in); their gaits, in turn: a hop, a walk, a hop...
+    The run keeps the walk though the later hops go farther, and stops ``after_walker``
+    generations after that walk, not after its first walker (the hop)."""
+    import yaml
+
+    config = tmp_path / "tiny.yaml"
+    config.write_text(yaml.safe_dump({"extends": "walk_human", "neat": {"population_size": 10, "target_species": 2},
+                                      "task": {"episode_s": 1.0, "harness_generations": 1}}))
+    gaits = iter([HOP, WALK, HOP, HOP, HOP, HOP])
+    judged_files = []
+    monkeypatch.setattr(human_walk, "walked_by_seed_000", lambda upright, distance, episode_s: True)
+    monkeypatch.setattr(human_walk, "gait_of", lambda controller, body=None: (judged_files.append(controller), next(gaits))[1])
+    folder = tmp_path / "run"
+    folder.mkdir()
+    assert human_walk.evolve_preset("female_5", 1, folder, config_name=str(config), robot="human_stepping",
+                                    generations=50, after_walker=2, threads=1, deadline=float("inf"), quiet=True)
+    state = json.loads((folder / "state.json").read_text())
+    # the harness is off from generation 1: a hop there, the walk at 2, then 3 and 4
+    assert [state[k]["generation"] for k in ("first_walker", "first_walk", "best_walker")] == [1, 2, 2]
+    assert state["best_walker"]["a_walk"] and not state["first_walker"]["a_walk"]
+    assert len(judged_files) == 4 and not (folder / "candidate.json").exists()
+    assert human_walk.better_walker({"distance_m": 2.1, "a_walk": True}, {"distance_m": 5.0, "a_walk": False})
+    assert not human_walk.better_walker({"distance_m": 5.0}, {"distance_m": 2.1, "a_walk": True})
+    assert human_walk.better_walker({"distance_m": 5.0, "a_walk": False}, {"distance_m": 2.1})

@@ -68,7 +68,9 @@ class WalkObjective:
     """Seed 000 eq. 3, ``f = c_d max(proj_j d, eps) + c_t t``, with its early termination:
     the pelvis below ``fall_height`` of its start height or the torso tilted past
     ``fall_tilt_deg`` (the previous tick's terms are kept), instability (fitness eps),
-    no progress of eps within ``stagnation_s``.
+    no progress of eps within ``stagnation_s``.  With the task's ``flight_stop_share`` > 0, a
+    flight rule too (issue 51): both feet up in more than that share of the episode's ticks
+    ends it as a fall does - a walk always has a foot down, a run or a hop does not.
 
     Terms: ``distance`` = max(proj_j d, eps) [leg lengths] and ``time`` = t [s], weighted
     by the task's ``distance_coeff`` (c_d) and ``time_coeff`` (c_t); ``progress``, the
@@ -131,6 +133,7 @@ class WalkObjective:
         self.yaw_sum = np.zeros(n)
         self.straight_sum = np.zeros(n)
         self.gait = GaitTracker(ev.robot, n, ev.tick_s) if task.selection_gait_coeff > 0 else None
+        self.flight_ticks = np.zeros(n, dtype=int)  # ticks with both feet up, for the flight rule
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, task = self.ev, self.task
@@ -139,6 +142,9 @@ class WalkObjective:
         pelvis_z = ev.parts.root_com(ev.xipos)[alive][:, 2]
         up_z = ev.parts.up(ev.sensordata)[alive][:, 2]
         down = (pelvis_z < task.fall_height * self.start_pelvis[alive, 2]) | (up_z < self.min_up_z)
+        if task.flight_stop_share > 0:
+            self.flight_ticks[alive] += ~ev.parts.feet_touching(ev.sensordata[alive]).any(axis=1)
+            down |= self.flight_ticks[alive] > task.flight_stop_share * ev.n_ticks
         ok = ~down & ~bad
         live = alive[ok]
         # eq. 3's terms at this tick; a fall keeps the previous tick's

@@ -67,6 +67,7 @@ class TaskConfig:
     fall_height: float = 0.7  # pelvis CoM below this share of its start height ends a trial
     fall_tilt_deg: float = 60.0  # so does a torso tilted this far (a fall the harness hides)
     stagnation_s: float = 3.0  # no progress of epsilon leg lengths in this long ends a trial
+    flight_stop_share: float = 0.0  # > 0: both feet up in more than this share of the episode's ticks ends it, as a fall
     progress_coeff: float = 0.0  # selection tie-breaker: pelvis progress, per leg length
     selection_distance_cap: float = 0.0  # > 0: selection counts distance up to this many leg lengths
     selection_walk_bonus: float = 0.0  # selection adds this for a walk (upright to the end, >= 2.2 leg lengths)
@@ -159,6 +160,9 @@ class TaskConfig:
         if config.output_centre not in OUTPUT_RULES:
             raise ConfigError(source, prefix + "output_centre", f"must be one of {', '.join(OUTPUT_RULES)}, got "
                               f"{show(config.output_centre)}")
+        if not 0 <= config.flight_stop_share < 1:
+            raise ConfigError(source, prefix + "flight_stop_share", f"is a share of the ticks, within [0, 1) (0: off), "
+                              f"got {config.flight_stop_share:g}")
         if not 0 < config.fall_height < 1:
             raise ConfigError(source, prefix + "fall_height", "must be within (0, 1)")
         return config

@@ -2,9 +2,10 @@
 # One human-gait ablation arm: 2 bodies x 3 seeds, 200 generations each, one thread a run.
 # Resumable: run the same line again and finished runs are read back, cut ones continued.
 #   sh benchmarks/records/human-gait/run_arm.sh ARM [OUT]      (from the project's root)
-# ARM: baseline, clock, ankle0, speed, clock_speed, clock_speed_gait, no_side_bias, no_sideways_harness, gait_term
+# ARM: baseline, clock, ankle0, speed, clock_speed, clock_speed_gait, clock_speed_gait16,
+#      clock_speed_flight_stop, no_side_bias, no_sideways_harness, gait_term
 set -eu
-arm=${1:?"give an arm: baseline clock ankle0 speed clock_speed clock_speed_gait no_side_bias no_sideways_harness gait_term"}
+arm=${1:?"give an arm (see above)"}
 out=${2:-runs/human-gait/$arm}
 here=benchmarks/records/human-gait/configs
 config=$here/base.yaml
@@ -16,6 +17,8 @@ case $arm in
   speed) robot=$here/human_stepping_speed.yaml ;;
   clock_speed) config=$here/clock.yaml; robot=$here/human_stepping_speed.yaml ;;
   clock_speed_gait) config=$here/clock_gait_term.yaml; robot=$here/human_stepping_speed.yaml ;;
+  clock_speed_gait16) config=$here/clock_gait_term16.yaml; robot=$here/human_stepping_speed.yaml ;;
+  clock_speed_flight_stop) config=$here/clock_flight_stop.yaml; robot=$here/human_stepping_speed.yaml ;;
   *) echo "unknown arm: $arm" >&2; exit 2 ;;
 esac
 exec python -m benchmarks.human_walk --config "$config" --robot "$robot" --presets female_50 male_50 \
