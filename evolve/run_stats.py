@@ -33,11 +33,14 @@ VALIDATION_COLUMNS = ("validation_walked", "validation_fitness")
 
 def term_columns(config: EvolveConfig) -> tuple[str, ...]:
     """The fitness terms of every objective of the run, in stage order, each once (walking's
-    gait term with its coefficient only: it is computed only then)."""
+    gait and smooth terms with their coefficients only: they are computed only then)."""
     kinds = [stage.kind for stage in config.stages] or [OBJECTIVES[DEFAULT_OBJECTIVE]]
     names = [name for kind in kinds for name in kind.terms]
-    if config.task.selection_gait_coeff > 0 and any(kind.terms == WalkObjective.TERMS for kind in kinds):
+    walking = any(kind.terms == WalkObjective.TERMS for kind in kinds)
+    if config.task.selection_gait_coeff > 0 and walking:
         names.append(WalkObjective.GAIT_TERM)
+    if config.task.selection_smooth_coeff > 0 and walking:
+        names.append(WalkObjective.SMOOTH_TERM)
     return tuple(dict.fromkeys(names))
 
 

@@ -91,3 +91,38 @@ def test_the_flight_rule_leaves_a_walk_alone_and_replays_without_stopping_rules_
 def test_the_flight_rule_takes_a_share(share):
     with pytest.raises(ConfigError, match="task.flight_stop_share: (must not be negative|is a share of the ticks)"):
         TaskConfig.from_mapping({"flight_stop_share": share})
+
+
+@pytest.mark.parametrize("path", ["configs/controllers/xl430_biped.json", "configs/controllers/human_male_50.json"])
+def test_the_smooth_term_is_the_mean_kernel_of_the_goals_second_difference(path):
+    """Against the goals recorded tick by tick (the slow oracle): the mean over the episode's
+    ticks of exp(-(RMS of the second difference / sigma)^2), from the start's goals on."""
+    import numpy as np
+
+    data, spec, ev, genome = controller_setup(path, None, SECONDS)
+    plain = ev.evaluate([genome], data.sigmoid_steepness, harness=0.0)
+    task = dataclasses.replace(ev.task, selection_smooth_coeff=3.0, selection_smooth_sigma_deg=4.0)
+    ev = LocomotionEvaluator(spec, task, 1, threads=1)
+    goals = []
+    paid = ev.evaluate([genome], data.sigmoid_steepness, harness=0.0,
+                       on_tick=lambda e, alive: goals.append(e.ctrl[0, e.driven].copy()))
+    assert "smooth" not in plain.terms and paid.fitness[0] == plain.fitness[0]
+    start = ev.hold[ev.driven]
+    g = np.array([start, start] + goals)
+    rms = np.sqrt(np.mean((g[2:] - 2 * g[1:-1] + g[:-2]) ** 2, axis=1))
+    up = len(goals) if not paid.fell[0] else len(goals) - 1  # a fall's tick is not paid
+    expected = np.exp(-(rms[:up] / np.radians(4.0)) ** 2).sum() / ev.n_ticks
+    assert paid.terms["smooth"][0] == pytest.approx(expected, rel=1e-9)
+    assert paid.selection[0] - plain.selection[0] == pytest.approx(3.0 * expected)
+    assert 0.0 < expected < 1.0
+
+
+def test_the_smooth_term_is_a_stats_column_only_with_its_coefficient_and_its_width_is_checked():
+    from evolve.config import config_path, load_evolve_config
+    from evolve.run_stats import term_columns
+
+    assert "smooth" not in term_columns(load_evolve_config(config_path("walk")))
+    paid = load_evolve_config(config_path("walk"), {"task.selection_smooth_coeff": 2.0})
+    assert term_columns(paid)[-1] == "smooth"
+    with pytest.raises(ConfigError, match="selection_smooth_sigma_deg: must be > 0"):
+        TaskConfig.from_mapping({"selection_smooth_sigma_deg": 0.0})

@@ -105,10 +105,20 @@ class WalkObjective:
     episode upright x the hips' swing symmetry (smaller / larger) x ``exp(-(f / sigma_f)^2)`` of
     the share f of ticks with both feet up, sigma_f ``selection_gait_flight_sigma``; 0..1, and 0
     for an episode that fell before its start-up was over.  Left out (not computed) otherwise.
+
+    With the task's ``selection_smooth_coeff`` > 0, a ``smooth`` term pays goals that do not
+    chatter (issue 51: a recurrent network updated once a tick can flip its outputs every tick,
+    and the human walkers' stance legs pumped so, hopping): the mean over the episode's ticks
+    (0 after a fall) of ``exp(-(r / sigma_s)^2)``, r the RMS over the driven joints of the
+    goals' second difference from tick to tick [rad], sigma_s ``selection_smooth_sigma_deg``.
+    A 1 Hz swing of +-15 deg changes its goal's step by about 3 deg a tick at 0.07 s; a goal
+    flipping by 12 deg every tick, by 24 (the servo biped's shipped walker: a median RMS of
+    7.6 deg at its 0.034 s tick).  Left out (not computed) otherwise.
     """
 
     TERMS = ("distance", "time", "progress", "velocity", "yaw_rate", "straight", "turn")
     GAIT_TERM = "gait"  # with selection_gait_coeff > 0 only
+    SMOOTH_TERM = "smooth"  # with selection_smooth_coeff > 0 only
     HEADING_GAIN = 0.5  # [1/s] the yaw rate asked for per radian of turn still to go
 
     def __init__(self, ev, n: int):
@@ -134,6 +144,10 @@ class WalkObjective:
         self.straight_sum = np.zeros(n)
         self.gait = GaitTracker(ev.robot, n, ev.tick_s) if task.selection_gait_coeff > 0 else None
         self.flight_ticks = np.zeros(n, dtype=int)  # ticks with both feet up, for the flight rule
+        if task.selection_smooth_coeff > 0:  # the last two ticks' goals of the driven joints [rad], from the start's
+            start = ev.ctrl[:n][:, ev.driven]
+            self.goals = [start.copy(), start.copy()]
+            self.smooth_sum = np.zeros(n)
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, task = self.ev, self.task
@@ -162,6 +176,8 @@ class WalkObjective:
         if self.gait is not None:  # every episode still running, as biped eval measures it
             self.gait(ev, alive)
         self._steady(alive, ok, yaw)
+        if task.selection_smooth_coeff > 0:
+            self._smooth(alive, ok)
         self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
         self.time_term[alive[bad]] = 0.0
         stagnant = elapsed[alive] - self.last_gain[alive] > task.stagnation_s
@@ -188,6 +204,15 @@ class WalkObjective:
         self.straight_sum[live] += (velocity * facing)[ok]
         self.last_xy[alive], self.last_yaw[alive] = xy, yaw
 
+    def _smooth(self, alive: np.ndarray, ok: np.ndarray) -> None:
+        """This tick's smooth kernel of the goals' second difference, added up for those still up."""
+        goal = self.ev.ctrl[alive][:, self.ev.driven]
+        before, last = self.goals[0][alive], self.goals[1][alive]
+        rms = np.sqrt(np.mean((goal - 2.0 * last + before) ** 2, axis=1))
+        kernel = np.exp(-(rms / np.radians(self.task.selection_smooth_sigma_deg)) ** 2)
+        self.smooth_sum[alive[ok]] += kernel[ok]
+        self.goals[0][alive], self.goals[1][alive] = last, goal
+
     def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes:
         task = self.task
         ticks = self.ev.n_ticks
@@ -199,10 +224,14 @@ class WalkObjective:
                  "turn": np.degrees(self.turned)}
         if self.gait is not None:
             terms[self.GAIT_TERM] = np.where(unstable, 0.0, self._gait_term())
+        if task.selection_smooth_coeff > 0:
+            terms[self.SMOOTH_TERM] = np.where(unstable, 0.0, self.smooth_sum / ticks)
         fitness = task.distance_coeff * terms["distance"] + task.time_coeff * terms["time"]
         selection = fitness + task.progress_coeff * terms["progress"]
         if self.gait is not None:
             selection = selection + task.selection_gait_coeff * terms[self.GAIT_TERM]
+        if task.selection_smooth_coeff > 0:
+            selection = selection + task.selection_smooth_coeff * terms[self.SMOOTH_TERM]
         if task.selection_velocity_coeff or task.selection_yaw_coeff or task.selection_straight_coeff:
             selection = (selection + task.selection_velocity_coeff * terms["velocity"]
                          + task.selection_yaw_coeff * terms["yaw_rate"]

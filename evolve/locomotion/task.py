@@ -81,6 +81,8 @@ class TaskConfig:
     selection_heading_sigma_deg: float = 15.0  # [deg] the heading kernel's width (the straight term's)
     selection_gait_coeff: float = 0.0  # times the gait term: upright share x hip swing symmetry x the flight kernel
     selection_gait_flight_sigma: float = 0.05  # the flight kernel's width [share of ticks with both feet up]
+    selection_smooth_coeff: float = 0.0  # times the smooth term: goals that do not chatter from tick to tick
+    selection_smooth_sigma_deg: float = 5.0  # [deg] the smooth kernel's width (RMS of the goals' second difference)
     phase_period_s: float = 0.0  # > 0: the networks get a gait clock of this period [s] (channels.Clock)
     efference_copy: bool = False  # the networks get the goals sent last tick as inputs too (channels.EfferenceCopy)
     heading_input: bool = False  # the networks get the torso's turn since the start (channels.Heading)
@@ -154,7 +156,7 @@ class TaskConfig:
             raise ConfigError(source, prefix + "heading_turn_max_deg", f"must be within (0, 180], got "
                               f"{config.heading_turn_max_deg:g}")
         for key in ("selection_speed_leg_s", "selection_yaw_sigma_deg_s", "selection_heading_sigma_deg",
-                    "selection_gait_flight_sigma"):
+                    "selection_gait_flight_sigma", "selection_smooth_sigma_deg"):
             if not getattr(config, key) > 0:
                 raise ConfigError(source, prefix + key, f"must be > 0, got {getattr(config, key):g}")
         if config.output_centre not in OUTPUT_RULES:
