@@ -1,5 +1,6 @@
 """Gait measures of many episodes at once, fed from an evaluator tick by tick: the one
-reading of hip angles and foot contacts that ``biped eval`` and selection's gait term share."""
+reading of hip angles and foot contacts that ``biped eval`` and selection's gait term share;
+and the smoothness of the goals, selection's smooth term."""
 
 from __future__ import annotations
 
@@ -34,3 +35,21 @@ class GaitTracker:
         """How many episodes walk a walk, and each one's measures (JSON-ready)."""
         measures = self.meter.measures()
         return {"walks": sum(map(is_a_walk, measures)), "per_episode": [m.to_dict() for m in measures]}
+
+
+class GoalSmoothness:
+    """Selection's smooth term (:class:`~evolve.locomotion.objectives.WalkObjective`), summed
+    tick by tick: ``exp(-(r / sigma)^2)`` of the RMS r over the driven joints of the goals'
+    second difference [rad], for the episodes still up.  ``start``: (n, driven) the goals
+    before the first tick [rad]; ``sigma_deg``: the kernel's width [deg]."""
+
+    def __init__(self, start: np.ndarray, sigma_deg: float):
+        self.before, self.last = start.copy(), start.copy()  # the last two ticks' goals
+        self.sigma = np.radians(sigma_deg)
+        self.total = np.zeros(len(start))  # each episode's sum of kernels
+
+    def __call__(self, alive: np.ndarray, up: np.ndarray, goals: np.ndarray) -> None:
+        """This tick's goals (k, driven) of episodes ``alive`` (k,), of which ``up`` are paid."""
+        rms = np.sqrt(np.mean((goals - 2.0 * self.last[alive] + self.before[alive]) ** 2, axis=1))
+        self.total[alive[up]] += np.exp(-(rms / self.sigma) ** 2)[up]
+        self.before[alive], self.last[alive] = self.last[alive], goals

@@ -20,7 +20,7 @@ from typing import Any, Callable, Mapping, Protocol
 
 import numpy as np
 
-from evolve.locomotion.gait_tracking import GaitTracker
+from evolve.locomotion.gait_tracking import GaitTracker, GoalSmoothness
 from sim2real.controller.channels import Reach, turn_rad
 from sim2real.controller.reach import REACHING, ReachControl, ReachCycle
 from sim2real.robot.spec import ARM_LOCATIONS
@@ -144,10 +144,8 @@ class WalkObjective:
         self.straight_sum = np.zeros(n)
         self.gait = GaitTracker(ev.robot, n, ev.tick_s) if task.selection_gait_coeff > 0 else None
         self.flight_ticks = np.zeros(n, dtype=int)  # ticks with both feet up, for the flight rule
-        if task.selection_smooth_coeff > 0:  # the last two ticks' goals of the driven joints [rad], from the start's
-            start = ev.ctrl[:n][:, ev.driven]
-            self.goals = [start.copy(), start.copy()]
-            self.smooth_sum = np.zeros(n)
+        self.smooth = (GoalSmoothness(ev.ctrl[:n][:, ev.driven], task.selection_smooth_sigma_deg)
+                       if task.selection_smooth_coeff > 0 else None)
 
     def tick(self, alive: np.ndarray, elapsed: np.ndarray, bad: np.ndarray) -> np.ndarray:
         ev, task = self.ev, self.task
@@ -176,8 +174,8 @@ class WalkObjective:
         if self.gait is not None:  # every episode still running, as biped eval measures it
             self.gait(ev, alive)
         self._steady(alive, ok, yaw)
-        if task.selection_smooth_coeff > 0:
-            self._smooth(alive, ok)
+        if self.smooth is not None:
+            self.smooth(alive, ok, ev.ctrl[alive][:, ev.driven])
         self.distance_term[alive[bad]] = task.epsilon  # eq. 3's floor, fitness c_d eps
         self.time_term[alive[bad]] = 0.0
         stagnant = elapsed[alive] - self.last_gain[alive] > task.stagnation_s
@@ -204,15 +202,6 @@ class WalkObjective:
         self.straight_sum[live] += (velocity * facing)[ok]
         self.last_xy[alive], self.last_yaw[alive] = xy, yaw
 
-    def _smooth(self, alive: np.ndarray, ok: np.ndarray) -> None:
-        """This tick's smooth kernel of the goals' second difference, added up for those still up."""
-        goal = self.ev.ctrl[alive][:, self.ev.driven]
-        before, last = self.goals[0][alive], self.goals[1][alive]
-        rms = np.sqrt(np.mean((goal - 2.0 * last + before) ** 2, axis=1))
-        kernel = np.exp(-(rms / np.radians(self.task.selection_smooth_sigma_deg)) ** 2)
-        self.smooth_sum[alive[ok]] += kernel[ok]
-        self.goals[0][alive], self.goals[1][alive] = last, goal
-
     def result(self, upright: np.ndarray, unstable: np.ndarray, steps: int) -> Episodes:
         task = self.task
         ticks = self.ev.n_ticks
@@ -224,13 +213,13 @@ class WalkObjective:
                  "turn": np.degrees(self.turned)}
         if self.gait is not None:
             terms[self.GAIT_TERM] = np.where(unstable, 0.0, self._gait_term())
-        if task.selection_smooth_coeff > 0:
-            terms[self.SMOOTH_TERM] = np.where(unstable, 0.0, self.smooth_sum / ticks)
+        if self.smooth is not None:
+            terms[self.SMOOTH_TERM] = np.where(unstable, 0.0, self.smooth.total / ticks)
         fitness = task.distance_coeff * terms["distance"] + task.time_coeff * terms["time"]
         selection = fitness + task.progress_coeff * terms["progress"]
         if self.gait is not None:
             selection = selection + task.selection_gait_coeff * terms[self.GAIT_TERM]
-        if task.selection_smooth_coeff > 0:
+        if self.smooth is not None:
             selection = selection + task.selection_smooth_coeff * terms[self.SMOOTH_TERM]
         if task.selection_velocity_coeff or task.selection_yaw_coeff or task.selection_straight_coeff:
             selection = (selection + task.selection_velocity_coeff * terms["velocity"]
