@@ -45,7 +45,6 @@ def seed_record(folder: Path) -> dict[str, Any]:
             stage["cpu_minutes"] for stage in state["stages"].values()),
         "stage_minutes": {name: round(stage["wall_minutes"], 2) for name, stage in state["stages"].items()},
         "neat_robust": state["stages"]["neat"]["robust"], "neat_generations": state["stages"]["neat"]["generations"],
-        "neat_lineage": state["stages"]["neat"].get("lineage"),  # the lineage that went on (records before: None)
         "walk_rate": m["rate"]["share"], "transfer": kept(measure["transfer"]),
         "transfer_passed": measure["transfer"]["passed"],
         "speed_m_s": {k: s["speed_m_s"] for k, s in m["sustained"].items()},

@@ -6,17 +6,14 @@
 The recipe, in stages that share one budget of ``minutes`` (wall time, every stage and the
 measuring counted):
 
-1. **neat** - NEAT as ``NEAT_LINEAGES`` lineages side by side, one a core (population 256 in 15
-   species each, ``configs/evolve/train.yaml``), with the gait clock's period from the robot's leg
-   length (``phase_period_s: auto``), each until a champion passes the robustness bar
+1. **neat** - NEAT (population 512 in 30 species, ``configs/evolve/train.yaml``) with the gait
+   clock's period from the robot's leg length (``phase_period_s: auto``), until a champion passes the robustness bar
    (:func:`evolve.walk_measures.robustness`: 8 of 10 unseen randomized robots and 3 of 3
-   ``default.yaml`` robots) or until ``NEAT_SHARE`` of the budget is spent; a lineage starts again
-   from a new seed when nothing walks off the harness (``NEAT_RESTART_AFTER``, :func:`_restart_due`).
-   Each lineage's walker is then probed by ``PROBE_UPDATES`` updates of the walk-rate polish, and
-   the lineage whose probe validates best goes on;
+   ``default.yaml`` robots) or until ``NEAT_SHARE`` of the budget is spent; started again from a
+   new seed when nothing walks off the harness (``NEAT_RESTART_AFTER``, :func:`_restart_due`);
 2. **polish** - CMA-ES on the walker's weights (:func:`evolve.polish.polish`), ranked on the
-   walk rate over common robots, going on from the chosen lineage's probe, until its validation
-   plateaus or ``POLISH_UNTIL`` of the budget is spent;
+   walk rate over common robots, until its validation plateaus or ``POLISH_UNTIL`` of the
+   budget is spent;
 3. **speed** - the same search paying a faster straight walk, ranked on each candidate's worst
    quarter of robots, then once more from what it kept with a fresh CMA-ES (a restart), until a
    plateau or the budget less ``MEASURE_SHARE``; skipped when the walker's 60 s walks on the
@@ -33,9 +30,9 @@ polish whose walker falls on the nominal model within 60 s where its source walk
 robust walkers kept before it that meets it, measured newest first while the budget lasts.
 
 Everything is resumable: ``DIR/train.json`` records the settings and each finished stage;
-each stage resumes from its own checkpoints (each lineage's ``neat/lineage<k>/checkpoint.json.gz``
-and ``neat/lineage<k>.json`` once done, a polish's ``checkpoint.json``), so Ctrl-C, SIGTERM or
-SIGHUP leaves a folder that ``--resume`` continues, and a decision made before a cut (NEAT's restart, a polish's stop) is kept, not made again.  A
+each stage resumes from its own checkpoint (NEAT's ``neat/checkpoint.json.gz``, a polish's
+``checkpoint.json``), so Ctrl-C, SIGTERM or SIGHUP leaves a folder that ``--resume`` continues,
+and a decision made before a cut (NEAT's restart, a polish's stop) is kept, not made again.  A
 seed fixes each stage's search; where a stage stops depends on the budget, and the generations
 and updates run are recorded, so the stopping points of a run can be read back from its
 ``train.json``.
@@ -67,13 +64,6 @@ if TYPE_CHECKING:  # pragma: no cover - the simulation side is imported where a 
 CONTROLLER = "controller.json"  # the trained walker
 DEFAULT_MINUTES = 60.0
 NEAT_SHARE = 0.45  # NEAT may spend this share of the budget before the polish starts anyway
-# NEAT runs as two lineages of half the population, one a core, and the polish goes on with the one
-# whose first updates validate best: with one population of 512, the polish lifted 4 of 5 biped seeds'
-# champions to the robustness bar within 5 updates and never seed 5's; two lineages of 256 on seeds 5
-# and 2005 both climbed (benchmarks/RESULTS.md, "biped train, the recipe that pays speed")
-NEAT_LINEAGES = 2
-LINEAGE_SEED = 2000  # lineage k's seed: the training's + k x this (its restarts add RESTART_SEED)
-PROBE_UPDATES = 5  # walk-rate polish updates on each lineage's walker before one is chosen (one validation)
 POLISH_UNTIL = 0.65  # the walk-rate polish ends by this share of the budget
 MEASURE_SHARE = 0.08  # kept for the measuring: 50 robots, 60 s walks, 3 dry runs in real time, a turn
 # CMA-ES settings of the recipe that made the shipped walker (benchmarks/RESULTS.md, robust walking v2)
@@ -219,151 +209,17 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
 # -- the stages --------------------------------------------------------------------------------
 def _neat(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
           log: Callable[[str], None]) -> dict[str, Any]:
-    """``NEAT_LINEAGES`` NEAT lineages side by side (:func:`lineage_plan`), each probed by
-    ``PROBE_UPDATES`` updates of the walk-rate polish; the stage's walker is the NEAT walker of
-    the lineage whose probe validated best (:func:`_probe_key`), which the polish stage goes on with."""
-    plan = lineage_plan(settings.threads)
-    records: list[dict[str, Any] | None] = [_lineage_record(out, k) for k in range(NEAT_LINEAGES)]
-    todo = [k for k, record in enumerate(records) if record is None]
-    if todo:
-        log(f"{NEAT_LINEAGES} NEAT lineages, {plan['workers']} at a time on {plan['threads']} thread(s) each"
-            + ("" if len(todo) == NEAT_LINEAGES else f"; lineages {', '.join(str(k + 1) for k in todo)} to finish"))
-    run_lineages(robot_name, out, settings, budget, todo, plan, log)
-    records = [_lineage_record(out, k) for k in range(NEAT_LINEAGES)]
-    chosen = max(range(NEAT_LINEAGES), key=lambda k: (_probe_key(records[k]), -k))
-    summary = [{key: value for key, value in record.items() if key not in ("tests", "probe")}
-               | {"probe": [[h["update"], h["walk_rate"], h["score"]] for h in record["probe"].get("history", [])]}
-               for record in records]
-    log(f"lineage {chosen + 1} goes on: its probe's best validation walk rate "
-        + " against ".join(f"{_probe_key(r)[0]:.2f}" for r in records))
-    chosen_record = {key: value for key, value in records[chosen].items() if key != "probe"}
-    # the probe's minutes, which its polish's clock (resumed by the polish stage) counts as well
-    return {**chosen_record, "lineage": chosen + 1, "probe_minutes": records[chosen]["probe"].get("minutes", 0.0),
-            "lineages": summary}
-
-
-def lineage_plan(threads: int) -> dict[str, int]:
-    """How the lineages share the cores ``threads`` allows (0: every core): ``workers`` lineages
-    at a time, ``threads`` each; with fewer workers than lineages they take turns, each turn
-    ending by its share of NEAT's share of the budget (``turns``)."""
-    total = threads or os.cpu_count() or 1
-    workers = max(1, min(NEAT_LINEAGES, total))
-    return {"workers": workers, "threads": max(1, total // workers), "turns": -(-NEAT_LINEAGES // workers)}
-
-
-def run_lineages(robot_name: str, out: Path, settings: TrainSettings, budget: Budget, todo: list[int],
-                 plan: dict[str, int], log: Callable[[str], None]) -> None:
-    """Lineages ``todo`` in child processes, ``plan["workers"]`` at a time (a process each: one
-    process's Python would serialize them).  A child cut by Ctrl-C or SIGTERM leaves its
-    checkpoints; the parent, cut, stops its children the same way and waits for them."""
-    import multiprocessing
-
-    context = multiprocessing.get_context("spawn")  # no fork after MuJoCo's threads have started
-    quiet = log.quiet if isinstance(log, Progress) else True  # a caller's own log cannot be called from a child
-    pending = list(todo)
-    while pending:
-        batch, pending = pending[:plan["workers"]], pending[plan["workers"]:]
-        children = [context.Process(target=_lineage_child, name=f"lineage{k + 1}", args=(
-            robot_name, str(out), dataclasses.asdict(settings), k, plan, budget.minutes, budget.elapsed_s, quiet))
-            for k in batch]
-        try:
-            for child in children:
-                child.start()
-            for child in children:
-                child.join()
-        finally:
-            for child in children:
-                if child.is_alive():  # the parent was cut: its children stop as it does, checkpoints kept
-                    child.terminate()
-            for child in children:
-                if child.pid is not None:
-                    child.join(timeout=60)
-                    if child.is_alive():
-                        child.kill()
-                        child.join()
-        for k, child in zip(batch, children):
-            error = _lineage_file(out, k).with_suffix(".error")
-            if child.exitcode == 130:  # cut on its own (a kill of the child): the training is cut
-                raise KeyboardInterrupt(f"lineage {k + 1}")
-            if child.exitcode == 2 and error.exists():
-                raise UsageError(f"NEAT lineage {k + 1}: {error.read_text().strip()}")
-            if child.exitcode != 0:
-                raise RuntimeError(f"NEAT lineage {k + 1} stopped with exit code {child.exitcode} (its error is "
-                                   f"above); {out} keeps its checkpoints: --resume goes on")
-    if todo:
-        log("every lineage done")
-
-
-def _lineage_child(robot_name: str, out: str, settings: dict[str, Any], k: int, plan: dict[str, int],
-                   minutes: float, spent_s: float, quiet: bool) -> None:
-    """A child process's lineage ``k``: its NEAT (:func:`_lineage_neat`), then its probe; the
-    record in ``out/neat/lineage<k+1>.json``, or a usage error's message beside it (``.error``)."""
-    error = _lineage_file(Path(out), k).with_suffix(".error")
-    error.unlink(missing_ok=True)
-    with _termination_as_interrupt():
-        try:
-            _lineage(robot_name, Path(out), TrainSettings(**settings), k, plan,
-                     Budget(minutes, spent_s=spent_s), quiet)
-        except KeyboardInterrupt:
-            sys.exit(130)
-        except UsageError as e:  # the parent says it, as its own
-            error.parent.mkdir(parents=True, exist_ok=True)
-            error.write_text(str(e))
-            sys.exit(2)
-
-
-def _lineage(robot_name: str, out: Path, settings: TrainSettings, k: int, plan: dict[str, int], budget: Budget,
-             quiet: bool = True) -> dict[str, Any]:
-    """Lineage ``k``: NEAT from seed ``settings.seed + k x LINEAGE_SEED`` in ``out/neat/lineage<k+1>``
-    to the end of its turn's share (``plan``), then ``PROBE_UPDATES`` of the walk-rate polish on
-    its walker in ``out/polish/lineage<k+1>`` (the training's seed, so the probes share robots)."""
-    progress = Progress(budget, quiet)
-    progress.stage = "neat"
-    log = lambda message: progress(f"lineage {k + 1}: {message}")  # noqa: E731
-    share = NEAT_SHARE * (k // plan["workers"] + 1) / plan["turns"]
-    mine = dataclasses.replace(settings, threads=plan["threads"])
-    record = _lineage_neat(robot_name, out / "neat" / f"lineage{k + 1}",
-                           dataclasses.replace(mine, seed=settings.seed + k * LINEAGE_SEED), budget, log, share)
-    folder = out / "polish" / f"lineage{k + 1}"
-    probe = polish_stage(Path(record["walker"]), folder, mine, budget, POLISH_UNTIL, log, dict(POLISH), robot_name,
-                         patience=None, updates=PROBE_UPDATES)
-    record = {**record, "polish_folder": str(folder), "probe": probe}
-    write_json_atomic(_lineage_file(out, k), record)
-    return record
-
-
-def _lineage_file(out: Path, k: int) -> Path:
-    return out / "neat" / f"lineage{k + 1}.json"
-
-
-def _lineage_record(out: Path, k: int) -> dict[str, Any] | None:
-    """Lineage ``k``'s record once it has finished (None before)."""
-    path = _lineage_file(out, k)
-    return read_json(path) if path.exists() else None
-
-
-def _probe_key(record: dict[str, Any]) -> tuple[float, float]:
-    """What picks the lineage that goes on: its probe's best validation (walk rate, then score: the
-    polish's own order), or -1 for a probe the budget skipped."""
-    history = record["probe"].get("history") or []
-    return max(((h["walk_rate"], h["score"]) for h in history), default=(-1.0, float("-inf")))
-
-
-def _lineage_neat(robot_name: str, folder: Path, settings: TrainSettings, budget: Budget,
-                  log: Callable[[str], None], share: float = NEAT_SHARE) -> dict[str, Any]:
-    """One lineage's NEAT in ``folder``, from ``settings.seed``, until a champion passes the
-    robustness bar or ``share`` of the budget is spent; started again from a new seed in
-    ``folder-2`` (:func:`_restart_due`) when nothing walks off the harness."""
-    found_file = folder / "tests.json"  # the lineage's record, across its attempts
+    """NEAT until a champion passes the robustness bar or its share of the budget is spent;
+    started again from a new seed (:func:`_restart_due`) when nothing walks off the harness."""
+    found_file = out / "neat" / "tests.json"  # the stage's record, across its attempts
     found: dict[str, Any] = read_json(found_file) if found_file.exists() else {"tests": [], "robust": None}
     restarts = found.setdefault("restarts", [])  # each abandoned attempt: seed, generations, minutes
-    first = folder
     while True:
         attempt = len(restarts)
-        folder = first if attempt == 0 else first.with_name(f"{first.name}-{attempt + 1}")
+        folder = out / "neat" if attempt == 0 else out / f"neat-{attempt + 1}"
         found.setdefault("attempt", {"seed": settings.seed + attempt * RESTART_SEED, "started_s": budget.elapsed_s,
                                      "walked_generation": None})
-        run, restart = _neat_attempt(robot_name, folder, settings, found, found_file, budget, log, share)
+        run, restart = _neat_attempt(robot_name, folder, settings, found, found_file, budget, log)
         if not restart:
             break
         done = found.pop("attempt")
@@ -375,9 +231,9 @@ def _lineage_neat(robot_name: str, folder: Path, settings: TrainSettings, budget
     walker = folder / "walker.json" if found["robust"] is not None else candidate
     if not walker.exists():  # no champion off the harness yet (a small budget): the polish starts from the best
         if run.best is None:
-            raise UsageError(f"NEAT evaluated no generation within {share:.0%} of {settings.minutes:g} min; "
+            raise UsageError(f"NEAT evaluated no generation within {NEAT_SHARE:.0%} of {settings.minutes:g} min; "
                              "give more --minutes")
-        log(f"no champion off the support harness within {share:.0%} of the budget: the polish starts "
+        log(f"no champion off the support harness within {NEAT_SHARE:.0%} of the budget: the polish starts "
             f"from the harnessed champion of generation {run.best.generation}")
         run.controller(run.best).save(candidate)
     return {"walker": str(walker), "robust": found["robust"] is not None, "robust_generation": found["robust"],
@@ -386,7 +242,7 @@ def _lineage_neat(robot_name: str, folder: Path, settings: TrainSettings, budget
 
 
 def _neat_attempt(robot_name: str, folder: Path, settings: TrainSettings, found: dict[str, Any], found_file: Path,
-                  budget: Budget, log: Callable[[str], None], share: float = NEAT_SHARE) -> tuple[Any, bool]:
+                  budget: Budget, log: Callable[[str], None]) -> tuple[Any, bool]:
     """One NEAT run in ``folder`` (resumed from its checkpoint if it has one) from the seed of
     ``found["attempt"]``; returns the run and whether it stopped for a restart."""
     from evolve import walk_measures as wm
@@ -440,14 +296,14 @@ def _neat_attempt(robot_name: str, folder: Path, settings: TrainSettings, found:
             write_json_atomic(found_file, found)
             if robust:
                 return True
-        restart = _restart_due(attempt, generation, run.config.task.harness_generations, budget, share)
-        if restart or budget.until(share) <= 0:  # decided once: a resume takes it, not one more generation
+        restart = _restart_due(attempt, generation, run.config.task.harness_generations, budget)
+        if restart or budget.until(NEAT_SHARE) <= 0:  # decided once: a resume takes it, not one more generation
             attempt["stopped"] = "restart" if restart else "budget"
             write_json_atomic(found_file, found)
             return True
         return False
 
-    if attempt.get("stopped") == "budget" and budget.until(share) > 0:
+    if attempt.get("stopped") == "budget" and budget.until(NEAT_SHARE) > 0:
         del attempt["stopped"]  # resumed with more --minutes: NEAT goes on
     if found["robust"] is None and "stopped" not in attempt:
         run.evolve(stop=stop)
@@ -457,27 +313,24 @@ def _neat_attempt(robot_name: str, folder: Path, settings: TrainSettings, found:
     return run, restart
 
 
-def _restart_due(attempt: dict[str, Any], generation: int, harness_generations: int, budget: Budget,
-                 share: float = NEAT_SHARE) -> bool:
+def _restart_due(attempt: dict[str, Any], generation: int, harness_generations: int, budget: Budget) -> bool:
     """Whether NEAT should start again from a new seed: no candidate of this attempt has walked on
     a validation robot (nor its champion on a test robot) ``NEAT_RESTART_AFTER`` generations after
     the harness came off, and NEAT's share of the budget has at least as long left as this
-    attempt has taken (a restart that cannot catch up is no better than going on).  ``share``: the
-    lineage's share of the budget."""
+    attempt has taken (a restart that cannot catch up is no better than going on)."""
     if attempt["walked_generation"] is not None or generation < harness_generations + NEAT_RESTART_AFTER:
         return False
-    return budget.until(share) >= budget.elapsed_s - attempt["started_s"]
+    return budget.until(NEAT_SHARE) >= budget.elapsed_s - attempt["started_s"]
 
 
 def _polish(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
             log: Callable[[str], None]) -> dict[str, Any]:
-    """The walk-rate polish, going on from the chosen lineage's probe: it ends by ``POLISH_UNTIL``
-    of the budget once there is a robust walker (NEAT's or its own); without one it goes on to the budget less the measures' share (there is
+    """The walk-rate polish: it ends by ``POLISH_UNTIL`` of the budget once there is a robust walker
+    (NEAT's or its own); without one it goes on to the budget less the measures' share (there is
     then no speed polish: it would tune a walker that does not yet walk on enough robots)."""
     neat = state["stages"]["neat"]
     source = Path(neat["walker"])
-    folder = Path(neat["polish_folder"])  # the probe's: its updates go on
-    log(f"the walk-rate polish of lineage {neat['lineage']}'s walker")
+    folder = out / "polish"
     end = 1.0 - MEASURE_SHARE
     robust = lambda: neat["robust"] or (folder / "walker.json").exists()  # noqa: E731
     until = lambda: POLISH_UNTIL if robust() else end  # noqa: E731

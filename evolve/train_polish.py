@@ -22,13 +22,11 @@ PATIENCE = 4  # validations (5 updates each) without a kept walker before a poli
 def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Budget,
                  until: float | Callable[[], float], log: Callable[[str], None], stage: dict[str, Any],
                  robot: str | None = None,
-                 patience: int | Callable[[], int | None] | None = PATIENCE,
-                 updates: int = MAX_UPDATES) -> dict[str, Any]:
+                 patience: int | Callable[[], int | None] | None = PATIENCE) -> dict[str, Any]:
     """Polish ``source`` in ``folder`` until a plateau (``patience`` validations keeping nothing;
     None: none; a function: asked at each validation) or ``until`` (a share of the budget, or a
     function giving it) is spent, testing each walker its validation keeps against the robustness
     bar; ``walker``: the last that passed (None: none), ``kept``: the weights validation kept.
-    ``updates``: a cap (a lineage's probe); a later call in the same folder goes on from it.
     A cut stage resumes from the polish's checkpoint and ``folder/tests.json``."""
     from evolve import walk_measures as wm
     from evolve.polish import polish
@@ -63,7 +61,7 @@ def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Bu
         return False
 
     options = {k: v for k, v in stage.items() if k != "popsize"}
-    record = polish(source, folder, updates=updates, popsize=stage["popsize"], seed=settings.seed,
+    record = polish(source, folder, updates=MAX_UPDATES, popsize=stage["popsize"], seed=settings.seed,
                     on_best=on_best, resume=resume, patience=patience, threads=settings.threads, test=0,
                     should_stop=lambda: budget.until(share()) <= 0, robot=robot, log=log, **options)
     return {"source": str(source), "walker": str(walker) if walker.exists() else None,

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 STATE = "train.json"  # in the training folder: the settings and each finished stage
-STATE_VERSION = 2  # 2: NEAT as lineages, the polish in the chosen lineage's folder
+STATE_VERSION = 1
 
 
 def new_record(robot_name: str, settings: dict[str, Any], command: str | None) -> dict[str, Any]:

@@ -77,8 +77,7 @@ def test_the_walk_rate_polish_stops_on_a_plateau_only_with_a_robust_walker(tmp_p
 
     calls = []
     monkeypatch.setattr(evolve.polish, "polish", fake_polish([], calls))
-    state = {"stages": {"neat": {"walker": str(WALKER), "robust": neat_robust, "lineage": 1,
-                                 "polish_folder": str(tmp_path / "polish")}}}
+    state = {"stages": {"neat": {"walker": str(WALKER), "robust": neat_robust}}}
     tr._polish("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     patience = calls[0]["patience"]  # asked at each validation
     assert patience() == (tr.PATIENCE if neat_robust else None)
@@ -152,7 +151,7 @@ def test_neat_starts_again_from_a_new_seed_when_nothing_walks_off_the_harness(tm
     from seed 1001, which walks at generation 30 and runs to NEAT's share of the budget."""
     budget = tr.Budget(minutes=10.0, started=0.0)  # NEAT's share: 270 s; a generation costs 1 s
     created = _fake_neat(monkeypatch, budget, {1001: 30}, seconds=1.0)
-    record = tr._lineage_neat("xl430_biped", tmp_path / "neat", tr.TrainSettings(minutes=10.0), budget, lambda s: None)
+    record = tr._neat("xl430_biped", tmp_path, tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
     assert [c[:2] for c in created] == [(1, "neat"), (1001, "neat-2")]
     assert record["seed"] == 1001 and [r["seed"] for r in record["restarts"]] == [1]
     assert record["restarts"][0]["generations"] == 25 + tr.NEAT_RESTART_AFTER
@@ -160,7 +159,7 @@ def test_neat_starts_again_from_a_new_seed_when_nothing_walks_off_the_harness(tm
     assert record["restarts"][0]["minutes"] == pytest.approx(50 / 60)
     budget = tr.Budget(minutes=10.0, started=0.0)  # the stage again in its folder, as a resume runs it
     created = _fake_neat(monkeypatch, budget, {1001: 30}, seconds=1.0)
-    again = tr._lineage_neat("xl430_biped", tmp_path / "neat", tr.TrainSettings(minutes=10.0), budget, lambda s: None)
+    again = tr._neat("xl430_biped", tmp_path, tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
     assert [c[:2] for c in created] == [(1001, "neat-2")] and again["restarts"] == record["restarts"]
 
 
@@ -169,13 +168,11 @@ def test_no_restart_that_could_not_catch_up_nor_for_a_seed_that_walks(tmp_path, 
     (generation 40) is never restarted."""
     budget = tr.Budget(minutes=3.0, started=0.0)  # NEAT's share: 81 s; at generation 50, 31 s left < 50 s taken
     created = _fake_neat(monkeypatch, budget, {}, seconds=1.0)
-    record = tr._lineage_neat("xl430_biped", tmp_path / "a" / "neat", tr.TrainSettings(minutes=3.0), budget,
-                              lambda s: None)
+    record = tr._neat("xl430_biped", tmp_path / "a", tr.TrainSettings(minutes=3.0), {}, budget, lambda s: None)
     assert [c[:2] for c in created] == [(1, "neat")] and record["restarts"] == [] and record["generations"] == 81
     budget = tr.Budget(minutes=10.0, started=0.0)
     created = _fake_neat(monkeypatch, budget, {1: 40}, seconds=1.0)
-    record = tr._lineage_neat("xl430_biped", tmp_path / "b" / "neat", tr.TrainSettings(minutes=10.0), budget,
-                              lambda s: None)
+    record = tr._neat("xl430_biped", tmp_path / "b", tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
     assert [c[:2] for c in created] == [(1, "neat")] and record["restarts"] == [] and record["generations"] == 270
 
 
@@ -185,9 +182,9 @@ def test_neats_decision_to_restart_is_kept_through_a_cut(tmp_path, monkeypatch):
     budget = tr.Budget(minutes=10.0, started=0.0)
     _fake_neat(monkeypatch, budget, {1001: 30}, seconds=1.0, cut_after_stop=True)
     with pytest.raises(KeyboardInterrupt):
-        tr._lineage_neat("xl430_biped", tmp_path / "neat", tr.TrainSettings(minutes=10.0), budget, lambda s: None)
+        tr._neat("xl430_biped", tmp_path, tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
     created = _fake_neat(monkeypatch, budget, {1001: 30}, seconds=1.0)
-    record = tr._lineage_neat("xl430_biped", tmp_path / "neat", tr.TrainSettings(minutes=10.0), budget, lambda s: None)
+    record = tr._neat("xl430_biped", tmp_path, tr.TrainSettings(minutes=10.0), {}, budget, lambda s: None)
     assert [c[:2] for c in created] == [(1, "neat"), (1001, "neat-2")]
     assert not created[0][2].evolved, "the cut attempt evolved again"
     assert [r["seed"] for r in record["restarts"]] == [1] and record["seed"] == 1001
@@ -373,38 +370,3 @@ def test_the_benchmark_summary_gives_medians_of_end_to_end_minutes():
     s = summary(runs)
     assert s["wall_minutes_median"] == 55.0 and s["cpu_minutes_median"] == 110.0 and s["met_bar"] == 2
     assert s["speed_m_s_median"] == 0.16 and s["turn_reached"] == 3
-
-
-@pytest.mark.parametrize("threads, plan", [
-    (2, {"workers": 2, "threads": 1, "turns": 1}),  # the recipe: one lineage a core
-    (1, {"workers": 1, "threads": 1, "turns": 2}),  # one core: the lineages take turns
-    (8, {"workers": 2, "threads": 4, "turns": 1})])
-def test_the_lineages_share_the_cores_the_threads_allow(threads, plan):
-    assert tr.lineage_plan(threads) == plan
-
-
-def test_the_lineage_whose_probe_validates_best_goes_on(tmp_path, monkeypatch, budget):
-    """Ranked as the polish ranks (walk rate, then score), over the probe's validations; a probe the
-    budget skipped ranks last; the stage's walker is the chosen lineage's, with every lineage summed up."""
-    probes = [[(0, 0.40, 9.0), (5, 0.53, 12.0)], [(0, 0.00, 5.0), (5, 0.80, 11.0)]]
-    ran = []
-
-    def fake_run(robot, out, settings, budget, todo, plan, log):
-        ran.append(todo)
-        for k in todo:
-            history = [{"update": u, "walk_rate": w, "score": s} for u, w, s in probes[k]]
-            tr.write_json_atomic(tr._lineage_file(out, k), {
-                "walker": f"w{k}", "robust": False, "seed": 1 + k * tr.LINEAGE_SEED, "tests": [{"update": 5}],
-                "polish_folder": str(out / "polish" / f"lineage{k + 1}"), "probe": {"history": history}})
-
-    monkeypatch.setattr(tr, "run_lineages", fake_run)
-    (tmp_path / "neat").mkdir()
-    record = tr._neat("xl430_biped", tmp_path, tr.TrainSettings(), {}, budget, lambda s: None)
-    assert record["lineage"] == 2 and record["walker"] == "w1" and record["seed"] == 1 + tr.LINEAGE_SEED
-    assert [lineage["probe"][-1] for lineage in record["lineages"]] == [[5, 0.53, 12.0], [5, 0.80, 11.0]]
-    assert "tests" not in record["lineages"][0]
-    again = tr._neat("xl430_biped", tmp_path, tr.TrainSettings(), {}, budget, lambda s: None)
-    assert again == record and ran[-1] == [], "finished lineages are not run again"
-    probes[1] = []  # lineage 2's probe skipped: lineage 1 goes on, whatever its walk rate
-    tr._lineage_file(tmp_path, 1).unlink()
-    assert tr._neat("xl430_biped", tmp_path, tr.TrainSettings(), {}, budget, lambda s: None)["lineage"] == 1
