@@ -35,12 +35,19 @@ def latest_walker(state: dict[str, Any], skip_speed: bool = False) -> str:
 
 
 def earlier_walkers(state: dict[str, Any]) -> list[Path]:
-    """Every robust walker the polish stages kept, newest first (the speed polish's, then the walk-rate
-    polish's), then NEAT's robust champion: where the measure stage looks when its walker misses the bar."""
+    """Every robust walker the polish stages kept, newest first (the speed polish's, the faster gait
+    clock it started from, then the walk-rate polish's), then NEAT's robust champion: where the
+    measure stage looks when its walker misses the bar."""
     stages = state["stages"]
-    records = [*reversed(stages.get("speed", {}).get("runs", [])), stages.get("polish", {})]
-    found = [Path(r["walker"]).parent / f"robust_update{t['update']}.json"
-             for r in records if r.get("walker") for t in reversed(r.get("tests", [])) if t["robust"]]
+    speed = stages.get("speed", {})
+
+    def kept(records: list[dict[str, Any]]) -> list[Path]:
+        return [Path(r["walker"]).parent / f"robust_update{t['update']}.json"
+                for r in records if r.get("walker") for t in reversed(r.get("tests", [])) if t["robust"]]
+
+    found = kept(list(reversed(speed.get("runs", []))))
+    found += [Path(speed["cadence"]["walker"])] if (speed.get("cadence") or {}).get("walker") else []
+    found += kept([stages.get("polish", {})])
     found += [Path(stages["neat"]["walker"])] if stages["neat"]["robust"] else []
     return [path for path in found if path.exists()]
 

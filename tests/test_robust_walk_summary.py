@@ -243,6 +243,7 @@ def test_the_speed_polish_starts_from_the_newest_robust_walker_no_slower_than_it
     monkeypatch.setattr(wm, "robustness", lambda path, **k: _test(9))
     speeds = iter([0.11, 0.13])
     monkeypatch.setattr(wm, "sustained", lambda *a, **k: {"speed_m_s": next(speeds)})
+    monkeypatch.setattr(tr, "_cadence", lambda *a, **k: {"walker": None, "tests": []})  # no faster clock
     state = _state(tmp_path, neat_robust=True, polish_walker=True)
     record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     assert calls[0]["source"] == tmp_path / "polish.json", "the polish's walker, not NEAT's"
@@ -370,3 +371,33 @@ def test_the_benchmark_summary_gives_medians_of_end_to_end_minutes():
     s = summary(runs)
     assert s["wall_minutes_median"] == 55.0 and s["cpu_minutes_median"] == 110.0 and s["met_bar"] == 2
     assert s["speed_m_s_median"] == 0.16 and s["turn_reached"] == 3
+
+
+def test_a_slow_walker_tries_a_faster_gait_clock_and_keeps_the_fastest_robust_one(tmp_path, monkeypatch):
+    """Each faster clock is tested; the fastest (by the lower of its two 60 s speeds) that stays
+    robust is kept, its period in the file the runtime reads; a resume measures nothing again."""
+    from sim2real.controller.file import Controller
+
+    period = Controller.load(WALKER).phase_period_s
+    measured = []
+
+    def speeds(walker, settings, robot):  # faster with the clock, down to x0.8; x0.7 falls apart
+        factor = round(Controller.load(walker).phase_period_s / period, 3)
+        measured.append(factor)
+        return {0.9: [0.12, 0.10], 0.8: [0.14, 0.12], 0.7: [0.16, 0.13]}[factor]
+
+    monkeypatch.setattr(tr, "_speeds", speeds)
+    monkeypatch.setattr(wm, "robustness", lambda path, **k: _test(
+        9 if Controller.load(path).phase_period_s > 0.75 * period else 5))
+    record = tr._cadence(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.10, 0.08],
+                         lambda s: None)
+    assert measured == [0.9, 0.8, 0.7] and [t["robust"] for t in record["tests"]] == [True, True, False]
+    kept = Controller.load(record["walker"])
+    assert kept.phase_period_s == pytest.approx(0.8 * period) and kept.task["phase_period_s"] == kept.phase_period_s
+    assert kept.connections == Controller.load(WALKER).connections and record["speeds_m_s"] == [0.14, 0.12]
+    again = tr._cadence(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.10, 0.08],
+                        lambda s: None)
+    assert measured == [0.9, 0.8, 0.7] and again["walker"] == record["walker"]
+    # none faster than the walker itself: none kept
+    none = tr._cadence(WALKER, tmp_path / "other", tr.TrainSettings(), "xl430_biped", [0.2, 0.2], lambda s: None)
+    assert none["walker"] is None
