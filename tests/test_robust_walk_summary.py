@@ -262,6 +262,14 @@ def test_the_speed_polish_starts_from_the_newest_robust_walker_no_slower_than_it
     calls.clear()
     record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     assert calls == [] and record["walker"] is None and record["skipped"] == "fast enough"
+    # slow, but fast enough at a faster gait clock: that walker, and no polish
+    speeds = iter([0.11, 0.13])
+    fast = tmp_path / "cadence.json"
+    shutil.copyfile(WALKER, fast)
+    monkeypatch.setattr(tr, "_cadence", lambda *a, **k: {"walker": str(fast), "speeds_m_s": [0.2, 0.17]})
+    record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
+    assert calls == [] and record["walker"] == str(fast)
+    assert latest_walker({"stages": {**state["stages"], "speed": record}}) == str(fast)
 
 
 def test_no_speed_polish_without_a_robust_walker(tmp_path, monkeypatch, budget):
@@ -401,3 +409,26 @@ def test_a_slow_walker_tries_a_faster_gait_clock_and_keeps_the_fastest_robust_on
     # none faster than the walker itself: none kept
     none = tr._cadence(WALKER, tmp_path / "other", tr.TrainSettings(), "xl430_biped", [0.2, 0.2], lambda s: None)
     assert none["walker"] is None
+
+
+def test_the_measure_stages_fallbacks_are_the_robust_walkers_newest_first(tmp_path):
+    """The speed restart's robust walkers, the speed polish's, the faster gait clock they started
+    from, the walk-rate polish's, NEAT's robust champion; a file that is gone is left out."""
+    from evolve.train_record import earlier_walkers
+
+    def stage(name: str, robust_updates: list[int], gone: tuple[int, ...] = ()) -> dict:
+        (tmp_path / name).mkdir()
+        for u in robust_updates:
+            if u not in gone:
+                (tmp_path / name / f"robust_update{u}.json").write_text("{}")
+        return {"walker": str(tmp_path / name / "walker.json"),
+                "tests": [{"update": u, "robust": True} for u in robust_updates] + [{"update": 99, "robust": False}]}
+
+    cadence, neat = tmp_path / "period_x0.8.json", tmp_path / "neat.json"
+    cadence.write_text("{}"), neat.write_text("{}")
+    state = {"stages": {"neat": {"walker": str(neat), "robust": True}, "polish": stage("polish", [5, 10], gone=(5,)),
+                        "speed": {"runs": [stage("speed", [5]), stage("speed_restart1", [5, 15])],
+                                  "cadence": {"walker": str(cadence)}}}}
+    assert [str(p.relative_to(tmp_path)) for p in earlier_walkers(state)] == [
+        "speed_restart1/robust_update15.json", "speed_restart1/robust_update5.json", "speed/robust_update5.json",
+        "period_x0.8.json", "polish/robust_update10.json", "neat.json"]
