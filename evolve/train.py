@@ -14,9 +14,10 @@ measuring counted):
 2. **polish** - CMA-ES on the walker's weights (:func:`evolve.polish.polish`), ranked on the
    walk rate over common robots, until its validation plateaus or ``POLISH_UNTIL`` of the
    budget is spent;
-3. **speed** - the same search paying a faster straight walk, ranked on each candidate's worst
-   quarter of robots, then once more from what it kept with a fresh CMA-ES (a restart), until a
-   plateau or the budget less ``MEASURE_SHARE``; skipped when the walker's 60 s walks on the
+3. **speed** - the walker's gait clock tried faster (its period x each of ``CADENCE``, the fastest
+   that stays robust kept: :func:`_cadence`), then the same search paying a faster straight walk,
+   ranked on each candidate's worst quarter of robots, then once more from what it kept with a
+   fresh CMA-ES (a restart), until a plateau or the budget less ``MEASURE_SHARE``; skipped when the walker's 60 s walks on the
    nominal and ``default.yaml`` robots already beat the goal's speed by ``SPEED_MARGIN``;
 4. **measure** - the walk rate on 50 unseen robots, 60 s walks on the nominal and
    ``default.yaml`` robots, the transfer check through the simulated bus, the 90 deg turn
@@ -346,9 +347,8 @@ def _polish(robot_name: str, out: Path, settings: TrainSettings, state: dict[str
 
 def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
            log: Callable[[str], None]) -> dict[str, Any]:
-    """The speed polish and its restart, each from the walker the one before kept."""
-    from evolve import walk_measures as wm
-
+    """A faster gait clock (:func:`_cadence`), then the speed polish and its restart, each from the
+    walker the one before kept."""
     if not robust_walker(state):
         log("no robust walker to polish for speed")
         return {"runs": [], "walker": None, "skipped": True}

@@ -4,7 +4,7 @@
 #   sh benchmarks/records/human-gait/run_arm.sh ARM [OUT]      (from the project's root)
 # ARM: baseline, clock, ankle0, speed, clock_speed, clock_speed_gait, clock_speed_gait16,
 #      clock_speed_flight_stop, clock_speed_soft, clock_speed_smooth, clock_speed_ankle0, clock_compliant,
-#      clock_compliant_straight, clock_compliant_straight_slow,
+#      clock_compliant_straight, clock_compliant_straight_slow, clock_compliant_straight_slow_harness75,
 #      no_side_bias, no_sideways_harness, gait_term
 set -eu
 arm=${1:?"give an arm (see above)"}
@@ -25,6 +25,8 @@ case $arm in
   clock_compliant) config=$here/clock.yaml; robot=$here/human_stepping_compliant.yaml ;;
   clock_compliant_straight) config=$here/clock_straight.yaml; robot=$here/human_stepping_compliant.yaml ;;
   clock_compliant_straight_slow) config=$here/clock_straight_slow.yaml; robot=$here/human_stepping_compliant.yaml ;;
+  clock_compliant_straight_slow_harness75)
+    config=$here/clock_straight_slow_harness75.yaml; robot=$here/human_stepping_compliant.yaml ;;
   clock_speed_soft) config=$here/clock.yaml; robot=$here/human_stepping_speed_soft.yaml ;;
   clock_speed_flight_stop) config=$here/clock_flight_stop.yaml; robot=$here/human_stepping_speed.yaml ;;
   *) echo "unknown arm: $arm" >&2; exit 2 ;;
