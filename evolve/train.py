@@ -17,8 +17,9 @@ measuring counted):
 3. **speed** - the walker's gait clock tried faster (its period x each of ``CADENCE``, the fastest
    that stays robust kept: :func:`_cadence`), then the same search paying a faster straight walk,
    ranked on each candidate's worst quarter of robots, then once more from what it kept with a
-   fresh CMA-ES (a restart), until a plateau or the budget less ``MEASURE_SHARE``; skipped when the walker's 60 s walks on the
-   nominal and ``default.yaml`` robots already beat the goal's speed by ``SPEED_MARGIN``;
+   fresh CMA-ES (a restart), until a plateau or the budget less ``MEASURE_SHARE``; skipped when
+   the walker's 60 s walks on the nominal and ``default.yaml`` robots already beat the goal's
+   speed by ``SPEED_MARGIN``;
 4. **measure** - the walk rate on 50 unseen robots, 60 s walks on the nominal and
    ``default.yaml`` robots, the transfer check through the simulated bus, the 90 deg turn
    (:func:`evolve.walk_measures.measure_walker`), and ``DIR/controller.json`` written with the
