@@ -11,6 +11,7 @@ from types import SimpleNamespace
 import pytest
 
 from evolve import train as tr
+from evolve import train_speed as ts
 from evolve import walk_measures as wm
 from evolve.train_record import latest_walker
 
@@ -243,7 +244,7 @@ def test_the_speed_polish_starts_from_the_newest_robust_walker_no_slower_than_it
     monkeypatch.setattr(wm, "robustness", lambda path, **k: _test(9))
     speeds = iter([0.11, 0.13])
     monkeypatch.setattr(wm, "sustained", lambda *a, **k: {"speed_m_s": next(speeds)})
-    monkeypatch.setattr(tr, "_cadence", lambda *a, **k: {"walker": None, "tests": []})  # no faster clock
+    monkeypatch.setattr(ts, "faster_clock", lambda *a, **k: {"walker": None, "tests": []})  # no faster clock
     state = _state(tmp_path, neat_robust=True, polish_walker=True)
     record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     assert calls[0]["source"] == tmp_path / "polish.json", "the polish's walker, not NEAT's"
@@ -266,7 +267,7 @@ def test_the_speed_polish_starts_from_the_newest_robust_walker_no_slower_than_it
     speeds = iter([0.11, 0.13])
     fast = tmp_path / "cadence.json"
     shutil.copyfile(WALKER, fast)
-    monkeypatch.setattr(tr, "_cadence", lambda *a, **k: {"walker": str(fast), "speeds_m_s": [0.2, 0.17]})
+    monkeypatch.setattr(ts, "faster_clock", lambda *a, **k: {"walker": str(fast), "speeds_m_s": [0.2, 0.17]})
     record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     assert calls == [] and record["walker"] == str(fast)
     assert latest_walker({"stages": {**state["stages"], "speed": record}}) == str(fast)
@@ -394,20 +395,20 @@ def test_a_slow_walker_tries_a_faster_gait_clock_and_keeps_the_fastest_robust_on
         measured.append(factor)
         return {0.9: [0.12, 0.10], 0.8: [0.14, 0.12], 0.7: [0.16, 0.13]}[factor]
 
-    monkeypatch.setattr(tr, "_speeds", speeds)
+    monkeypatch.setattr(ts, "speeds", speeds)
     monkeypatch.setattr(wm, "robustness", lambda path, **k: _test(
         9 if Controller.load(path).phase_period_s > 0.75 * period else 5))
-    record = tr._cadence(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.10, 0.08],
+    record = ts.faster_clock(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.10, 0.08],
                          lambda s: None)
     assert measured == [0.9, 0.8, 0.7] and [t["robust"] for t in record["tests"]] == [True, True, False]
     kept = Controller.load(record["walker"])
     assert kept.phase_period_s == pytest.approx(0.8 * period) and kept.task["phase_period_s"] == kept.phase_period_s
     assert kept.connections == Controller.load(WALKER).connections and record["speeds_m_s"] == [0.14, 0.12]
-    again = tr._cadence(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.10, 0.08],
+    again = ts.faster_clock(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.10, 0.08],
                         lambda s: None)
     assert measured == [0.9, 0.8, 0.7] and again["walker"] == record["walker"]
     # none faster than the walker itself: none kept
-    none = tr._cadence(WALKER, tmp_path / "other", tr.TrainSettings(), "xl430_biped", [0.2, 0.2], lambda s: None)
+    none = ts.faster_clock(WALKER, tmp_path / "other", tr.TrainSettings(), "xl430_biped", [0.2, 0.2], lambda s: None)
     assert none["walker"] is None
 
 
