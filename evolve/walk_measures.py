@@ -31,6 +31,7 @@ from sim2real.controller.steering import TURN_RATE_DEG_S
 TEST_SEED = 314_159  # the robustness test's episode seeds are [TEST_SEED, e]
 EPISODE_S = 10.0  # [s] the robustness test's and the walk rate's episodes
 SUSTAINED_S = 60.0  # [s] the long walks
+SUSTAINED_DEFAULT_ROBOTS = 3  # the long walks on default.yaml (one on the model)
 RATE_ROBOTS = 50  # more robots for a walker's walk rate than the bar's 10
 DRAWS, NEED = 10, 8  # the robustness bar: walks on NEED of DRAWS unseen randomized robots ...
 DEFAULT_EPISODES = 3  # ... and on every one of these default.yaml robots
@@ -72,6 +73,13 @@ def sustained(controller: Path, reality: str | None, episodes: int, threads: int
             "per_episode": r["per_episode"]}
 
 
+def sustained_walks(controller: Path, threads: int = 1, robot: str | None = None) -> dict[str, dict[str, Any]]:
+    """The bar's 60 s walks (:func:`sustained`): one on the model (``nominal``) and
+    ``SUSTAINED_DEFAULT_ROBOTS`` of ``default.yaml`` (``default``)."""
+    return {"nominal": sustained(controller, None, 1, threads=threads, robot=robot),
+            "default": sustained(controller, "default", SUSTAINED_DEFAULT_ROBOTS, threads=threads, robot=robot)}
+
+
 def walk_rate(controller: Path, robots: int = RATE_ROBOTS, threads: int = 1,
               robot: str | None = None) -> dict[str, Any]:
     """The share of ``robots`` more randomized robots (seeds ``[TEST_SEED + 1, e]``) it walks on:
@@ -103,8 +111,7 @@ def measure_walker(walker: Path, log: Callable[[str], None], threads: int = 1,
     the 60 s walks and (with a heading input) a commanded 90 deg turn."""
     return {"rate": walk_rate(walker, threads=threads, robot=robot),
             "transfer": transfer_check(walker, "default", TRANSFER_RUNS, TRANSFER_KEEP, log, robot=robot),
-            "sustained": {"nominal": sustained(walker, None, 1, robot=robot),
-                          "default": sustained(walker, "default", 3, threads=threads, robot=robot)},
+            "sustained": sustained_walks(walker, threads, robot),
             "steering": steering(walker, robot)}
 
 
