@@ -87,6 +87,28 @@ def test_the_flight_rule_leaves_a_walk_alone_and_replays_without_stopping_rules_
     assert ev.task.flight_stop_share == 0.0 and ev.task.stagnation_s == 1e9
 
 
+def _paced(path: str, pace_leg: float):
+    data, spec, ev, genome = controller_setup(path, None, SECONDS)
+    ev = LocomotionEvaluator(spec, dataclasses.replace(ev.task, stagnation_progress_leg=pace_leg), 1, threads=1)
+    return ev.evaluate([genome], data.sigmoid_steepness, harness=0.0), ev
+
+
+def test_the_stagnation_pace_ends_an_episode_that_gains_less_than_it_in_stagnation_s():
+    """The shipped biped walks about 0.7 leg lengths a second: a pace of 0.1 leg lengths per
+    3 s leaves it alone, 3 leg lengths per 3 s (faster than it walks) ends it, not as a fall,
+    within the first stagnation_s after a gain it cannot repeat."""
+    path = "configs/controllers/xl430_biped.json"
+    plain, ev = _paced(path, 0.0)
+    slow, _ = _paced(path, 0.1)
+    fast, _ = _paced(path, 3.0)
+    assert plain.upright_s[0] >= SECONDS - ev.tick_s and not plain.fell[0]
+    assert slow.fitness[0] == plain.fitness[0] and slow.upright_s[0] == plain.upright_s[0]
+    assert not fast.fell[0] and ev.task.stagnation_s < fast.upright_s[0] <= ev.task.stagnation_s + ev.tick_s
+    assert fast.fitness[0] < plain.fitness[0]
+    with pytest.raises(ConfigError, match="task.stagnation_progress_leg: must not be negative"):
+        TaskConfig.from_mapping({"stagnation_progress_leg": -0.1})
+
+
 @pytest.mark.parametrize("share", [-0.1, 1.0])
 def test_the_flight_rule_takes_a_share(share):
     with pytest.raises(ConfigError, match="task.flight_stop_share: (must not be negative|is a share of the ticks)"):

@@ -68,9 +68,10 @@ class WalkObjective:
     """Seed 000 eq. 3, ``f = c_d max(proj_j d, eps) + c_t t``, with its early termination:
     the pelvis below ``fall_height`` of its start height or the torso tilted past
     ``fall_tilt_deg`` (the previous tick's terms are kept), instability (fitness eps),
-    no progress of eps within ``stagnation_s``.  With the task's ``flight_stop_share`` > 0, a
-    flight rule too (issue 51): both feet up in more than that share of the episode's ticks
-    ends it as a fall does - a walk always has a foot down, a run or a hop does not.
+    no progress of eps (or the task's ``stagnation_progress_leg``) within ``stagnation_s``.
+    With the task's ``flight_stop_share`` > 0, a flight rule too (issue 51): both feet up in
+    more than that share of the episode's ticks ends it as a fall does - a walk always has a
+    foot down, a run or a hop does not.
 
     Terms: ``distance`` = max(proj_j d, eps) [leg lengths] and ``time`` = t [s], weighted
     by the task's ``distance_coeff`` (c_d) and ``time_coeff`` (c_t); ``progress``, the
@@ -165,7 +166,7 @@ class WalkObjective:
         self.distance[live] = hind[ok]
         self.pelvis_best[live] = np.maximum(
             self.pelvis_best[live], (ev.parts.root_com(ev.xipos)[live][:, 0] - self.start_pelvis[live, 0]) / ev.leg)
-        gained = progress > self.progress_best[alive] + task.epsilon
+        gained = progress > self.progress_best[alive] + max(task.epsilon, task.stagnation_progress_leg)
         self.progress_best[alive[gained]] = progress[gained]
         self.last_gain[alive[gained]] = elapsed[alive[gained]]
         self.fell[alive[down & ~bad]] = True

@@ -67,6 +67,7 @@ class TaskConfig:
     fall_height: float = 0.7  # pelvis CoM below this share of its start height ends a trial
     fall_tilt_deg: float = 60.0  # so does a torso tilted this far (a fall the harness hides)
     stagnation_s: float = 3.0  # no progress of epsilon leg lengths in this long ends a trial
+    stagnation_progress_leg: float = 0.0  # > 0: the progress [leg lengths] each stagnation_s must see (0: epsilon)
     flight_stop_share: float = 0.0  # > 0: both feet up in more than this share of the episode's ticks ends it, as a fall
     progress_coeff: float = 0.0  # selection tie-breaker: pelvis progress, per leg length
     selection_distance_cap: float = 0.0  # > 0: selection counts distance up to this many leg lengths
