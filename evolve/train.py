@@ -16,9 +16,9 @@ measuring counted):
    budget is spent;
 3. **speed** - the walker's gait clock tried faster, then CMA-ES paying a faster straight walk
    and its restart (:func:`evolve.train_speed.speed_stage`), until a plateau or the budget less
-   ``MEASURE_SHARE``, half its robots ``default.yaml`` ones; skipped when the walker's 60 s walks
-   on the nominal and ``default.yaml`` robots already beat the goal's speed by ``SPEED_MARGIN``
-   and it passes the transfer check;
+   ``MEASURE_SHARE``, every other robot of its draws a ``default.yaml`` one; skipped when the
+   walker's 60 s walks on the nominal and ``default.yaml`` robots already beat the goal's speed
+   by ``SPEED_MARGIN``;
 4. **measure** - the walk rate on 50 unseen robots, 60 s walks on the nominal and
    ``default.yaml`` robots, the transfer check through the simulated bus, the 90 deg turn
    (:func:`evolve.walk_measures.measure_walker`), and ``DIR/controller.json`` written with the
@@ -359,12 +359,10 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
     walker = Path(latest_walker(state))
     log(f"measuring {walker}")
     started = time.monotonic()
-    speed = state["stages"]["speed"]
-    known = speed.get("transfer")  # the speed stage's check of the walker it let through unpolished
-    measured = wm.measure_walker(walker, log, threads=settings.threads, robot=robot_name,
-                                 transfer=known if known and known["controller"] == str(walker) else None)
-    took_s = time.monotonic() - started  # [s] one walker's measures (less its transfer check when reused)
+    measured = wm.measure_walker(walker, log, threads=settings.threads, robot=robot_name)
+    took_s = time.monotonic() - started  # [s] one walker's measures
     tried = [walker]
+    speed = state["stages"]["speed"]
     if speed["walker"] and measured["sustained"]["nominal"]["falls"]:
         before = Path(latest_walker(state, skip_speed=True))
         log(f"the speed polish's walker falls on the nominal model at "

@@ -31,35 +31,23 @@ MIN_PERIOD_TICKS = 8  # no gait clock faster than this many control ticks a peri
 
 def speed_stage(source: Path, out: Path, settings: TrainSettings, budget: Budget, until: float,
                 log: Callable[[str], None], robot_name: str) -> dict[str, Any]:
-    """From the robust walker ``source``: nothing for a walker fast enough that passes the transfer
-    check (kept as the record's ``transfer``, which the measure stage reuses), else - for a slow
-    walker - a faster gait clock, then the speed polish (``out/speed``) and its restart
-    (``out/speed_restart1``), each until a plateau or ``until`` (a share of the budget)."""
-    from evolve import walk_measures as wm
-
-    own = speeds(source, settings, robot_name)
-    cadence = None
-    if min(own) >= SPEED_GOAL_M_S * SPEED_MARGIN:
-        # fast enough: the minutes are the user's, unless the walk does not survive the bus (OP3
-        # seed 1: 0.28 m/s, 0.74 of it kept), which the polish's default.yaml robots pay for
-        log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s, at least the goal's "
-            f"{SPEED_GOAL_M_S:g} m/s with a margin; the transfer check:")
-        transfer = wm.transfer_check(source, "default", wm.TRANSFER_RUNS, wm.TRANSFER_KEEP, log, robot=robot_name)
-        if wm.kept(transfer) >= wm.TRANSFER_KEEP and transfer["passed"]:
-            log(f"keeps {transfer['ratio']:.2f} through the simulated bus: no speed polish")
-            return {"runs": [], "walker": None, "skipped": "fast enough", "speeds_m_s": own, "transfer": transfer}
-        log(f"keeps {transfer['ratio']:.2f} through the simulated bus (the bar: {wm.TRANSFER_KEEP:g}): the speed "
-            "polish, on default.yaml robots too")
-    else:
-        cadence = faster_clock(source, out / "speed_cadence", settings, robot_name, own, log)
-        if cadence["walker"]:
-            source, own = Path(cadence["walker"]), cadence["speeds_m_s"]
-            if min(own) >= SPEED_GOAL_M_S * SPEED_MARGIN:
-                log("fast enough at that cadence: no speed polish")
-                return {"runs": [], "walker": cadence["walker"], "cadence": cadence, "speeds_m_s": own}
+    """From the robust walker ``source``: nothing for a walker fast enough, else a faster gait
+    clock, then the speed polish (``out/speed``) and its restart (``out/speed_restart1``), each
+    until a plateau or ``until`` (a share of the budget)."""
     # no walk slower than the walker's own counts (the lower of its 60 s walks'), so the polish keeps
     # no slower walker; but at most the goal's speed, which no 10 s episode of a fast walker (its
     # start-up included) may reach, leaving validation nothing to keep walkers by
+    own = speeds(source, settings, robot_name)
+    if min(own) >= SPEED_GOAL_M_S * SPEED_MARGIN:  # fast enough: the minutes are the user's
+        log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s, at least the goal's "
+            f"{SPEED_GOAL_M_S:g} m/s with a margin: no speed polish")
+        return {"runs": [], "walker": None, "skipped": "fast enough", "speeds_m_s": own}
+    cadence = faster_clock(source, out / "speed_cadence", settings, robot_name, own, log)
+    if cadence["walker"]:
+        source, own = Path(cadence["walker"]), cadence["speeds_m_s"]
+        if min(own) >= SPEED_GOAL_M_S * SPEED_MARGIN:
+            log("fast enough at that cadence: no speed polish")
+            return {"runs": [], "walker": cadence["walker"], "cadence": cadence, "speeds_m_s": own}
     min_speed = min(SPEED_GOAL_M_S, *own)
     log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s; the speed polish counts walks from "
         f"{min_speed:.3f} m/s")
@@ -73,7 +61,7 @@ def speed_stage(source: Path, out: Path, settings: TrainSettings, budget: Budget
             break
         source = Path(record["walker"])
     kept = [r for r in records if r["walker"]]
-    return {"runs": records, "walker": kept[-1]["walker"] if kept else (cadence or {}).get("walker"),
+    return {"runs": records, "walker": kept[-1]["walker"] if kept else cadence["walker"],
             "cadence": cadence, "min_speed_m_s": min_speed}
 
 

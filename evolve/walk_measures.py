@@ -105,15 +105,12 @@ def steering(controller: Path, robot: str | None = None) -> dict[str, Any] | Non
             "reached": not r["fell"] and abs(error) <= STEER_TOLERANCE_DEG}
 
 
-def measure_walker(walker: Path, log: Callable[[str], None], threads: int = 1, robot: str | None = None,
-                   transfer: dict[str, Any] | None = None) -> dict[str, Any]:
-    """What is measured of a robust walker: its walk rate on 50 more robots, the transfer check
-    (``transfer``: its result for this walker, already measured), the 60 s walks and (with a
-    heading input) a commanded 90 deg turn."""
-    if transfer is not None and transfer["controller"] != str(walker):
-        raise ValueError(f"the transfer check given is of {transfer['controller']}, not of {walker}")
+def measure_walker(walker: Path, log: Callable[[str], None], threads: int = 1,
+                   robot: str | None = None) -> dict[str, Any]:
+    """What is measured of a robust walker: its walk rate on 50 more robots, the transfer check,
+    the 60 s walks and (with a heading input) a commanded 90 deg turn."""
     return {"rate": walk_rate(walker, threads=threads, robot=robot),
-            "transfer": transfer or transfer_check(walker, "default", TRANSFER_RUNS, TRANSFER_KEEP, log, robot=robot),
+            "transfer": transfer_check(walker, "default", TRANSFER_RUNS, TRANSFER_KEEP, log, robot=robot),
             "sustained": sustained_walks(walker, threads, robot),
             "steering": steering(walker, robot)}
 

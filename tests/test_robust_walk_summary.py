@@ -249,6 +249,7 @@ def test_the_speed_polish_starts_from_the_newest_robust_walker_no_slower_than_it
     record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     assert calls[0]["source"] == tmp_path / "polish.json", "the polish's walker, not NEAT's"
     assert calls[0]["min_speed_m_s"] == 0.11 and calls[0]["worst"] == tr.SPEED["worst"]
+    assert calls[0]["reality"] == ["randomize", "default"], "every other robot the transfer check's"
     assert calls[1]["source"] == tmp_path / "speed" / "walker.json", "the restart starts from what it kept"
     assert calls[1]["out"] == tmp_path / "speed_restart1"
     assert record["walker"] == str(tmp_path / "speed_restart1" / "walker.json")
@@ -258,29 +259,11 @@ def test_the_speed_polish_starts_from_the_newest_robust_walker_no_slower_than_it
     shutil.rmtree(tmp_path / "speed"), shutil.rmtree(tmp_path / "speed_restart1")
     tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     assert calls[0]["min_speed_m_s"] == tr.SPEED_GOAL_M_S
-    # one faster than the goal by the margin on both walks that passes the transfer check: no speed
-    # polish, no minutes spent, and the check kept for the measure stage
-    checked = []
-
-    def transfer(walker, *a, **k):
-        checked.append(Path(walker))
-        return {"controller": str(walker), "ratio": ratio, "passed": ratio >= 0.8, "sim_walked": True}
-
-    monkeypatch.setattr(wm, "transfer_check", transfer)
-    monkeypatch.setattr(ts, "faster_clock", lambda *a, **k: pytest.fail("a fast walker's clock is left alone"))
-    speeds, ratio = iter([0.3, tr.SPEED_GOAL_M_S * tr.SPEED_MARGIN]), 0.85
+    # one faster than the goal by the margin on both walks: no speed polish, no minutes spent
+    speeds = iter([0.3, tr.SPEED_GOAL_M_S * tr.SPEED_MARGIN])
     calls.clear()
     record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
     assert calls == [] and record["walker"] is None and record["skipped"] == "fast enough"
-    assert checked == [tmp_path / "polish.json"] and record["transfer"]["ratio"] == 0.85
-    # as fast, but keeping too little through the bus: the speed polish, from the goal's speed
-    speeds, ratio = iter([0.3, 0.28]), 0.74
-    record = tr._speed("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
-    assert [c["min_speed_m_s"] for c in calls] == [tr.SPEED_GOAL_M_S] * 2 and calls[0]["source"] == tmp_path / "polish.json"
-    assert tr.SPEED["reality"] == ["randomize", "default"] and "transfer" not in record and record["cadence"] is None
-    assert record["walker"] == str(tmp_path / "speed_restart1" / "walker.json")
-    calls.clear()
-    shutil.rmtree(tmp_path / "speed"), shutil.rmtree(tmp_path / "speed_restart1")
     # slow, but fast enough at a faster gait clock: that walker, and no polish
     speeds = iter([0.11, 0.13])
     fast = tmp_path / "cadence.json"
@@ -335,22 +318,6 @@ def test_a_speed_polish_that_falls_on_the_model_is_undone_and_the_walker_before_
 
     provenance = Controller.load(tmp_path / "controller.json").provenance
     assert provenance["made_by"] == "biped train xl430_biped" and provenance["bar"] == record["bar"]
-
-
-def test_the_measure_stage_reuses_the_speed_stages_transfer_check_of_the_same_walker(tmp_path, monkeypatch, budget):
-    state = _state(tmp_path, neat_robust=True, polish_walker=True)
-    checked = {"controller": str(tmp_path / "polish.json"), "ratio": 0.93, "passed": True, "sim_walked": True}
-    state["stages"]["speed"] = {"walker": None, "runs": [], "skipped": "fast enough", "transfer": checked}
-    state.update(command="biped train xl430_biped", settings={"seed": 1})
-    given = []
-    monkeypatch.setattr(wm, "measure_walker", lambda walker, log, **k: (given.append(k["transfer"]),
-                                                                        _measured(falls=0))[1])
-    tr._measure("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
-    assert given == [checked]
-    state["stages"]["speed"]["transfer"] = {**checked, "controller": str(tmp_path / "neat.json")}  # another walker's
-    given.clear()
-    tr._measure("xl430_biped", tmp_path, tr.TrainSettings(), state, budget, lambda s: None)
-    assert given == [None]
 
 
 def test_a_walker_that_misses_the_bar_gives_way_to_the_newest_robust_one_before_it_that_meets_it(
