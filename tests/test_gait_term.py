@@ -54,9 +54,10 @@ def test_the_gait_term_is_a_stats_column_only_with_its_coefficient():
     assert "gait" not in term_columns(plain) and term_columns(paid)[-1] == "gait"
 
 
-def _flight_stopped(path: str, share: float):
+def _judged(path: str, **task):
+    """The controller's episode without the harness, its task's stopping rules changed as ``task`` says."""
     data, spec, ev, genome = controller_setup(path, None, SECONDS)
-    ev = LocomotionEvaluator(spec, dataclasses.replace(ev.task, flight_stop_share=share), 1, threads=1)
+    ev = LocomotionEvaluator(spec, dataclasses.replace(ev.task, **task), 1, threads=1)
     return ev.evaluate([genome], data.sigmoid_steepness, harness=0.0), ev
 
 
@@ -67,8 +68,8 @@ def test_the_flight_rule_ends_a_hop_as_a_fall_when_its_flight_passes_the_share()
     from evolve.replay import gait
 
     path = "configs/controllers/human_male_50.json"
-    stopped, ev = _flight_stopped(path, 0.02)
-    free, _ = _flight_stopped(path, 0.0)
+    stopped, ev = _judged(path, flight_stop_share=0.02)
+    free, _ = _judged(path, flight_stop_share=0.0)
     recorded = gait(path, seconds=SECONDS)
     airborne = (~recorded.feet.any(axis=1)).cumsum()
     last = int((airborne > 0.02 * ev.n_ticks).argmax())  # the tick that ends it
@@ -79,18 +80,12 @@ def test_the_flight_rule_ends_a_hop_as_a_fall_when_its_flight_passes_the_share()
 
 
 def test_the_flight_rule_leaves_a_walk_alone_and_replays_without_stopping_rules_drop_it():
-    walk, _ = _flight_stopped("configs/controllers/xl430_biped.json", 0.02)
-    plain, _ = _flight_stopped("configs/controllers/xl430_biped.json", 0.0)
+    walk, _ = _judged("configs/controllers/xl430_biped.json", flight_stop_share=0.02)
+    plain, _ = _judged("configs/controllers/xl430_biped.json", flight_stop_share=0.0)
     assert not walk.fell[0] and walk.selection[0] == plain.selection[0]
     data, spec, ev, genome = controller_setup("configs/controllers/human_male_50.json", None, SECONDS,
                                               stagnation_stop=False)
     assert ev.task.flight_stop_share == 0.0 and ev.task.stagnation_s == 1e9
-
-
-def _paced(path: str, pace_leg: float):
-    data, spec, ev, genome = controller_setup(path, None, SECONDS)
-    ev = LocomotionEvaluator(spec, dataclasses.replace(ev.task, stagnation_progress_leg=pace_leg), 1, threads=1)
-    return ev.evaluate([genome], data.sigmoid_steepness, harness=0.0), ev
 
 
 def test_the_stagnation_pace_ends_an_episode_that_gains_less_than_it_in_stagnation_s():
@@ -98,9 +93,9 @@ def test_the_stagnation_pace_ends_an_episode_that_gains_less_than_it_in_stagnati
     3 s leaves it alone, 3 leg lengths per 3 s (faster than it walks) ends it, not as a fall,
     within the first stagnation_s after a gain it cannot repeat."""
     path = "configs/controllers/xl430_biped.json"
-    plain, ev = _paced(path, 0.0)
-    slow, _ = _paced(path, 0.1)
-    fast, _ = _paced(path, 3.0)
+    plain, ev = _judged(path, stagnation_progress_leg=0.0)
+    slow, _ = _judged(path, stagnation_progress_leg=0.1)
+    fast, _ = _judged(path, stagnation_progress_leg=3.0)
     assert plain.upright_s[0] >= SECONDS - ev.tick_s and not plain.fell[0]
     assert slow.fitness[0] == plain.fitness[0] and slow.upright_s[0] == plain.upright_s[0]
     assert not fast.fell[0] and ev.task.stagnation_s < fast.upright_s[0] <= ev.task.stagnation_s + ev.tick_s

@@ -400,13 +400,13 @@ def test_a_slow_walker_tries_a_faster_gait_clock_and_keeps_the_fastest_robust_on
     monkeypatch.setattr(wm, "robustness", lambda path, **k: _test(
         9 if Controller.load(path).phase_period_s > 0.75 * period else 5))
     record = ts.faster_clock(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.10, 0.08],
-                         lambda s: None)
+                             lambda s: None)
     assert measured == [0.9, 0.8, 0.7] and [t["robust"] for t in record["tests"]] == [True, True, False]
     kept = Controller.load(record["walker"])
     assert kept.phase_period_s == pytest.approx(0.8 * period) and kept.task["phase_period_s"] == kept.phase_period_s
     assert kept.connections == Controller.load(WALKER).connections and record["speeds_m_s"] == [0.14, 0.12]
     again = ts.faster_clock(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.10, 0.08],
-                        lambda s: None)
+                            lambda s: None)
     assert measured == [0.9, 0.8, 0.7] and again["walker"] == record["walker"]
     # none faster than the walker itself: none kept
     none = ts.faster_clock(WALKER, tmp_path / "other", tr.TrainSettings(), "xl430_biped", [0.2, 0.2], lambda s: None)
