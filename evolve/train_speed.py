@@ -15,7 +15,8 @@ from sim2real.atomic_json import read_json, write_json_atomic
 if TYPE_CHECKING:  # pragma: no cover
     from evolve.train import Budget, TrainSettings
 
-# CMA-ES settings of the recipe that made the shipped walker (benchmarks/RESULTS.md, robust walking v2)
+# CMA-ES settings of the recipe that made the shipped walker (benchmarks/RESULTS.md, robust walking v2), and
+# since issue 49 default.yaml robots in its draws
 SPEED = {"popsize": 16, "robots": 32, "sigma": 0.05, "validation": 100, "worst": 0.25, "speed_leg_s": 0.8,
          # every other robot of a draw is a default.yaml one: the transfer check dry-runs the walker on it, and a
          # walker polished on randomized robots alone kept 0.77-0.80 of its model's speed there (seed 4,
