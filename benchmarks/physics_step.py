@@ -3,6 +3,7 @@ iterations against the default (2 ms, MuJoCo's 100 iterations), on one populatio
 
     python -m benchmarks.physics_step --run runs/rwg-seed1 --json
     python -m benchmarks.physics_step --json                  # random genomes of walk.yaml's layout
+    python -m benchmarks.physics_step --walker configs/controllers/xl430_biped.json --json   # a polish's
 
 For each setting: the same genomes (a run's checkpointed population, or random ones) on the
 same robots (the nominal one and ``--draws`` drawn from ``randomize.yaml``), ``--seconds``
@@ -11,6 +12,14 @@ with the default's (selection only needs the ranking), how many of the default's
 in the setting's top 10, whether the same genomes walk, and physics steps per second (CPU
 time) against the default's in the same run.  The control tick stays the robot's: a step is
 the tick over a whole number of substeps (34 ms / 8 = 4.25 ms for the default robot).
+
+With ``--walker`` the genomes are a CMA-ES polish's candidates instead (:mod:`evolve.polish`,
+``biped train``'s polish stages): ``--updates`` updates of ``--popsize`` candidates around the
+walker, each on the same ``--robots`` drawn robots as its update's (the walk-rate polish's
+settings by default, ``--speed`` the speed polish's), the search told the default step's
+ranking so later updates are a real polish's; per update, the rank correlation of the
+candidates' ranking scores and how many of the default's better half (the candidates CMA-ES
+recombines) stay in the setting's.
 """
 
 from __future__ import annotations
@@ -86,13 +95,82 @@ def measure(robot, task, genomes, steepness, substeps: int, iterations: int | No
             "fitness": fitness, "walked": walked, "steps_per_s": steps / max(seconds, 1e-9)}
 
 
+def polish_candidates(walker: Path, speed: bool, updates: int, threads: int, log=lambda line: None) -> dict:
+    """A polish's candidates (see the module docstring) at the robot's physics step (whose ranking
+    the search is told) and at twice it."""
+    from cmaes import CMA
+
+    from evolve.polish import UPDATE_STREAM, WEIGHT_LIMIT, Judge, _keys, ranked_by
+    from evolve.train import POLISH, SPEED, SPEED_GOAL_M_S
+
+    stage = SPEED if speed else POLISH
+    realities = stage.get("reality", "randomize")
+    realities = [realities] if isinstance(realities, str) else list(realities)
+    popsize, robots = stage["popsize"], stage["robots"]
+    judge = Judge(walker, realities, popsize * robots, threads=threads,
+                  selection={"selection_speed_leg_s": stage["speed_leg_s"]} if speed else None,
+                  min_speed_m_s=SPEED_GOAL_M_S if speed else None)
+    base, tick = judge.evaluator, judge.evaluator.tick_s
+    substeps = [control_timing(judge.robot).substeps, control_timing(judge.robot).substeps // 2]
+    evaluators = {n: LocomotionEvaluator(dataclasses.replace(judge.robot, physics_dt_s=tick / n, control_tick_s=tick),
+                                         base.task, base.max_population, threads=threads, reality=base.reality)
+                  for n in substeps}
+    optimizer = CMA(mean=judge.start.copy(), sigma=stage["sigma"], population_size=popsize, seed=0,
+                    bounds=np.tile([-WEIGHT_LIMIT, WEIGHT_LIMIT], (len(judge.start), 1)))
+    rows = {n: {"cpu_s": 0.0, "steps": 0, "spearman": [], "better_half_kept": [], "walked_agree": [],
+                "walk_rate": []} for n in substeps}
+    for update in range(1, updates + 1):
+        candidates = [optimizer.ask() for _ in range(popsize)]
+        keys = _keys(0, UPDATE_STREAM, update, robots)
+        ranked, walked = {}, {}
+        for n in substeps:
+            judge.evaluator, judge.steps = evaluators[n], 0
+            started = time.process_time()
+            score, walked[n], _ = judge.run(candidates, keys)
+            rows[n]["cpu_s"] += time.process_time() - started
+            rows[n]["steps"] += judge.steps
+            ranked[n] = ranked_by(score, stage["worst"])
+        first = substeps[0]
+        half = set(np.argsort(-ranked[first])[:popsize // 2])
+        for n in substeps:
+            rows[n]["spearman"].append(spearman(ranked[first], ranked[n]))
+            rows[n]["better_half_kept"].append(len(half & set(np.argsort(-ranked[n])[:popsize // 2])))
+            rows[n]["walked_agree"].append(float((walked[first] == walked[n]).mean()))
+            rows[n]["walk_rate"].append(float(walked[n].mean()))
+        optimizer.tell([(x, -float(v)) for x, v in zip(candidates, ranked[first])])
+        log(f"update {update}/{updates}: Spearman " + ", ".join(
+            f"{tick / n * 1e3:.2f} ms {rows[n]['spearman'][-1]:.3f}" for n in substeps[1:]))
+    out = []
+    for n in substeps:
+        r = rows[n]
+        out.append({"physics_dt_ms": round(1e3 * tick / n, 4), "substeps": n,
+                    "spearman_mean": round(float(np.mean(r["spearman"])), 4),
+                    "spearman_min": round(float(np.min(r["spearman"])), 4),
+                    "better_half_kept_mean": round(float(np.mean(r["better_half_kept"])), 2),
+                    "walked_agree": round(float(np.mean(r["walked_agree"])), 4),
+                    "walk_rate": round(float(np.mean(r["walk_rate"])), 4),
+                    "cpu_s": round(r["cpu_s"], 1), "steps_per_s": round(r["steps"] / max(r["cpu_s"], 1e-9)),
+                    "speed_ratio": round(rows[first]["cpu_s"] / max(r["cpu_s"], 1e-9), 3)})
+    return {"walker": str(walker), "robot": judge.robot.name, "stage": "speed" if speed else "walk rate",
+            "popsize": popsize, "robots": robots, "updates": updates, "reality": realities,
+            "worst": stage["worst"], "settings": out}
+
+
 def main(argv=None) -> None:
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--run", type=Path, help="a run folder: its checkpointed population (default: random genomes)")
     p.add_argument("--genomes", type=int, default=64, help="random genomes without --run (default 64)")
     p.add_argument("--draws", type=int, default=3, help="randomized robots per genome besides the nominal one")
     p.add_argument("--seconds", type=float, default=10.0)
+    p.add_argument("--walker", type=Path, help="a walker: a CMA-ES polish's candidates around it (see above)")
+    p.add_argument("--speed", action="store_true", help="with --walker: the speed polish's settings")
+    p.add_argument("--updates", type=int, default=8, help="with --walker: polish updates (default 8)")
+    p.add_argument("--threads", type=int, default=1, help="with --walker: simulation threads (default 1)")
     args = p.parse_args(argv)
+    if args.walker:
+        report(polish_candidates(args.walker, args.speed, args.updates, args.threads,
+                                 lambda line: progress(line, args.json)), args.json)
+        return
     if args.run:
         from evolve.config import load_evolve_config
 
