@@ -1,7 +1,6 @@
 """The speed stage of ``biped train`` (:mod:`evolve.train`): a walker slower than the goal gets
-its gait clock tried faster (:func:`faster_clock`), then a CMA-ES polish paying a straight walk at
-the goal's speed and its restart, each from the walker the one before kept (:func:`speed_stage`);
-a fast walker goes to the polish too when it is much slower on ``default.yaml`` than on its model."""
+its gait clock tried faster (:func:`faster_clock`), then a CMA-ES polish paying a faster straight
+walk and its restart, each from the walker the one before kept (:func:`speed_stage`)."""
 
 from __future__ import annotations
 
@@ -33,29 +32,18 @@ MIN_PERIOD_TICKS = 8  # no gait clock faster than this many control ticks a peri
 
 def speed_stage(source: Path, out: Path, settings: TrainSettings, budget: Budget, until: float,
                 log: Callable[[str], None], robot_name: str) -> dict[str, Any]:
-    """From the robust walker ``source``: nothing for a walker fast enough on both 60 s walks and
-    on ``default.yaml`` at least the transfer check's share of its model's speed; else (a slow
-    walker) a faster gait clock, then the speed polish (``out/speed``) and its restart
-    (``out/speed_restart1``), each until a plateau or ``until`` (a share of the budget)."""
+    """From the robust walker ``source``: nothing for a walker fast enough, else a faster gait
+    clock, then the speed polish (``out/speed``) and its restart (``out/speed_restart1``), each
+    until a plateau or ``until`` (a share of the budget)."""
     # no walk slower than the walker's own counts (the lower of its 60 s walks'), so the polish keeps
     # no slower walker; but at most the goal's speed, which no 10 s episode of a fast walker (its
     # start-up included) may reach, leaving validation nothing to keep walkers by
-    from evolve.walk_measures import TRANSFER_KEEP
-
     own = speeds(source, settings, robot_name)
-    fast = min(own) >= SPEED_GOAL_M_S * SPEED_MARGIN
-    if fast and own[1] >= TRANSFER_KEEP * own[0]:  # fast enough: the minutes are the user's
+    if min(own) >= SPEED_GOAL_M_S * SPEED_MARGIN:  # fast enough: the minutes are the user's
         log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s, at least the goal's "
             f"{SPEED_GOAL_M_S:g} m/s with a margin: no speed polish")
         return {"runs": [], "walker": None, "skipped": "fast enough", "speeds_m_s": own}
-    # a fast walker much slower on default.yaml than on the model will miss the transfer check,
-    # which compares a dry run on that robot with the model (OP3 seed 4: 0.277 / 0.205 m/s, kept
-    # 0.73); the polish's kernel pulls every draw's speed, default.yaml's half too, toward one target
-    cadence = {"walker": None, "skipped": "fast, slower on default.yaml"} if fast else \
-        faster_clock(source, out / "speed_cadence", settings, robot_name, own, log)
-    if fast:
-        log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s: on default.yaml under "
-            f"{TRANSFER_KEEP:g} of its model's speed, which the transfer check asks; speed polish")
+    cadence = faster_clock(source, out / "speed_cadence", settings, robot_name, own, log)
     if cadence["walker"]:
         source, own = Path(cadence["walker"]), cadence["speeds_m_s"]
         if min(own) >= SPEED_GOAL_M_S * SPEED_MARGIN:
