@@ -14,9 +14,9 @@ time) against the default's in the same run.  The control tick stays the robot's
 the tick over a whole number of substeps (34 ms / 8 = 4.25 ms for the default robot).
 
 With ``--walker`` the genomes are a CMA-ES polish's candidates instead (:mod:`evolve.polish`,
-``biped train``'s polish stages): ``--updates`` updates of ``--popsize`` candidates around the
-walker, each on the same ``--robots`` drawn robots as its update's (the walk-rate polish's
-settings by default, ``--speed`` the speed polish's), the search told the default step's
+``biped train``'s polish stages): ``--updates`` updates of the polish's candidates around the
+walker, each on its update's drawn robots (the walk-rate polish's population, robots and step
+size by default, ``--speed`` the speed polish's, its gate at the goal's speed), the search told the default step's
 ranking so later updates are a real polish's; per update, the rank correlation of the
 candidates' ranking scores and how many of the default's better half (the candidates CMA-ES
 recombines) stay in the setting's.
@@ -97,7 +97,7 @@ def measure(robot, task, genomes, steepness, substeps: int, iterations: int | No
 
 def polish_candidates(walker: Path, speed: bool, updates: int, threads: int, log=lambda line: None) -> dict:
     """A polish's candidates (see the module docstring) at the robot's physics step (whose ranking
-    the search is told) and at twice it."""
+    the search is told) and at the step of half its substeps a tick."""
     from cmaes import CMA
 
     from evolve.polish import UPDATE_STREAM, WEIGHT_LIMIT, Judge, _keys, ranked_by
