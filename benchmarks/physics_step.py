@@ -111,7 +111,8 @@ def polish_candidates(walker: Path, speed: bool, updates: int, threads: int, log
                   selection={"selection_speed_leg_s": stage["speed_leg_s"]} if speed else None,
                   min_speed_m_s=SPEED_GOAL_M_S if speed else None)
     base, tick = judge.evaluator, judge.evaluator.tick_s
-    substeps = [control_timing(judge.robot).substeps, control_timing(judge.robot).substeps // 2]
+    default = control_timing(judge.robot).substeps
+    substeps = [default, default // 2]
     evaluators = {n: LocomotionEvaluator(dataclasses.replace(judge.robot, physics_dt_s=tick / n, control_tick_s=tick),
                                          base.task, base.max_population, threads=threads, reality=base.reality)
                   for n in substeps}

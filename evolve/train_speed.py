@@ -35,9 +35,6 @@ def speed_stage(source: Path, out: Path, settings: TrainSettings, budget: Budget
     """From the robust walker ``source``: nothing for a walker fast enough, else a faster gait
     clock, then the speed polish (``out/speed``) and its restart (``out/speed_restart1``), each
     until a plateau or ``until`` (a share of the budget)."""
-    # no walk slower than the walker's own counts (the lower of its 60 s walks'), so the polish keeps
-    # no slower walker; but at most the goal's speed, which no 10 s episode of a fast walker (its
-    # start-up included) may reach, leaving validation nothing to keep walkers by
     own = speeds(source, settings, robot_name)
     if min(own) >= SPEED_GOAL_M_S * SPEED_MARGIN:  # fast enough: the minutes are the user's
         log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s, at least the goal's "
@@ -49,6 +46,9 @@ def speed_stage(source: Path, out: Path, settings: TrainSettings, budget: Budget
         if min(own) >= SPEED_GOAL_M_S * SPEED_MARGIN:
             log("fast enough at that cadence: no speed polish")
             return {"runs": [], "walker": cadence["walker"], "cadence": cadence, "speeds_m_s": own}
+    # no walk slower than the walker's own counts (the lower of its 60 s walks'), so the polish keeps
+    # no slower walker; but at most the goal's speed, which no 10 s episode of a fast walker (its
+    # start-up included) may reach, leaving validation nothing to keep walkers by
     min_speed = min(SPEED_GOAL_M_S, *own)
     log(f"the walker's 60 s speeds: {own[0]:.3f} and {own[1]:.3f} m/s; the speed polish counts walks from "
         f"{min_speed:.3f} m/s")
