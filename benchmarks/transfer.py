@@ -2,6 +2,7 @@
 
     python -m benchmarks.transfer CONTROLLER --reality default --runs 3 --json
     python -m benchmarks.transfer --select-from runs/robust --reality default --json
+    python -m benchmarks.transfer CONTROLLER --parts --reality default --json
 
 Measures the controller's distance in the nominal simulation (``biped eval``, the
 evolution's own episode) and in dry runs of the same length through the real runtime on
@@ -14,6 +15,10 @@ seed of the profile's random parts.  It passes when the controller walks in simu
 every genome is replayed on the nominal robot and on ``--episodes`` randomized ones, and the
 one that walks (upright, 2.2 leg lengths) in the most of them wins, ties broken by its
 worst distance; it is saved as ``RUN/robust_walker.json``.
+
+``--parts`` asks where a walker's distance goes on a fixed profile: its distance in
+``--seconds`` walks (no stagnation stop; one on the model, ``--episodes`` on the profile) with
+each of the profile's keys alone, and with all but it - in simulation, without the bus.
 """
 
 from __future__ import annotations
@@ -55,6 +60,33 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
                   "population_walks_share_mean": float(share.mean()), "selected_from": n, "episodes": episodes + 1}
 
 
+def profile_parts(controller: Path, reality: str, seconds: float, episodes: int, quiet: bool = False) -> dict:
+    """The controller's distance [m] on the model, on ``reality``, and with each of its keys
+    alone and all but it (see the module docstring); a key's share is the distance it keeps."""
+    import yaml
+
+    from evolve.replay import evaluate_controller
+    from sim2real.simulation.reality.file import load_reality, reality_dir
+
+    load_reality(reality)  # a clear error for an unknown or bad profile
+    source = Path(reality) if Path(reality).is_file() else reality_dir() / f"{reality}.yaml"
+    profile = {k: v for k, v in yaml.safe_load(source.read_text()).items() if k != "description"}
+
+    def distance(ranges: dict | None) -> float:
+        r = evaluate_controller(controller, seconds=seconds, episodes=episodes if ranges is not None else 1,
+                                randomize=ranges, seed=314_159, stagnation_stop=False)
+        return r["distance_m"]
+
+    model = distance(None)
+    parts = {key: {"alone": distance({key: value}), "all_but": distance({k: v for k, v in profile.items() if k != key})}
+             for key, value in profile.items()}
+    for key, part in parts.items():
+        progress(f"{key}: {part['alone']:.2f} m alone, {part['all_but']:.2f} m with all but it", quiet)
+    return {"controller": str(controller), "reality": reality, "seconds": seconds, "episodes": episodes,
+            "model_m": model, "profile_m": distance(profile),
+            "parts": {k: {**v, "alone_keeps": v["alone"] / model} for k, v in parts.items()}}
+
+
 def main(argv=None) -> None:
     p = parser(__doc__.splitlines()[0])
     p.add_argument("controller", type=Path, nargs="?", help="controller JSON (or --select-from)")
@@ -63,7 +95,14 @@ def main(argv=None) -> None:
     p.add_argument("--reality", default="default", help="reality profile (default: configs/reality/default.yaml)")
     p.add_argument("--runs", type=int, default=3, help="dry runs, seeds 0..N-1 of the profile's noise")
     p.add_argument("--keep", type=float, default=0.8, help="share of the simulated distance to keep")
+    p.add_argument("--parts", action="store_true", help="the distance each of the profile's keys costs (no bus)")
+    p.add_argument("--seconds", type=float, default=30.0, help="the walks' length for --parts [s]")
     args = p.parse_args(argv)
+    if args.parts:
+        if args.controller is None:
+            p.error("--parts needs a CONTROLLER")
+        report(profile_parts(args.controller, args.reality, args.seconds, args.episodes, args.json), args.json)
+        return
     selection = None
     if args.select_from:
         args.controller, selection = select_robust(args.select_from, args.episodes)

@@ -19,7 +19,12 @@ measuring counted):
    ``MEASURE_SHARE``, every other robot of its draws a ``default.yaml`` one; skipped when the
    walker's 60 s walks on the nominal and ``default.yaml`` robots already beat the goal's speed
    by ``SPEED_MARGIN``;
-4. **measure** - the walk rate on 50 unseen robots, 60 s walks on the nominal and
+4. **transfer** - when the walker fails the transfer check (keeps under 80 % of its model's
+   distance through the simulated bus), CMA-ES docking each candidate for what it loses on
+   ``default.yaml`` robots against the model (:func:`evolve.train_transfer.transfer_stage`),
+   until a plateau or the budget less ``MEASURE_SHARE``; a walker it keeps counts when it
+   passes the check and still walks 60 s at the goal's speed;
+5. **measure** - the walk rate on 50 unseen robots, 60 s walks on the nominal and
    ``default.yaml`` robots, the transfer check through the simulated bus, the 90 deg turn
    (:func:`evolve.walk_measures.measure_walker`), and ``DIR/controller.json`` written with the
    command, each stage's settings and minutes, and those measures in its provenance.
@@ -54,6 +59,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterator
 
 from evolve.train_polish import PATIENCE, polish_stage
 from evolve.train_speed import SPEED, SPEED_GOAL_M_S, SPEED_MARGIN, speed_stage  # noqa: F401 (the recipe's)
+from evolve.train_transfer import TRANSFER, transfer_stage  # noqa: F401 (the recipe's)
 from evolve.train_record import (STATE, STATE_VERSION, earlier_walkers, latest_walker, new_record, robust_walker,
                                  short_test, stage_summary)
 from sim2real.run_lock import RunLock
@@ -75,7 +81,7 @@ POLISH = {"popsize": 16, "robots": 16, "sigma": 0.1, "validation": 30, "worst": 
 # such walk within 14; OP3's seed 2 had none in 95 (benchmarks/RESULTS.md, "biped train op3")
 NEAT_RESTART_AFTER = 25
 RESTART_SEED = 1000
-STAGES = ("neat", "polish", "speed", "measure")
+STAGES = ("neat", "polish", "speed", "transfer", "measure")
 # the joints a walker drives, by control set name in order of preference: seed 000's table 1 "Walk"
 # set (waist yaw, hips, knees) where the robot has one, else every leg joint (what import writes)
 WALKING_SETS = ("walk", "legs")
@@ -185,7 +191,7 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
 
         try:
             for stage in STAGES:
-                if stage in state["stages"]:
+                if stage in state["stages"] or "measure" in state["stages"]:  # (a record older than a stage)
                     continue
                 if isinstance(progress, Progress):
                     progress.stage = stage
@@ -348,6 +354,15 @@ def _speed(robot_name: str, out: Path, settings: TrainSettings, state: dict[str,
     return speed_stage(Path(latest_walker(state)), out, settings, budget, 1.0 - MEASURE_SHARE, log, robot_name)
 
 
+def _transfer(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
+              log: Callable[[str], None]) -> dict[str, Any]:
+    """The transfer stage (:func:`evolve.train_transfer.transfer_stage`) on the walker to ship."""
+    if not robust_walker(state):
+        log("no robust walker to polish for transfer")
+        return {"walker": None, "skipped": True}
+    return transfer_stage(Path(latest_walker(state)), out, settings, budget, 1.0 - MEASURE_SHARE, log, robot_name)
+
+
 def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[str, Any], budget: Budget,
              log: Callable[[str], None]) -> dict[str, Any]:
     """Measure the final walker, undo a speed polish that lost the walk on the model; when the walker
@@ -363,7 +378,7 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
     took_s = time.monotonic() - started  # [s] one walker's measures
     tried = [walker]
     speed = state["stages"]["speed"]
-    if speed["walker"] and measured["sustained"]["nominal"]["falls"]:
+    if str(walker) == speed["walker"] and measured["sustained"]["nominal"]["falls"]:
         before = Path(latest_walker(state, skip_speed=True))
         log(f"the speed polish's walker falls on the nominal model at "
             f"{measured['sustained']['nominal']['upright_s']:.1f} s; measuring the walker it started from")
@@ -413,7 +428,7 @@ def _misses(bar: dict[str, bool]) -> list[str]:
 
 
 STAGE_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
-    "neat": _neat, "polish": _polish, "speed": _speed, "measure": _measure}
+    "neat": _neat, "polish": _polish, "speed": _speed, "transfer": _transfer, "measure": _measure}
 
 
 # -- helpers -----------------------------------------------------------------------------------

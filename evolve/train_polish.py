@@ -22,11 +22,14 @@ PATIENCE = 4  # validations (5 updates each) without a kept walker before a poli
 def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Budget,
                  until: float | Callable[[], float], log: Callable[[str], None], stage: dict[str, Any],
                  robot: str | None = None,
-                 patience: int | Callable[[], int | None] | None = PATIENCE) -> dict[str, Any]:
+                 patience: int | Callable[[], int | None] | None = PATIENCE,
+                 accept: Callable[[Path], dict[str, Any]] | None = None) -> dict[str, Any]:
     """Polish ``source`` in ``folder`` until a plateau (``patience`` validations keeping nothing;
     None: none; a function: asked at each validation) or ``until`` (a share of the budget, or a
     function giving it) is spent, testing each walker its validation keeps against the robustness
-    bar; ``walker``: the last that passed (None: none), ``kept``: the weights validation kept.
+    bar and then ``accept`` (its measures, ``passed`` among them: the first walker that passes
+    both ends the stage); ``walker``: the last that passed (None: none), ``kept``: the weights
+    validation kept.
     A cut stage resumes from the polish's checkpoint and ``folder/tests.json``."""
     from evolve import walk_measures as wm
     from evolve.polish import polish
@@ -49,16 +52,21 @@ def polish_stage(source: Path, folder: Path, settings: TrainSettings, budget: Bu
         done = [t for t in tests["tests"] if t["update"] == entry["update"]]
         if not done:
             test = wm.robustness(kept, threads=settings.threads, robot=robot)
-            done = [{"update": entry["update"], **short_test(test), "robust": wm.is_robust(test)}]
-            tests["tests"].append(done[0])
-            write_json_atomic(tests_file, tests)
+            robust = wm.is_robust(test)
             log(f"{folder.name}: kept walker of update {entry['update']}: walks on {test['randomized']['walked']}"
                 f"/{wm.DRAWS} unseen robots, {test['default']['walked']}/{test['default_episodes']} default"
-                f"{' - robust' if done[0]['robust'] else ''}")
+                f"{' - robust' if robust else ''}")
+            accepted = accept(kept) if robust and accept is not None else None
+            done = [{"update": entry["update"], **short_test(test), "robust": robust and (accepted or {}).get(
+                "passed", True), **({"accepted": accepted} if accepted is not None else {})}]
+            tests["tests"].append(done[0])
+            write_json_atomic(tests_file, tests)
         if done[0]["robust"]:  # the last one is the stage's walker; the ones before, the measure's fallbacks
             copy_file_atomic(kept, walker)
             copy_file_atomic(kept, folder / f"robust_update{entry['update']}.json")
-        return False
+        # a stage with a goal of its own stops at it: the search went on from OP3's first walker that
+        # transferred to ones that kept less or fell in the 60 s walk (benchmarks/RESULTS.md)
+        return accept is not None and done[0]["robust"]
 
     options = {k: v for k, v in stage.items() if k != "popsize"}
     record = polish(source, folder, updates=MAX_UPDATES, popsize=stage["popsize"], seed=settings.seed,

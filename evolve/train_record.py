@@ -26,18 +26,20 @@ def robust_walker(state: dict[str, Any]) -> str | None:
 
 
 def latest_walker(state: dict[str, Any], skip_speed: bool = False) -> str:
-    """The walker to ship: the speed polish's robust walker, else the newest robust one; with none
-    robust, the weights the walk-rate polish's validation kept, else NEAT's champion."""
+    """The walker to ship: the transfer polish's walker, else the speed stage's, else the newest
+    robust one; with none robust, the weights the walk-rate polish's validation kept, else NEAT's
+    champion.  ``skip_speed``: the walker before the speed and transfer stages."""
     stages = state["stages"]
-    if not skip_speed and stages.get("speed", {}).get("walker"):
-        return stages["speed"]["walker"]
+    for name in ("transfer", "speed") if not skip_speed else ():
+        if stages.get(name, {}).get("walker"):
+            return stages[name]["walker"]
     return robust_walker(state) or stages.get("polish", {}).get("kept") or stages["neat"]["walker"]
 
 
 def earlier_walkers(state: dict[str, Any]) -> list[Path]:
-    """Every robust walker the polish stages kept, newest first (the speed polish's, the faster gait
-    clock it started from, then the walk-rate polish's), then NEAT's robust champion: where the
-    measure stage looks when its walker misses the bar."""
+    """Every robust walker the polish stages kept, newest first (the transfer polish's, the speed
+    polish's, the faster gait clock it started from, then the walk-rate polish's), then NEAT's
+    robust champion: where the measure stage looks when its walker misses the bar."""
     stages = state["stages"]
     speed = stages.get("speed", {})
 
@@ -45,7 +47,8 @@ def earlier_walkers(state: dict[str, Any]) -> list[Path]:
         return [Path(r["walker"]).parent / f"robust_update{t['update']}.json"
                 for r in records if r.get("walker") for t in reversed(r.get("tests", [])) if t["robust"]]
 
-    found = kept(list(reversed(speed.get("runs", []))))
+    found = kept([stages.get("transfer", {})])
+    found += kept(list(reversed(speed.get("runs", []))))
     found += [Path(speed["cadence"]["walker"])] if (speed.get("cadence") or {}).get("walker") else []
     found += kept([stages.get("polish", {})])
     found += [Path(stages["neat"]["walker"])] if stages["neat"]["robust"] else []

@@ -54,8 +54,8 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
                      heading_deg=1e-6)
     assert straight.evaluator.episode_s == pytest.approx(4.0, abs=0.05) and straight.evaluator.task.selection_straight_coeff == 8.0
     keys = np.array([[1, 0, 0, 0]])
-    score, _, _ = plain.run([plain.start], keys)
-    s8, walked, walked_any = straight.run([straight.start], keys)
+    score = plain.run([plain.start], keys).score
+    s8, walked, walked_any, _ = straight.run([straight.start], keys)
     assert not walked.any()  # every walk turns a little: none is within 1e-6 deg
     assert walked_any.all(), "a walk of any heading is still a walk"
     assert s8[0, 0] != score[0, 0]
@@ -71,7 +71,7 @@ def test_a_straight_polish_scores_longer_episodes_with_the_straight_term_and_cou
                    selection={"selection_straight_coeff": 8.0, "selection_speed_leg_s": 1.2})
     assert faster.run([faster.start], keys)[0][0, 0] != s8[0, 0]  # the straight term's kernel moved
     with_model = Judge(WALKER, ["randomize"], 2, nominal=True)
-    both, _, _ = with_model.run([with_model.start], keys)
+    both = with_model.run([with_model.start], keys).score
     assert both.shape == (1, 2) and both[0, 0] == score[0, 0]  # the drawn robot as before, then the model
     assert main(["polish", WALKER, "--out", str(tmp_path / "p"), "--updates", "1", "--popsize", "4", "--robots", "1",
                  "--validation", "1", "--test", "1", "--episode-s", "2", "--straight", "8", "--heading-deg", "45",
@@ -98,7 +98,7 @@ def test_robots_take_turns_at_several_ranges_each_drawn_as_its_ranges_alone_woul
     keys = np.array([[3, 0, 0, 0], [3, 0, 0, 1], [3, 0, 0, 2]])
     mixed, wide, narrow = (Judge(WALKER, names, 3) for names in
                            (["randomize", "narrow"], ["randomize"], ["narrow"]))
-    score, _, _ = mixed.run([mixed.start], keys)
+    score = mixed.run([mixed.start], keys).score
     alone = {name: judge.run([judge.start], keys)[0][0] for name, judge in (("wide", wide), ("narrow", narrow))}
     assert score[0].tolist() == [alone["wide"][0], alone["narrow"][1], alone["wide"][2]]
     assert alone["wide"][1] != alone["narrow"][1]

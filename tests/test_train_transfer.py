@@ -1,0 +1,140 @@
+"""The transfer stage of ``biped train``: a walker that fails the transfer check is polished with
+each candidate docked for what it loses on ``default.yaml`` robots against the model, and a
+walker it keeps counts only when it passes the check itself."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from evolve import train as tr
+from evolve import train_transfer as tt
+from evolve import walk_measures as wm
+from evolve.polish import Judged, docked_for_transfer, polish
+from evolve.train_record import earlier_walkers, latest_walker
+from tests.test_robust_walk_summary import WALKER, _test, fake_polish
+
+
+def _judged(distances: list[list[float]], scores: list[float]) -> Judged:
+    d = np.array(distances)
+    return Judged(np.array(scores)[:, None].repeat(d.shape[1], axis=1), d > 0, d > 0, d)
+
+
+def test_a_candidate_is_docked_by_its_shortfall_in_proportion_to_its_score():
+    # columns: a randomized robot, a default.yaml one, the model (last)
+    judged = _judged([[3.0, 1.8, 2.0], [3.0, 1.4, 2.0], [3.0, 1.0, 2.0]], [10.0, 10.0, -4.0])
+    docked = docked_for_transfer(np.array([10.0, 10.0, -4.0]), judged, [1], keep=0.9)
+    assert docked[0] == 10.0  # keeps 0.9 of the model's distance: not docked
+    assert docked[1] == pytest.approx(10.0 - 3.0 * 10.0 * (0.9 - 0.7))
+    assert docked[2] == pytest.approx(-4.0 - 3.0 * 4.0 * (0.9 - 0.5))  # a negative score goes further down
+    # the dock is relative: scaling every score scales the docked ones alike
+    assert docked_for_transfer(np.array([100.0, 100.0, -40.0]), judged, [1], keep=0.9) == pytest.approx(10 * docked)
+    # no walk on the model (a fall, or slower than a speed gate): nothing kept, the whole dock
+    fell = judged._replace(walked=np.array([[True, True, False]] * 3))
+    assert docked_for_transfer(np.array([10.0, 10.0, -4.0]), fell, [1], keep=0.9)[0] == pytest.approx(10 - 3 * 10 * 0.9)
+
+
+def test_a_transfer_polish_asks_the_model_and_default_robots(tmp_path):
+    with pytest.raises(ValueError, match="nominal=True"):
+        polish(WALKER, tmp_path / "a", updates=1, popsize=4, robots=2, validation=2, test=0, transfer_keep=0.9,
+               reality=["randomize", "default"])
+    with pytest.raises(ValueError, match="'default'"):
+        polish(WALKER, tmp_path / "b", updates=1, popsize=4, robots=2, validation=2, test=0, transfer_keep=0.9,
+               nominal=True)
+    result = polish(WALKER, tmp_path / "c", updates=1, popsize=4, robots=2, validation=2, test=0, every=1,
+                    transfer_keep=0.9, nominal=True, reality=["randomize", "default"], log=lambda s: None)
+    assert result["transfer_keep"] == 0.9 and len(result["history"]) == 2
+
+
+def _check(verdicts: dict[str, bool], asked: list[str]):
+    def check(walker, settings, robot, log, whole_bar=True):
+        asked.append(Path(walker).name)
+        passed = verdicts[Path(walker).name]
+        return {"ratio": 0.85 if passed else 0.7, "transfer_passed": passed, "passed": passed}
+    return check
+
+
+def test_a_walker_that_passes_the_check_gets_no_transfer_polish(tmp_path, monkeypatch):
+    import evolve.polish
+
+    monkeypatch.setattr(evolve.polish, "polish", lambda *a, **k: pytest.fail("polished a walker that transfers"))
+    asked: list[str] = []
+    monkeypatch.setattr(tt, "check", _check({WALKER.name: True}, asked))
+    record = tt.transfer_stage(WALKER, tmp_path, tr.TrainSettings(), tr.Budget(60.0), 0.92, lambda s: None, "xl430_biped")
+    assert record["walker"] is None and record["skipped"] == "keeps enough" and asked == [WALKER.name]
+
+
+def test_the_transfer_polish_keeps_only_robust_walkers_that_pass_the_check(tmp_path, monkeypatch):
+    """Validation would keep updates 5, 10 and 15, all robust; 10's passes the transfer check: it
+    ends the stage, is its walker, the one that ships, and the measure stage's first fallback."""
+    import evolve.polish
+
+    calls: list[dict] = []
+    monkeypatch.setattr(evolve.polish, "polish", fake_polish([5, 10, 15], calls))
+    monkeypatch.setattr(wm, "robustness", lambda path, **k: _test(9))
+    verdicts = iter([False, True, False])  # the kept walkers, in order
+    asked: list[str] = []
+
+    def check(walker, settings, robot, log, whole_bar=True):
+        if Path(walker) == WALKER:
+            return {"ratio": 0.74, "transfer_passed": False, "passed": False}
+        asked.append(Path(walker).name)
+        return {"ratio": 0.8, "transfer_passed": True, "passed": next(verdicts)}
+    monkeypatch.setattr(tt, "check", check)
+    record = tt.transfer_stage(WALKER, tmp_path, tr.TrainSettings(), tr.Budget(60.0), 0.92, lambda s: None,
+                               "xl430_biped")
+    assert calls[0]["transfer_keep"] == tt.TRANSFER["transfer_keep"] and calls[0]["nominal"]
+    assert calls[0]["reality"] == ["randomize", "default"] and calls[0]["min_speed_m_s"] == tr.SPEED_GOAL_M_S
+    assert asked == ["kept.json"] * 2 and [t["robust"] for t in record["tests"]] == [False, True]
+    assert record["walker"] == str(tmp_path / "transfer" / "walker.json") and record["source_check"]["ratio"] == 0.74
+    state = {"stages": {"neat": {"walker": str(WALKER), "robust": True}, "polish": {"walker": None},
+                        "speed": {"walker": "speed/walker.json", "runs": []}, "transfer": record}}
+    assert latest_walker(state) == record["walker"]
+    assert latest_walker(state, skip_speed=True) == str(WALKER)
+    assert earlier_walkers(state)[0] == tmp_path / "transfer" / "robust_update10.json"
+
+
+def test_no_transfer_polish_without_a_robust_walker_or_budget(tmp_path, monkeypatch):
+    monkeypatch.setattr(tt, "check", lambda *a, **k: pytest.fail("checked a walker with no budget left"))
+    state = {"stages": {"neat": {"walker": str(WALKER), "robust": False}, "polish": {"walker": None}}}
+    assert tr._transfer("xl430_biped", tmp_path, tr.TrainSettings(), state, tr.Budget(60.0), lambda s: None)["skipped"]
+    spent = tr.Budget(minutes=10.0, spent_s=9.5 * 60.0)
+    assert tt.transfer_stage(WALKER, tmp_path, tr.TrainSettings(), spent, 0.92, lambda s: None,
+                             "xl430_biped")["skipped"] == "no budget"
+
+
+def test_the_check_asks_the_whole_bar_of_a_walker_that_transfers(monkeypatch):
+    transfer = {"ratio": 0.85, "passed": True, "sim_walked": True}
+    monkeypatch.setattr(wm, "transfer_check", lambda *a, **k: transfer)
+    rate = {"robots": 50, "walked": 47, "share": 0.94}
+    monkeypatch.setattr(wm, "walk_rate", lambda *a, **k: rate)
+    walk = {"speed_m_s": 0.2, "falls": 0, "heading_deg_per_min": 5.0}
+    monkeypatch.setattr(wm, "sustained_walks", lambda *a: {"nominal": walk, "default": {**walk, "speed_m_s": 0.14}})
+    found = tt.check(WALKER, tr.TrainSettings(), "xl430_biped", lambda s: None)
+    assert found["transfer_passed"] and not found["passed"] and found["bar"]["speed"] is False
+    monkeypatch.setattr(wm, "sustained_walks", lambda *a: {"nominal": walk, "default": walk})
+    assert tt.check(WALKER, tr.TrainSettings(), "xl430_biped", lambda s: None)["passed"]
+    rate.update(walked=40, share=0.8)
+    assert tt.check(WALKER, tr.TrainSettings(), "xl430_biped", lambda s: None)["bar"]["walk_rate"] is False
+    transfer.update(passed=False, ratio=0.7)
+    monkeypatch.setattr(wm, "walk_rate", lambda *a, **k: pytest.fail("measured a walker that fails the check"))
+    assert not tt.check(WALKER, tr.TrainSettings(), "xl430_biped", lambda s: None)["passed"]
+    # the stage's source: the transfer check alone
+    transfer.update(passed=True, ratio=0.85)
+    assert tt.check(WALKER, tr.TrainSettings(), "xl430_biped", lambda s: None, whole_bar=False)["passed"]
+
+
+def test_profile_parts_names_each_key_of_the_profile_and_what_it_costs(tmp_path):
+    """``python -m benchmarks.transfer --parts``: the walker's distance with each key alone and all but it."""
+    from benchmarks.transfer import profile_parts
+
+    profile = tmp_path / "weak.yaml"
+    profile.write_text("description: weaker servos, a slick floor\nkp_scale: 0.5\nfloor_friction_scale: 0.5\n")
+    parts = profile_parts(WALKER, str(profile), seconds=2.0, episodes=1, quiet=True)
+    assert set(parts["parts"]) == {"kp_scale", "floor_friction_scale"}
+    assert parts["model_m"] > 0 and all(p["alone_keeps"] == p["alone"] / parts["model_m"] for p in parts["parts"].values())
+    # with two keys, all but one is the other alone
+    assert parts["parts"]["kp_scale"]["all_but"] == pytest.approx(parts["parts"]["floor_friction_scale"]["alone"])
