@@ -63,14 +63,13 @@ def select_robust(run_dir: Path, episodes: int, ranges: str = "randomize") -> tu
 def profile_parts(controller: Path, reality: str, seconds: float, episodes: int, quiet: bool = False) -> dict:
     """The controller's distance [m] on the model, on ``reality``, and with each of its keys
     alone and all but it (see the module docstring); a key's share is the distance it keeps."""
-    import yaml
-
     from evolve.replay import evaluate_controller
+    from sim2real.robot.validation import load_yaml
     from sim2real.simulation.reality.file import load_reality, reality_dir
 
     load_reality(reality)  # a clear error for an unknown or bad profile
     source = Path(reality) if Path(reality).is_file() else reality_dir() / f"{reality}.yaml"
-    profile = {k: v for k, v in yaml.safe_load(source.read_text()).items() if k != "description"}
+    profile = {k: v for k, v in load_yaml(source).items() if k != "description"}
 
     def distance(ranges: dict | None) -> float:
         r = evaluate_controller(controller, seconds=seconds, episodes=episodes if ranges is not None else 1,

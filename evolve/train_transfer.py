@@ -74,8 +74,10 @@ def check(walker: Path, settings: TrainSettings, robot_name: str, log: Callable[
     found["bar"] = wm.meets_bar(measured)
     found["passed"] = all(found["bar"].values())
     walks = measured["sustained"]
+    found.update(walked=measured["rate"]["walked"], deg_per_min=wm.heading_deg_per_min(measured),
+                 speeds_m_s=[walks[where]["speed_m_s"] for where in ("nominal", "default")])
     log(f"{walker.name} keeps {found['ratio']:.2f} through the simulated bus, walks on {measured['rate']['walked']}"
         f"/{measured['rate']['robots']} unseen robots, 60 s at {walks['nominal']['speed_m_s']:.3f} and "
-        f"{walks['default']['speed_m_s']:.3f} m/s: "
+        f"{walks['default']['speed_m_s']:.3f} m/s, up to {found['deg_per_min']:.1f} deg/min: "
         + ("meets the bar" if found["passed"] else "misses " + ", ".join(k for k, v in found["bar"].items() if not v)))
     return found
