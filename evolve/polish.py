@@ -213,8 +213,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
            every: int = 5, validation: int = 30, test: int = 100, seed: int = 0, reality: str | list[str] = "randomize",
            episode_s: float | None = None, straight: float | None = None, heading_deg: float | None = None,
            speed_leg_s: float | None = None, min_speed_m_s: float | None = None, walk_bonus: float | None = None,
-           nominal: bool = False, lr_adapt: bool = False, worst: float = 1.0,
-           transfer_keep: float | None = None, on_best: Callable[[Path, dict[str, Any]], bool] | None = None, resume: bool = False,
+           nominal: bool = False, lr_adapt: bool = False, worst: float = 1.0, transfer_keep: float | None = None,
+           on_best: Callable[[Path, dict[str, Any]], bool] | None = None, resume: bool = False,
            patience: int | Callable[[], int | None] | None = None, threads: int = 1,
            should_stop: Callable[[], bool] | None = None, robot: str | None = None,
            log: Callable[[str], None] = print) -> dict[str, Any]:

@@ -22,8 +22,8 @@ measuring counted):
 4. **transfer** - when the walker fails the transfer check (keeps under 80 % of its model's
    distance through the simulated bus), CMA-ES docking each candidate for what it loses on
    ``default.yaml`` robots against the model (:func:`evolve.train_transfer.transfer_stage`),
-   until a plateau or the budget less ``MEASURE_SHARE``; a walker it keeps counts when it
-   passes the check and still walks 60 s at the goal's speed;
+   until a plateau or the budget less ``MEASURE_SHARE``; the first walker it keeps that meets
+   the whole bar (:func:`evolve.walk_measures.meets_bar`) ends it;
 5. **measure** - the walk rate on 50 unseen robots, 60 s walks on the nominal and
    ``default.yaml`` robots, the transfer check through the simulated bus, the 90 deg turn
    (:func:`evolve.walk_measures.measure_walker`), and ``DIR/controller.json`` written with the

@@ -71,7 +71,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     measure = state["stages"]["measure"]
     bar = measure["bar"]
     controller = out / CONTROLLER
-    done = ", ".join(f"{name} {state['stages'][name]['wall_minutes']:.1f}" for name in STAGES if name in state['stages'])
+    done = ", ".join(f"{name} {state['stages'][name]['wall_minutes']:.1f}" for name in STAGES
+                     if name in state["stages"])  # (a record older than a stage lacks it)
     print(f"trained in {state['elapsed_s'] / 60:.1f} min ({done}) -> {controller}")
     print("bar: " + ", ".join(f"{k} {'met' if v else 'MISSED'}" for k, v in bar.items()))
     given = f" --robot {shlex.quote(robot)}" if robot != args.robot or Path(robot).suffix else ""

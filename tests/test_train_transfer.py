@@ -63,7 +63,8 @@ def test_a_walker_that_passes_the_check_gets_no_transfer_polish(tmp_path, monkey
     monkeypatch.setattr(evolve.polish, "polish", lambda *a, **k: pytest.fail("polished a walker that transfers"))
     asked: list[str] = []
     monkeypatch.setattr(tt, "check", _check({WALKER.name: True}, asked))
-    record = tt.transfer_stage(WALKER, tmp_path, tr.TrainSettings(), tr.Budget(60.0), 0.92, lambda s: None, "xl430_biped")
+    record = tt.transfer_stage(WALKER, tmp_path, tr.TrainSettings(), tr.Budget(60.0), 0.92, lambda s: None,
+                               "xl430_biped")
     assert record["walker"] is None and record["skipped"] == "keeps enough" and asked == [WALKER.name]
 
 
@@ -135,6 +136,7 @@ def test_profile_parts_names_each_key_of_the_profile_and_what_it_costs(tmp_path)
     profile.write_text("description: weaker servos, a slick floor\nkp_scale: 0.5\nfloor_friction_scale: 0.5\n")
     parts = profile_parts(WALKER, str(profile), seconds=2.0, episodes=1, quiet=True)
     assert set(parts["parts"]) == {"kp_scale", "floor_friction_scale"}
-    assert parts["model_m"] > 0 and all(p["alone_keeps"] == p["alone"] / parts["model_m"] for p in parts["parts"].values())
+    assert parts["model_m"] > 0
+    assert all(p["alone_keeps"] == p["alone"] / parts["model_m"] for p in parts["parts"].values())
     # with two keys, all but one is the other alone
     assert parts["parts"]["kp_scale"]["all_but"] == pytest.approx(parts["parts"]["floor_friction_scale"]["alone"])
