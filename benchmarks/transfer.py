@@ -65,11 +65,10 @@ def profile_parts(controller: Path, reality: str, seconds: float, episodes: int,
     alone and all but it (see the module docstring); a key's share is the distance it keeps."""
     from evolve.replay import evaluate_controller
     from sim2real.robot.validation import load_yaml
-    from sim2real.simulation.reality.file import load_reality, reality_dir
+    from sim2real.simulation.reality.file import load_reality, reality_path
 
     load_reality(reality)  # a clear error for an unknown or bad profile
-    source = Path(reality) if Path(reality).is_file() else reality_dir() / f"{reality}.yaml"
-    profile = {k: v for k, v in load_yaml(source).items() if k != "description"}
+    profile = {k: v for k, v in load_yaml(reality_path(reality)).items() if k != "description"}
 
     def distance(ranges: dict | None) -> float:
         r = evaluate_controller(controller, seconds=seconds, episodes=episodes if ranges is not None else 1,

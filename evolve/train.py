@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import os
 import signal
 import sys
@@ -61,7 +62,7 @@ from evolve.train_polish import PATIENCE, polish_stage
 from evolve.train_speed import SPEED, SPEED_GOAL_M_S, SPEED_MARGIN, speed_stage  # noqa: F401 (the recipe's)
 from evolve.train_transfer import TRANSFER, transfer_stage  # noqa: F401 (the recipe's)
 from evolve.train_record import (STATE, STATE_VERSION, earlier_walkers, latest_walker, new_record, robust_walker,
-                                 short_test, stage_summary)
+                                 short_test, stage_summary, transfer_checks)
 from sim2real.run_lock import RunLock
 from sim2real.atomic_json import copy_file_atomic, read_json, write_json_atomic
 from sim2real.errors import UsageError
@@ -371,18 +372,28 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
     from evolve import walk_measures as wm
     from sim2real.controller.file import Controller
 
+    checks = transfer_checks(state)
+    checked = lambda path: checks.get(hashlib.sha256(path.read_bytes()).hexdigest()) or {}  # noqa: E731
+
+    def measure(path: Path) -> dict[str, Any]:
+        if checked(path):
+            log(f"the transfer stage's check of {path.name}: keeps {checked(path)['ratio']:.2f}")
+        return wm.measure_walker(path, log, threads=settings.threads, robot=robot_name,
+                                 transfer=checked(path).get("transfer"))
+
     walker = Path(latest_walker(state))
     log(f"measuring {walker}")
     started = time.monotonic()
-    measured = wm.measure_walker(walker, log, threads=settings.threads, robot=robot_name)
-    took_s = time.monotonic() - started  # [s] one walker's measures
+    measured = measure(walker)
+    # [s] one walker's measures, a reused transfer check's dry runs counted as if run again
+    took_s = time.monotonic() - started + checked(walker).get("transfer_s", 0.0)
     tried = [walker]
     speed = state["stages"]["speed"]
     if str(walker) == speed["walker"] and measured["sustained"]["nominal"]["falls"]:
         before = Path(latest_walker(state, skip_speed=True))
         log(f"the speed polish's walker falls on the nominal model at "
             f"{measured['sustained']['nominal']['upright_s']:.1f} s; measuring the walker it started from")
-        earlier = wm.measure_walker(before, log, threads=settings.threads, robot=robot_name)
+        earlier = measure(before)
         tried.append(before)
         if not earlier["sustained"]["nominal"]["falls"]:
             speed["undone"] = "falls on the nominal model in the 60 s walk; the walker it started from does not"
@@ -397,7 +408,7 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
             break
         log(f"{walker} misses the bar ({', '.join(_misses(bar))}); measuring {earlier}")
         tried.append(earlier)
-        again = wm.measure_walker(earlier, log, threads=settings.threads, robot=robot_name)
+        again = measure(earlier)
         again_bar = wm.meets_bar(again)
         if all(again_bar.values()):
             walker, measured, bar = earlier, again, again_bar

@@ -55,6 +55,14 @@ def earlier_walkers(state: dict[str, Any]) -> list[Path]:
     return [path for path in found if path.exists()]
 
 
+def transfer_checks(state: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """The transfer checks the transfer stage made (of its source and of the walkers it kept), by
+    the SHA-256 of the walker file checked: the measure stage reuses them."""
+    stage = state["stages"].get("transfer", {})
+    made = [stage.get("source_check")] + [t.get("accepted") for t in stage.get("tests", [])]
+    return {c["sha256"]: c for c in made if c and "sha256" in c}
+
+
 def short_test(test: dict[str, Any]) -> dict[str, Any]:
     """A robustness test (:func:`evolve.walk_measures.robustness`) as a stage's record keeps it."""
     return {"randomized_walked": test["randomized"]["walked"], "default_walked": test["default"]["walked"]}

@@ -16,6 +16,8 @@ the first walker validation keeps that meets the whole bar (the transfer check, 
 
 from __future__ import annotations
 
+import hashlib
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -61,9 +63,14 @@ def check(walker: Path, settings: TrainSettings, robot_name: str, log: Callable[
     50 unseen robots, the 60 s walks): ``passed`` when the walker meets it all."""
     from evolve import walk_measures as wm
 
+    started = time.monotonic()
     transfer = wm.transfer_check(walker, "default", wm.TRANSFER_RUNS, wm.TRANSFER_KEEP, lambda line: None,
                                  robot=robot_name)
-    found = {"ratio": wm.kept(transfer), "transfer_passed": bool(transfer["passed"])}
+    # the check itself (less its runs, as the measure stage's record keeps it), for the measure stage
+    # to reuse on the same file: its dry runs take real time
+    found = {"ratio": wm.kept(transfer), "transfer_passed": bool(transfer["passed"]),
+             "transfer": {k: v for k, v in transfer.items() if k != "runs"},
+             "transfer_s": time.monotonic() - started, "sha256": hashlib.sha256(walker.read_bytes()).hexdigest()}
     if not found["transfer_passed"] or not whole_bar:
         log(f"{walker.name} keeps {found['ratio']:.2f} of its distance through the simulated bus"
             f"{'' if transfer['sim_walked'] else ' (no walk on the model)'}"

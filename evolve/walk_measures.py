@@ -106,11 +106,13 @@ def steering(controller: Path, robot: str | None = None) -> dict[str, Any] | Non
 
 
 def measure_walker(walker: Path, log: Callable[[str], None], threads: int = 1,
-                   robot: str | None = None) -> dict[str, Any]:
-    """What is measured of a robust walker: its walk rate on 50 more robots, the transfer check,
-    the 60 s walks and (with a heading input) a commanded 90 deg turn."""
-    return {"rate": walk_rate(walker, threads=threads, robot=robot),
-            "transfer": transfer_check(walker, "default", TRANSFER_RUNS, TRANSFER_KEEP, log, robot=robot),
+                   robot: str | None = None, transfer: dict[str, Any] | None = None) -> dict[str, Any]:
+    """What is measured of a robust walker: its walk rate on 50 more robots, the transfer check
+    (``transfer``: one already made of this walker, whose dry runs are not run again), the 60 s
+    walks and (with a heading input) a commanded 90 deg turn."""
+    if transfer is None:
+        transfer = transfer_check(walker, "default", TRANSFER_RUNS, TRANSFER_KEEP, log, robot=robot)
+    return {"rate": walk_rate(walker, threads=threads, robot=robot), "transfer": transfer,
             "sustained": sustained_walks(walker, threads, robot),
             "steering": steering(walker, robot)}
 

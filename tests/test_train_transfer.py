@@ -140,3 +140,32 @@ def test_profile_parts_names_each_key_of_the_profile_and_what_it_costs(tmp_path)
     assert all(p["alone_keeps"] == p["alone"] / parts["model_m"] for p in parts["parts"].values())
     # with two keys, all but one is the other alone
     assert parts["parts"]["kp_scale"]["all_but"] == pytest.approx(parts["parts"]["floor_friction_scale"]["alone"])
+
+
+def test_the_measure_stage_reuses_the_transfer_stages_check_of_the_same_file(tmp_path, monkeypatch):
+    """The transfer stage checked the walker (its dry runs take real time): the measure stage
+    ships that check instead of running it again - for that file only."""
+    import hashlib
+    import json
+
+    walker = tmp_path / "walker.json"
+    shutil.copyfile(WALKER, walker)
+    transfer = {"ratio": 0.93, "passed": True, "sim_walked": True, "runs": []}
+    check = {"ratio": 0.93, "transfer_passed": True, "transfer": transfer, "transfer_s": 40.0,
+             "sha256": hashlib.sha256(walker.read_bytes()).hexdigest()}
+    state = {"command": "biped train xl430_biped", "settings": {"seed": 1},
+             "stages": {"neat": {"walker": str(walker), "robust": True}, "polish": {"walker": None},
+                        "speed": {"walker": None, "runs": []},
+                        "transfer": {"walker": None, "skipped": "keeps enough", "source_check": check}}}
+    monkeypatch.setattr(wm, "transfer_check", lambda *a, **k: pytest.fail("the dry runs run again"))
+    monkeypatch.setattr(wm, "walk_rate", lambda *a, **k: {"robots": 50, "walked": 48, "falls": 2, "share": 0.96})
+    walk = {"upright_s": 60.0, "distance_m": 12.0, "falls": 0, "speed_m_s": 0.2, "heading_deg_per_min": 3.0}
+    monkeypatch.setattr(wm, "sustained_walks", lambda *a: {"nominal": walk, "default": walk})
+    monkeypatch.setattr(wm, "steering", lambda *a: None)
+    record = tr._measure("xl430_biped", tmp_path, tr.TrainSettings(), state, tr.Budget(60.0), lambda s: None)
+    assert record["transfer"]["ratio"] == 0.93 and all(record["bar"].values())
+    assert json.loads((tmp_path / "controller.json").read_text())["provenance"]["transfer_ratio"] == 0.93
+    # another file (one byte more): checked anew
+    walker.write_text(walker.read_text() + " ")
+    with pytest.raises(pytest.fail.Exception, match="run again"):
+        tr._measure("xl430_biped", tmp_path, tr.TrainSettings(), state, tr.Budget(60.0), lambda s: None)

@@ -291,14 +291,7 @@ def load_reality(name_or_path: str | Path | dict | Reality | None, *, chain: tup
     if isinstance(name_or_path, dict):
         source = "<inline reality>"
     else:
-        path = Path(name_or_path)
-        if not exists(path):
-            candidate = reality_dir() / f"{name_or_path}.yaml"
-            if not exists(candidate):
-                known = ", ".join(sorted(p.stem for p in reality_dir().glob("*.yaml")))
-                raise FileNotFoundError(f"unknown reality profile {show_name(str(name_or_path))} (known: nominal, {known}; "
-                                        "or a path)")
-            path = candidate
+        path = reality_path(name_or_path)
         source = str(path)
     files = [c for c in chain if c != "<inline reality>"]
     if chain and not isinstance(name_or_path, dict):
@@ -311,6 +304,19 @@ def load_reality(name_or_path: str | Path | dict | Reality | None, *, chain: tup
     if isinstance(name_or_path, dict):
         return parse_reality(name_or_path, source, chain=chain)
     return parse_reality(load_yaml(path), source, path.stem, chain=chain)
+
+
+def reality_path(name_or_path: str | Path) -> Path:
+    """The file of the reality profile ``name_or_path``: that path, else ``configs/reality/<name>.yaml``."""
+    path = Path(name_or_path)
+    if exists(path):
+        return path
+    candidate = reality_dir() / f"{name_or_path}.yaml"
+    if not exists(candidate):
+        known = ", ".join(sorted(p.stem for p in reality_dir().glob("*.yaml")))
+        raise FileNotFoundError(f"unknown reality profile {show_name(str(name_or_path))} (known: nominal, {known}; "
+                                "or a path)")
+    return candidate
 
 
 def _same_file(path: Path, other: str) -> bool:
