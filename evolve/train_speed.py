@@ -76,11 +76,14 @@ def speeds(walker: Path, settings: TrainSettings, robot_name: str) -> list[float
 
 def faster_clock(source: Path, folder: Path, settings: TrainSettings, robot_name: str, own: list[float],
                  log: Callable[[str], None]) -> dict[str, Any]:
-    """The walker at a faster gait clock: its period times each of ``CADENCE``, each tested against
-    the robustness bar and walked 60 s on the model and on ``default.yaml``; ``walker``: the one
-    with the highest of the lower of its two speeds, robust and faster than ``source`` (None:
-    none).  A slow walker's steps are short and the weights alone lengthen them little (seed 4:
-    0.08 -> 0.10 m/s in 20 minutes of speed polish); the clock sets the steps' rate.  Measured
+    """The walker at a faster gait clock: its period times each of ``CADENCE`` in turn, each tested
+    against the robustness bar and walked 60 s on the model and on ``default.yaml``, until one is
+    robust and fast enough (:func:`fast_enough`); ``walker``: that one, else of the robust ones
+    faster than ``source`` the one with the highest of the lower of its two speeds (None: none).
+    A slow walker's steps are short and the weights alone lengthen them little (seed 4: 0.08 ->
+    0.10 m/s in 20 minutes of speed polish); the clock sets the steps' rate.  But the further the
+    clock from the one its weights were polished at, the fewer robots it walks on, which the ten
+    robots of the robustness bar can miss: so the mildest clock that is fast enough.  Measured
     ones are read back on a resume (``folder/tests.json``)."""
     from evolve import walk_measures as wm
     from sim2real.controller.file import Controller
@@ -93,6 +96,8 @@ def faster_clock(source: Path, folder: Path, settings: TrainSettings, robot_name
     tests = read_json(tests_file) if tests_file.exists() else {"source": str(source), "tests": []}
     done = {t["factor"] for t in tests["tests"]}
     for factor in CADENCE:
+        if any(fast_enough(t) for t in tests["tests"]):
+            break
         if factor in done:
             continue
         period = data.phase_period_s * factor
@@ -113,7 +118,16 @@ def faster_clock(source: Path, folder: Path, settings: TrainSettings, robot_name
             f"{test['default']['walked']}/{test['default_episodes']} default; 60 s at {walks[0]:.3f} and "
             f"{walks[1]:.3f} m/s{' - robust' if robust else ''}")
     faster = [t for t in tests["tests"] if t["robust"] and min(t["speeds_m_s"]) > min(own)]
-    best = max(faster, key=lambda t: min(t["speeds_m_s"]), default=None)
+    enough = [t for t in faster if fast_enough(t)]
+    best = max(enough, key=lambda t: t["factor"]) if enough else max(faster, key=lambda t: min(t["speeds_m_s"]),
+                                                                        default=None)
     if best is not None:
         log(f"the speed polish starts from the gait clock at {best['period_s']:.3f} s")
     return {"walker": best and best["walker"], "speeds_m_s": best and best["speeds_m_s"], **tests}
+
+
+def fast_enough(test: dict[str, Any]) -> bool:
+    """Whether a gait clock's test (:func:`faster_clock`) is robust and walks both 60 s walks at the
+    goal's speed with its margin: OP3's seed 5 walked on 47 of 50 robots at x0.9 (0.229 / 0.177 m/s),
+    but on fewer than 45 at x0.7, which had passed the robustness bar's 10 (benchmarks/RESULTS.md)."""
+    return bool(test["robust"]) and min(test["speeds_m_s"]) >= SPEED_GOAL_M_S * SPEED_MARGIN

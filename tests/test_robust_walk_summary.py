@@ -413,6 +413,27 @@ def test_a_slow_walker_tries_a_faster_gait_clock_and_keeps_the_fastest_robust_on
     assert none["walker"] is None
 
 
+def test_the_mildest_gait_clock_fast_enough_is_kept_and_no_faster_one_is_tried(tmp_path, monkeypatch):
+    """OP3's seed 5: every clock robust on the bar's 10 robots, x0.9 already past the goal's
+    margin; x0.7 walked on fewer of 50.  x0.9 is kept, x0.8 and x0.7 never measured."""
+    from sim2real.controller.file import Controller
+
+    period = Controller.load(WALKER).phase_period_s
+    measured = []
+
+    def speeds(walker, settings, robot):
+        factor = round(Controller.load(walker).phase_period_s / period, 3)
+        measured.append(factor)
+        return {0.9: [0.229, 0.177], 0.8: [0.254, 0.211], 0.7: [0.281, 0.245]}[factor]
+
+    monkeypatch.setattr(ts, "speeds", speeds)
+    monkeypatch.setattr(wm, "robustness", lambda path, **k: _test(10))
+    record = ts.faster_clock(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.179, 0.155], lambda s: None)
+    assert measured == [0.9] and Controller.load(record["walker"]).phase_period_s == pytest.approx(0.9 * period)
+    assert ts.fast_enough(record["tests"][0]) and not ts.fast_enough({**record["tests"][0], "robust": False})
+    assert not ts.fast_enough({"robust": True, "speeds_m_s": [0.3, ts.SPEED_GOAL_M_S]})  # the goal, no margin
+
+
 def test_the_measure_stages_fallbacks_are_the_robust_walkers_newest_first(tmp_path):
     """The speed restart's robust walkers, the speed polish's, the faster gait clock they started
     from, the walk-rate polish's, NEAT's robust champion; a file that is gone is left out."""
