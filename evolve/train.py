@@ -35,8 +35,8 @@ polish whose walker falls on the nominal model within 60 s where its source walk
 (a user starts from the model).  A walker that misses the bar gives way to the first of the
 robust walkers kept before it that meets it, measured newest first while the budget lasts.
 
-Everything is resumable: ``DIR/train.json`` records the settings and each finished stage;
-each stage resumes from its own checkpoint (NEAT's ``neat/checkpoint.json.gz``, a polish's
+Everything is resumable: ``DIR/train.json`` records the settings and each finished stage
+(``DIR/log.txt`` every progress line); each stage resumes from its own checkpoint (NEAT's ``neat/checkpoint.json.gz``, a polish's
 ``checkpoint.json``), so Ctrl-C, SIGTERM or SIGHUP leaves a folder that ``--resume`` continues,
 and a decision made before a cut (NEAT's restart, a polish's stop) is kept, not made again.  A
 seed fixes each stage's search; where a stage stops depends on the budget, and the generations
@@ -71,6 +71,7 @@ if TYPE_CHECKING:  # pragma: no cover - the simulation side is imported where a 
     from evolve.config import EvolveConfig  # `biped run` on the robot's lean install (no MuJoCo) can load the CLI
 
 CONTROLLER = "controller.json"  # the trained walker
+LOG = "log.txt"  # every progress line of every session, appended
 DEFAULT_MINUTES = 60.0
 NEAT_SHARE = 0.45  # NEAT may spend this share of the budget before the polish starts anyway
 POLISH_UNTIL = 0.65  # the walk-rate polish ends by this share of the budget
@@ -140,16 +141,18 @@ def neat_config(robot_name: str, settings: TrainSettings) -> "EvolveConfig":
 class Progress:
     """One line per event, each with the stage, the minutes spent and those left of the budget."""
 
-    def __init__(self, budget: Budget, quiet: bool = False, out=None):
-        self.budget, self.quiet, self.out = budget, quiet, out or sys.stderr
+    def __init__(self, budget: Budget, quiet: bool = False, out=None, file: Path | None = None):
+        self.budget, self.quiet, self.out, self.file = budget, quiet, out or sys.stderr, file
         self.stage = ""
 
     def __call__(self, message: str) -> None:
-        if self.quiet:
-            return
         spent = self.budget.elapsed_s / 60.0
-        left = max(0.0, self.budget.minutes - spent)
-        print(f"[{self.stage} {spent:5.1f} min, ~{left:.0f} left] {message}", file=self.out, flush=True)
+        line = f"[{self.stage} {spent:5.1f} min, ~{max(0.0, self.budget.minutes - spent):.0f} left] {message}"
+        if self.file is not None:  # the training's story outlives its terminal (and --json's silence)
+            with open(self.file, "a", encoding="utf-8") as f:
+                f.write(line + "\n")
+        if not self.quiet:
+            print(line, file=self.out, flush=True)
 
 
 def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool = False,
@@ -168,7 +171,7 @@ def train(robot_name: str, out: Path, settings: TrainSettings, *, resume: bool =
         state.setdefault("sessions", []).append({"command": command or "biped train", "minutes": settings.minutes,
                                                  "threads": settings.threads, "from_minute": budget.spent_s / 60.0})
         cpu_before, cpu_at_start = state.get("cpu_s", 0.0), _cpu_s()  # CPU seconds of earlier sessions, and now
-        progress = Progress(budget, quiet) if log is None else log
+        progress = Progress(budget, quiet, file=out / LOG) if log is None else log
         if isinstance(progress, Progress):
             progress.stage = "start"
 

@@ -111,6 +111,9 @@ def test_progress_lines_name_the_stage_and_the_minutes_left(trained):
     stages = {line[1:].split()[0] for line in lines}
     assert {"neat", "polish", "measure"} <= stages
     assert all(" min, ~" in line and " left]" in line for line in lines)
+    # the folder keeps them, both sessions' (the cut one's up to its last line before the signal)
+    kept = (trained[0] / "log.txt").read_text().splitlines()
+    assert lines[0] == kept[0] and lines[-1] == kept[-1] and set(lines) <= set(kept)
 
 
 def test_the_gait_clock_follows_the_leg_length():
