@@ -36,10 +36,10 @@ polish whose walker falls on the nominal model within 60 s where its source walk
 robust walkers kept before it that meets it, measured newest first while the budget lasts.
 
 Everything is resumable: ``DIR/train.json`` records the settings and each finished stage
-(``DIR/log.txt`` every progress line); each stage resumes from its own checkpoint (NEAT's ``neat/checkpoint.json.gz``, a polish's
-``checkpoint.json``), so Ctrl-C, SIGTERM or SIGHUP leaves a folder that ``--resume`` continues,
-and a decision made before a cut (NEAT's restart, a polish's stop) is kept, not made again.  A
-seed fixes each stage's search; where a stage stops depends on the budget, and the generations
+(``DIR/log.txt`` every progress line); each stage resumes from its own checkpoint (NEAT's
+``neat/checkpoint.json.gz``, a polish's ``checkpoint.json``), so Ctrl-C, SIGTERM or SIGHUP
+leaves a folder that ``--resume`` continues, and a decision made before a cut (NEAT's restart,
+a polish's stop) is kept, not made again.  A seed fixes each stage's search; where a stage stops depends on the budget, and the generations
 and updates run are recorded, so the stopping points of a run can be read back from its
 ``train.json``.
 """
