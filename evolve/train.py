@@ -39,9 +39,9 @@ Everything is resumable: ``DIR/train.json`` records the settings and each finish
 (``DIR/log.txt`` every progress line); each stage resumes from its own checkpoint (NEAT's
 ``neat/checkpoint.json.gz``, a polish's ``checkpoint.json``), so Ctrl-C, SIGTERM or SIGHUP
 leaves a folder that ``--resume`` continues, and a decision made before a cut (NEAT's restart,
-a polish's stop) is kept, not made again.  A seed fixes each stage's search; where a stage stops depends on the budget, and the generations
-and updates run are recorded, so the stopping points of a run can be read back from its
-``train.json``.
+a polish's stop) is kept, not made again.  A seed fixes each stage's search; where a stage
+stops depends on the budget, and the generations and updates run are recorded, so the stopping
+points of a run can be read back from its ``train.json``.
 """
 
 from __future__ import annotations
