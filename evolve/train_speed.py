@@ -122,7 +122,7 @@ def faster_clock(source: Path, folder: Path, settings: TrainSettings, robot_name
     best = max(enough, key=lambda t: t["factor"]) if enough else max(faster, key=lambda t: min(t["speeds_m_s"]),
                                                                         default=None)
     if best is not None:
-        log(f"the speed polish starts from the gait clock at {best['period_s']:.3f} s")
+        log(f"kept the gait clock at {best['period_s']:.3f} s")
     return {"walker": best and best["walker"], "speeds_m_s": best and best["speeds_m_s"], **tests}
 
 
