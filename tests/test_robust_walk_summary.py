@@ -428,7 +428,8 @@ def test_the_mildest_gait_clock_fast_enough_is_kept_and_no_faster_one_is_tried(t
 
     monkeypatch.setattr(ts, "speeds", speeds)
     monkeypatch.setattr(wm, "robustness", lambda path, **k: _test(10))
-    record = ts.faster_clock(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.179, 0.155], lambda s: None)
+    record = ts.faster_clock(WALKER, tmp_path / "cadence", tr.TrainSettings(), "xl430_biped", [0.179, 0.155],
+                             lambda s: None)
     assert measured == [0.9] and Controller.load(record["walker"]).phase_period_s == pytest.approx(0.9 * period)
     assert ts.fast_enough(record["tests"][0]) and not ts.fast_enough({**record["tests"][0], "robust": False})
     assert not ts.fast_enough({"robust": True, "speeds_m_s": [0.3, ts.SPEED_GOAL_M_S]})  # the goal, no margin

@@ -62,7 +62,8 @@ def test_a_walker_that_wanders_from_its_heading_keeps_nothing_on_the_model():
         judge = Judge(walker, ["default"], 1, heading_deg=tt.TRANSFER["heading_deg"], nominal=True)
         return judge.run([judge.start], np.zeros((0, 4), dtype=np.int64))
 
-    wanders, holds = on_model(RECORDS / "train-op3/seed1/controller.json"), on_model(RECORDS / "train-op3/seed4/controller.json")
+    wanders = on_model(RECORDS / "train-op3/seed1/controller.json")
+    holds = on_model(RECORDS / "train-op3/seed4/controller.json")
     assert wanders.walked_any[0, -1] and not wanders.walked[0, -1]  # it walks, but turned away
     assert holds.walked[0, -1]
 
