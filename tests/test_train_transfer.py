@@ -49,25 +49,6 @@ def test_a_transfer_polish_asks_the_model_and_default_robots(tmp_path):
     assert result["transfer_keep"] == 0.9 and len(result["history"]) == 2
 
 
-RECORDS = Path(__file__).resolve().parents[1] / "benchmarks" / "records" / "runs"
-
-
-def test_a_walker_that_wanders_from_its_heading_keeps_nothing_on_the_model():
-    """On OP3's model (real physics, 10 s): seed 1's walker swings 25 deg from its start's
-    heading (and drifts 30 deg/min over a minute), seed 4's stays within 9: under the stage's
-    heading gate the first does not walk on the model, so its whole rank is docked."""
-    from evolve.polish import Judge
-
-    def on_model(walker: Path) -> Judged:
-        judge = Judge(walker, ["default"], 1, heading_deg=tt.TRANSFER["heading_deg"], nominal=True)
-        return judge.run([judge.start], np.zeros((0, 4), dtype=np.int64))
-
-    wanders = on_model(RECORDS / "train-op3/seed1/controller.json")
-    holds = on_model(RECORDS / "train-op3/seed4/controller.json")
-    assert wanders.walked_any[0, -1] and not wanders.walked[0, -1]  # it walks, but turned away
-    assert holds.walked[0, -1]
-
-
 def _check(verdicts: dict[str, bool], asked: list[str]):
     def check(walker, settings, robot, log, whole_bar=True):
         asked.append(Path(walker).name)
