@@ -48,7 +48,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import hashlib
 import os
 import signal
 import sys
@@ -62,7 +61,7 @@ from evolve.train_polish import PATIENCE, polish_stage
 from evolve.train_speed import SPEED, SPEED_GOAL_M_S, SPEED_MARGIN, speed_stage  # noqa: F401 (the recipe's)
 from evolve.train_transfer import TRANSFER, transfer_stage  # noqa: F401 (the recipe's)
 from evolve.train_record import (STATE, STATE_VERSION, earlier_walkers, latest_walker, new_record, robust_walker,
-                                 short_test, stage_summary, transfer_checks)
+                                 short_test, stage_summary, transfer_check_of)
 from sim2real.run_lock import RunLock
 from sim2real.atomic_json import copy_file_atomic, read_json, write_json_atomic
 from sim2real.errors import UsageError
@@ -375,21 +374,19 @@ def _measure(robot_name: str, out: Path, settings: TrainSettings, state: dict[st
     from evolve import walk_measures as wm
     from sim2real.controller.file import Controller
 
-    checks = transfer_checks(state)
-    checked = lambda path: checks.get(hashlib.sha256(path.read_bytes()).hexdigest()) or {}  # noqa: E731
-
     def measure(path: Path) -> dict[str, Any]:
-        if checked(path):
-            log(f"the transfer stage's check of {path.name}: keeps {checked(path)['ratio']:.2f}")
+        made = transfer_check_of(state, path)
+        if made:
+            log(f"the transfer stage's check of {path.name}: keeps {made['ratio']:.2f}")
         return wm.measure_walker(path, log, threads=settings.threads, robot=robot_name,
-                                 transfer=checked(path).get("transfer"))
+                                 transfer=made.get("transfer"))
 
     walker = Path(latest_walker(state))
     log(f"measuring {walker}")
     started = time.monotonic()
     measured = measure(walker)
     # [s] one walker's measures, a reused transfer check's dry runs counted as if run again
-    took_s = time.monotonic() - started + checked(walker).get("transfer_s", 0.0)
+    took_s = time.monotonic() - started + transfer_check_of(state, walker).get("transfer_s", 0.0)
     tried = [walker]
     speed = state["stages"]["speed"]
     if str(walker) == speed["walker"] and measured["sustained"]["nominal"]["falls"]:

@@ -1,9 +1,11 @@
 """What a training's record (``DIR/train.json``) says, read back: which of its walkers ships,
 which are the measure stage's fallbacks, and the short forms its stages and provenance keep.
-Pure functions of the record's dictionary (see :mod:`evolve.train` for the stages that write it)."""
+Functions of the record's dictionary and the walker files it names (see :mod:`evolve.train` for the
+stages that write it)."""
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 from typing import Any
 
@@ -55,12 +57,18 @@ def earlier_walkers(state: dict[str, Any]) -> list[Path]:
     return [path for path in found if path.exists()]
 
 
-def transfer_checks(state: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """The transfer checks the transfer stage made (of its source and of the walkers it kept), by
-    the SHA-256 of the walker file checked: the measure stage reuses them."""
+def file_digest(walker: Path) -> str:
+    """The SHA-256 of a walker file's bytes: what a transfer check records of the file it checked."""
+    return hashlib.sha256(Path(walker).read_bytes()).hexdigest()
+
+
+def transfer_check_of(state: dict[str, Any], walker: Path) -> dict[str, Any]:
+    """The transfer check the transfer stage made (of its source or of a walker it kept) of the
+    same file as ``walker`` (by :func:`file_digest`), for the measure stage to reuse; {} if none."""
     stage = state["stages"].get("transfer", {})
     made = [stage.get("source_check")] + [t.get("accepted") for t in stage.get("tests", [])]
-    return {c["sha256"]: c for c in made if c and "sha256" in c}
+    digest = file_digest(walker)
+    return next((c for c in made if c and c.get("sha256") == digest), {})
 
 
 def short_test(test: dict[str, Any]) -> dict[str, Any]:

@@ -16,12 +16,12 @@ the first walker validation keeps that meets the whole bar (the transfer check, 
 
 from __future__ import annotations
 
-import hashlib
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 from evolve.train_polish import begun, polish_stage
+from evolve.train_record import file_digest
 from evolve.train_speed import SPEED_GOAL_M_S  # the walks' speed a draw counts
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -73,7 +73,7 @@ def check(walker: Path, settings: TrainSettings, robot_name: str, log: Callable[
     # to reuse on the same file: its dry runs take real time
     found = {"ratio": wm.kept(transfer), "transfer_passed": bool(transfer["passed"]),
              "transfer": {k: v for k, v in transfer.items() if k != "runs"},
-             "transfer_s": time.monotonic() - started, "sha256": hashlib.sha256(walker.read_bytes()).hexdigest()}
+             "transfer_s": time.monotonic() - started, "sha256": file_digest(walker)}
     if not found["transfer_passed"] or not whole_bar:
         log(f"{walker.name} keeps {found['ratio']:.2f} of its distance through the simulated bus"
             f"{'' if transfer['sim_walked'] else ' (no walk on the model)'}"
