@@ -52,9 +52,11 @@ WEIGHT_LIMIT = NeatConfig().weight_limit  # [the weights' unit] as evolution cli
 UPDATE_STREAM, VALIDATION_STREAM, TEST_STREAM = 0x504F_4C31, 0x504F_4C32, 0x504F_4C33  # keys' second entry
 CHECKPOINT = "checkpoint.json"  # in a polish's folder: what resume=True continues from
 CHECKPOINT_VERSION = 1
-# the dock per unit of transfer shortfall: a walker keeping 0.74 where 0.85 is asked loses a third of its
-# score, so a candidate as much as 30 % slower that keeps enough ranks above it
+# the dock per unit of transfer shortfall, in the source walker's validation score: a candidate keeping 0.74
+# where 0.85 is asked loses a third of that score, so one as much as 30 % slower that keeps enough ranks above it
 TRANSFER_WEIGHT = 3.0
+# how a transfer polish docks (a checkpoint of another rule is not resumed with this one)
+TRANSFER_DOCK = "source-scale"
 
 
 class Judged(NamedTuple):
@@ -165,18 +167,22 @@ def ranked_by(score: np.ndarray, worst: float) -> np.ndarray:
     return np.sort(score, axis=1)[:, :k].mean(axis=1)
 
 
-def docked_for_transfer(ranked: np.ndarray, judged: Judged, columns: list[int], keep: float) -> np.ndarray:
+def docked_for_transfer(ranked: np.ndarray, judged: Judged, columns: list[int], keep: float,
+                        scale: float) -> np.ndarray:
     """``ranked`` (a score per candidate) docked for keeping less than ``keep`` of the candidate's
     distance on the model (``judged``'s last column) on its robots ``columns`` (the transfer
-    check's profile): by ``TRANSFER_WEIGHT`` x |score| x the shortfall, so the dock does not
-    depend on the score's scale and a candidate that keeps enough is not docked at all.  A
+    check's profile): by ``TRANSFER_WEIGHT`` x ``scale`` x the shortfall, so a candidate that keeps
+    enough is not docked at all.  ``scale`` is one number for the whole search (the source
+    walker's validation score): a dock in proportion to each candidate's own score would, past a
+    shortfall of 1/``TRANSFER_WEIGHT``, exceed it and rank a higher score lower, and a search
+    went to walkers that fall at once that way (OP3's seed 1, benchmarks/RESULTS.md).  A
     candidate that does not walk on the model keeps nothing (as in the transfer check): else a
     share would pay walking worse on the model, and a search found that (OP3, benchmarks/RESULTS.md)."""
     on_model = judged.distance_m[:, -1]
     share = judged.distance_m[:, columns].mean(axis=1) / np.maximum(on_model, 1e-9)
     share = np.where(judged.walked[:, -1], share, 0.0)
     shortfall = np.clip(keep - share, 0.0, None)
-    return ranked - TRANSFER_WEIGHT * np.abs(ranked) * shortfall
+    return ranked - TRANSFER_WEIGHT * abs(scale) * shortfall
 
 
 def plateaued(history: list[dict[str, Any]], kept_update: int, patience: int) -> bool:
@@ -276,7 +282,8 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
                 "reality": reality, "episode_s": judge.evaluator.episode_s, "straight": straight,
                 "heading_deg": heading_deg, "nominal": nominal, "speed_leg_s": speed_leg_s,
                 "min_speed_m_s": min_speed_m_s, "walk_bonus": walk_bonus, "lr_adapt": lr_adapt,
-                "worst": worst, **({"transfer_keep": transfer_keep} if transfer_keep is not None else {})}
+                "worst": worst, **({"transfer_keep": transfer_keep, "transfer_dock": TRANSFER_DOCK}
+                                   if transfer_keep is not None else {})}
     identity = json.loads(json.dumps({**{k: v for k, v in settings.items() if k != "updates"}, "every": every,
                                       "validation": validation,
                                       "source_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()}))
@@ -288,15 +295,19 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
                                judge.evaluator.layout, judge.evaluator.task, judge.data.sigmoid_steepness,
                                provenance).save(to)
 
+    dock_scale: float | None = None  # a transfer polish's: the source walker's undocked validation score
+
     def validate(x: np.ndarray) -> dict[str, float]:
         judged = judge.run([x], checks)
         score, walked = judged.score, judged.walked
         if nominal:  # (judged on drawn robots only)
             score, walked = score[:, :-1], walked[:, :-1]
         mean = score.mean(axis=1)
-        if transfer_keep is not None:
-            mean = docked_for_transfer(mean, judged, on_default(validation), transfer_keep)
-        return {"walk_rate": float(walked.mean()), "score": float(mean[0])}
+        undocked = float(mean[0])
+        if transfer_keep is not None:  # the source walker's own validation docks on its own score
+            mean = docked_for_transfer(mean, judged, on_default(validation), transfer_keep,
+                                       undocked if dock_scale is None else dock_scale)
+        return {"walk_rate": float(walked.mean()), "score": float(mean[0]), "undocked": undocked}
 
     def better(checked: dict[str, float], than: dict[str, float]) -> bool:
         """Whether validation keeps ``checked`` over ``than``: by the walk rate, then the score; a
@@ -325,12 +336,14 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
         told["stopped"] = saved["stopped"]
         best = {**saved["best"], "weights": np.array(saved["best"]["weights"])}
         history, judge.steps = saved["history"], saved["physics_steps"]
+        dock_scale = saved.get("dock_scale")
         started -= saved["elapsed_s"]
         log(f"polish {path.name}: resumed at update {len(saved['scores'])}/{updates} "
             f"(best validation walk rate {best['walk_rate']:.2f} at update {best['update']})")
     else:
         best = {"update": 0, "weights": x0.copy(), **validate(x0)}
-        history = [{"update": 0, **{k: best[k] for k in ("walk_rate", "score")}}]
+        dock_scale = best["undocked"] if transfer_keep is not None else None
+        history = [{"update": 0, **{k: best[k] for k in ("walk_rate", "score", "undocked")}}]
         log(f"polish {path.name}: {len(x0)} weights, {popsize} candidates x {robots} robots an update; "
             f"validation walk rate {best['walk_rate']:.2f} at the start")
 
@@ -338,6 +351,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
         write_json_atomic(checkpoint, {
             "version": CHECKPOINT_VERSION, "identity": identity, **told, "history": history,
             "best": {**best, "weights": best["weights"].tolist()}, "physics_steps": judge.steps,
+            "dock_scale": dock_scale,
             "elapsed_s": time.monotonic() - started})
 
     first = len(told["scores"]) + 1
@@ -346,7 +360,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
         judged = judge.run(candidates, _keys(seed, UPDATE_STREAM, update, robots))
         ranked = ranked_by(judged.score, worst)
         if transfer_keep is not None:
-            ranked = docked_for_transfer(ranked, judged, on_default(robots), transfer_keep)
+            ranked = docked_for_transfer(ranked, judged, on_default(robots), transfer_keep, dock_scale)
         walked = judged.walked
         tell(candidates, [float(s) for s in ranked])
         if update % every == 0 or update == updates:
@@ -391,6 +405,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
                                                   "test_walk_rate": test_rates})
     result = {"controller": str(path), "polished": str(out / "polished.json"), "weights": len(x0), **settings,
               "kept_update": best["update"], "history": history,
+              **({"dock_scale": dock_scale} if transfer_keep is not None else {}),
               "test": {"robots": test, **judged},
               "lifted": test_rates["polished"] > test_rates["original"] if test else None,
               "physics_steps": judge.steps, "search_minutes": search_s / 60,

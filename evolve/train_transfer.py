@@ -32,8 +32,9 @@ if TYPE_CHECKING:  # pragma: no cover
 # mean, OP3's seed 4 kept 0.81 in 5 updates but walked on 40 of 50 robots where it had walked on 49);
 # asking 0.85 leaves a margin over the check's 0.8 for the dry runs' noise and the bus.  No heading gate: one
 # that counted a walk on the model swinging over 20 deg as none (a candidate keeping nothing) made every early
-# candidate of OP3's seed 1 fully docked, and a full dock ranks a higher score lower, so the search went to
-# walkers that fall at once (0 of 10 robots by update 10; benchmarks/RESULTS.md)
+# candidate of OP3's seed 1 fully docked, and the dock then, in proportion to each candidate's own score, ranked
+# a higher score lower, so the search went to walkers that fall at once (0 of 10 robots by update 10;
+# benchmarks/RESULTS.md); the dock is now on one scale for the search
 TRANSFER = {"popsize": 16, "robots": 16, "sigma": 0.05, "validation": 30, "worst": 0.25,
             "reality": ["randomize", "default"], "nominal": True, "transfer_keep": 0.85,
             "min_speed_m_s": SPEED_GOAL_M_S}
