@@ -336,7 +336,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
         told["stopped"] = saved["stopped"]
         best = {**saved["best"], "weights": np.array(saved["best"]["weights"])}
         history, judge.steps = saved["history"], saved["physics_steps"]
-        dock_scale = saved.get("dock_scale")
+        dock_scale = history[0].get("undocked") if transfer_keep is not None else None  # the source's validation
         started -= saved["elapsed_s"]
         log(f"polish {path.name}: resumed at update {len(saved['scores'])}/{updates} "
             f"(best validation walk rate {best['walk_rate']:.2f} at update {best['update']})")
@@ -351,7 +351,6 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
         write_json_atomic(checkpoint, {
             "version": CHECKPOINT_VERSION, "identity": identity, **told, "history": history,
             "best": {**best, "weights": best["weights"].tolist()}, "physics_steps": judge.steps,
-            "dock_scale": dock_scale,
             "elapsed_s": time.monotonic() - started})
 
     first = len(told["scores"]) + 1
