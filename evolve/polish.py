@@ -45,6 +45,7 @@ from sim2real.controller.file import Controller
 from sim2real.controller.purpose import require_walker
 from sim2real.run_lock import holds_folder
 from sim2real.errors import ConfigError
+from sim2real.input_files import file_sha256
 from sim2real.simulation.reality.file import Reality, load_reality
 from sim2real.simulation.reality.randomize import Perturbation, latency_capacity_s, sample
 
@@ -286,7 +287,7 @@ def polish(path: Path, out: Path, *, updates: int = 60, popsize: int = 16, robot
                                    if transfer_keep is not None else {})}
     identity = json.loads(json.dumps({**{k: v for k, v in settings.items() if k != "updates"}, "every": every,
                                       "validation": validation,
-                                      "source_sha256": hashlib.sha256(Path(path).read_bytes()).hexdigest()}))
+                                      "source_sha256": file_sha256(path)}))
 
     def save(weights: np.ndarray, to: Path, outcome: dict[str, Any]) -> None:
         """The walker with ``weights``, the polish's settings and ``outcome`` in its provenance."""

@@ -5,9 +5,10 @@ stages that write it)."""
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 from typing import Any
+
+from sim2real.input_files import file_sha256
 
 STATE = "train.json"  # in the training folder: the settings and each finished stage
 STATE_VERSION = 1
@@ -57,17 +58,12 @@ def earlier_walkers(state: dict[str, Any]) -> list[Path]:
     return [path for path in found if path.exists()]
 
 
-def file_digest(walker: Path) -> str:
-    """The SHA-256 of a walker file's bytes: what a transfer check records of the file it checked."""
-    return hashlib.sha256(Path(walker).read_bytes()).hexdigest()
-
-
 def transfer_check_of(state: dict[str, Any], walker: Path) -> dict[str, Any]:
     """The transfer check the transfer stage made (of its source or of a walker it kept) of the
-    same file as ``walker`` (by :func:`file_digest`), for the measure stage to reuse; {} if none."""
+    same file as ``walker`` (by :func:`~sim2real.input_files.file_sha256`), for the measure stage to reuse; {} if none."""
     stage = state["stages"].get("transfer", {})
     made = [stage.get("source_check")] + [t.get("accepted") for t in stage.get("tests", [])]
-    digest = file_digest(walker)
+    digest = file_sha256(walker)
     return next((c for c in made if c and c.get("sha256") == digest), {})
 
 

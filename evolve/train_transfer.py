@@ -21,8 +21,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 from evolve.train_polish import begun, polish_stage
-from evolve.train_record import file_digest
 from evolve.train_speed import SPEED_GOAL_M_S  # the walks' speed a draw counts
+from sim2real.input_files import file_sha256
 
 if TYPE_CHECKING:  # pragma: no cover
     from evolve.train import Budget, TrainSettings
@@ -74,7 +74,7 @@ def check(walker: Path, settings: TrainSettings, robot_name: str, log: Callable[
     # to reuse on the same file: its dry runs take real time
     found = {"ratio": wm.kept(transfer), "transfer_passed": bool(transfer["passed"]),
              "transfer": {k: v for k, v in transfer.items() if k != "runs"},
-             "transfer_s": time.monotonic() - started, "sha256": file_digest(walker)}
+             "transfer_s": time.monotonic() - started, "sha256": file_sha256(walker)}
     if not found["transfer_passed"] or not whole_bar:
         log(f"{walker.name} keeps {found['ratio']:.2f} of its distance through the simulated bus"
             f"{'' if transfer['sim_walked'] else ' (no walk on the model)'}"

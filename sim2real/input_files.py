@@ -10,6 +10,7 @@ swapped since):
     raw = read_regular_bytes(path, limit=4 << 20)   # ConfigError naming the file otherwise
     check_regular_file(path)                        # before handing the path to a library
     refuse_repeats(traces, "trace")                 # one file given twice, or a copy of it
+    file_sha256(walker)                             # what a record keeps of the file it used
 
 No MuJoCo here; :func:`sim2real.robot.validation.load_yaml` and the command-line types of
 :mod:`sim2real.arg_types` and :mod:`sim2real.cli.args` use it too.
@@ -114,6 +115,20 @@ def decode_utf8(raw: bytes, source: str, what: str) -> str:
         raise ConfigError(source, "", f"{what}: byte 0x{raw[exc.start]:02x} at line {line} (offset {exc.start})") from None
 
 
+def file_sha256(path: Path | str) -> str:
+    """The SHA-256 of a regular file's bytes, in hex, read in chunks (:func:`open_regular`; a
+    clear :class:`ConfigError` naming the file otherwise)."""
+    source = str(path)
+    digest = hashlib.sha256()
+    with open_regular(path, source) as f:
+        try:
+            for chunk in iter(lambda: f.read(_CHUNK_BYTES), b""):
+                digest.update(chunk)
+        except OSError as exc:
+            raise ConfigError(source, "", f"cannot read: {exc.strerror or exc}") from None
+    return digest.hexdigest()
+
+
 def refuse_repeats(paths: Sequence[Path | str], what: str = "file") -> None:
     """:class:`UsageError` when two of ``paths`` are one file (the same path, a link and its
     target: the same real path) or hold the same bytes (a copy): a command that takes several
@@ -128,14 +143,7 @@ def refuse_repeats(paths: Sequence[Path | str], what: str = "file") -> None:
             raise UsageError(f"{source}: the {what} {by_path[real]} again (one file, given twice): give each "
                              f"{what} once")
         by_path[real] = source
-        digest = hashlib.sha256()
-        with open_regular(path, source) as f:
-            try:
-                for chunk in iter(lambda: f.read(_CHUNK_BYTES), b""):
-                    digest.update(chunk)
-            except OSError as exc:
-                raise ConfigError(source, "", f"cannot read: {exc.strerror or exc}") from None
-        key = digest.hexdigest()
+        key = file_sha256(path)
         if key in by_content:
             raise UsageError(f"{source}: the same bytes as {by_content[key]} (a copy of that {what}): give each "
                              f"{what} once")

@@ -268,6 +268,22 @@ def test_a_robot_file_named_in_a_path_with_a_fifo_is_not_read(tmp_path):
         read_regular_bytes(tmp_path / "link.yaml")
 
 
+
+def test_a_files_digest_is_its_bytes_and_a_fifo_or_a_copy_is_refused(tmp_path):
+    import hashlib
+
+    from sim2real.input_files import file_sha256, refuse_repeats
+
+    walker = tmp_path / "walker.json"
+    walker.write_bytes(b'{"format": "biped-controller"}\n' * 100_000)  # more than one chunk
+    assert file_sha256(walker) == hashlib.sha256(walker.read_bytes()).hexdigest()
+    make("fifo", tmp_path / "pipe", None)
+    with pytest.raises(ConfigError, match="pipe: is a named pipe"):
+        file_sha256(tmp_path / "pipe")  # refused, never waited on
+    (tmp_path / "copy.json").write_bytes(walker.read_bytes())
+    with pytest.raises(UsageError, match=r"copy.json: the same bytes as .*walker.json"):
+        refuse_repeats([walker, tmp_path / "copy.json"], "walker")
+
 # -- outputs --------------------------------------------------------------------------------------
 def _mount_full(where: Path) -> bool:
     """A 64 KiB tmpfs at ``where``, filled to the last block: a real full disk (root only)."""

@@ -5,7 +5,8 @@
 # ARM: baseline, clock, ankle0, speed, clock_speed, clock_speed_gait, clock_speed_gait16,
 #      clock_speed_flight_stop, clock_speed_soft, clock_speed_smooth, clock_speed_ankle0, clock_compliant,
 #      clock_compliant_straight, clock_compliant_straight_slow, clock_compliant_straight_slow_harness75,
-#      clock_compliant_straight_slow_pace, clock_medium_gait,
+#      clock_compliant_straight_slow_pace, clock_medium_gait, clock_medium_gait_gyro,
+#      clock_medium_gait_flight_stop,
 #      no_side_bias, no_sideways_harness, gait_term
 set -eu
 arm=${1:?"give an arm (see above)"}
@@ -31,6 +32,9 @@ case $arm in
   clock_compliant_straight_slow_pace)
     config=$here/clock_straight_slow_pace.yaml; robot=$here/human_stepping_compliant.yaml ;;
   clock_medium_gait) config=$here/clock_gait_term.yaml; robot=$here/human_stepping_medium.yaml ;;
+  clock_medium_gait_gyro) config=$here/clock_gait_gyro.yaml; robot=$here/human_stepping_medium.yaml ;;
+  clock_medium_gait_flight_stop)
+    config=$here/clock_gait_flight_stop.yaml; robot=$here/human_stepping_medium.yaml ;;
   clock_speed_soft) config=$here/clock.yaml; robot=$here/human_stepping_speed_soft.yaml ;;
   clock_speed_flight_stop) config=$here/clock_flight_stop.yaml; robot=$here/human_stepping_speed.yaml ;;
   *) echo "unknown arm: $arm" >&2; exit 2 ;;
