@@ -84,6 +84,31 @@ def test_pd_no_load_speed_scales_with_leg_and_limits_goals_and_torque():
         parse_robot(doc, "human_stepping.yaml")
 
 
+def test_pd_stiffness_in_body_units_is_one_number_for_every_joint_at_eq2s_damping_ratio():
+    """``stiffness_mgl``: every joint's stiffness is that many m g L a radian (a servo's is the
+    same on every joint), where eq. 2 scales each by its inertia; each joint keeps eq. 2's damping
+    ratio on its own inertia, and the key is checked like the others."""
+    import numpy as np
+
+    from sim2real.simulation.model.builder import build_model
+
+    doc = _doc("human_stepping")
+    eq2 = build_model(parse_robot(doc, "human_stepping.yaml", "male_95"))
+    doc["pd_gains"]["stiffness_mgl"] = 2.0
+    robot = parse_robot(doc, "human_stepping.yaml", "male_95")
+    model = build_model(robot)
+    stiffness = 2.0 * robot.mass * 9.81 * robot.leg_length
+    assert model.actuator_gainprm[:, 0] == pytest.approx(np.full(model.nu, stiffness))
+    assert -model.actuator_biasprm[:, 1] == pytest.approx(np.full(model.nu, stiffness))
+    inertia = eq2.actuator_gainprm[:, 0] / robot.pd.kp  # eq. 2's kp x I, read back
+    ratio = -model.actuator_biasprm[:, 2] / (2.0 * np.sqrt(stiffness * inertia))
+    assert ratio == pytest.approx(np.full(model.nu, robot.pd.kd / (2.0 * np.sqrt(robot.pd.kp))))
+    assert eq2.actuator_gainprm[:, 0].max() > 5 * eq2.actuator_gainprm[:, 0][3:].min()  # eq. 2's spread
+    doc["pd_gains"]["stiffness_mgl"] = 0.0
+    with pytest.raises(ConfigError, match="stiffness_mgl"):
+        parse_robot(doc, "human_stepping.yaml")
+
+
 @pytest.mark.parametrize("caps", [{}, {"max_torque_nm": 300.0, "max_torque_nm_per_kg": 4.0}])
 def test_torque_cap_must_be_given_one_way(caps):
     doc = _doc("human")

@@ -38,6 +38,7 @@ from sim2real.robot.spec import (
     SEGMENT_MASS_KG,
     SEGMENT_SIZE_M,
     SIDES,
+    STIFFNESS_MGL,
     Body,
     Box,
     BusSettings,
@@ -298,7 +299,8 @@ def _read_pd(node: Node, mass_kg: float | None) -> PDGains:
     """Eq. 2's gains and the torque cap: ``max_torque_nm`` for every body, or
     ``max_torque_nm_per_kg`` times the body's mass [kg] (strength in proportion to size);
     ``mass_kg`` None (a body measured on its model later) keeps the cap per kg."""
-    node.mapping(required=("kp", "kd"), optional=("max_torque_nm", "max_torque_nm_per_kg", "no_load_speed_froude"))
+    node.mapping(required=("kp", "kd"), optional=("max_torque_nm", "max_torque_nm_per_kg", "no_load_speed_froude",
+                                                     "stiffness_mgl"))
     caps = [key for key in ("max_torque_nm", "max_torque_nm_per_kg") if node.has(key)]
     if len(caps) != 1:
         raise node.error("give exactly one of max_torque_nm (a fixed cap) and max_torque_nm_per_kg "
@@ -316,7 +318,9 @@ def _read_pd(node: Node, mass_kg: float | None) -> PDGains:
                    max_torque_nm=fixed, max_torque_nm_per_kg=per_kg,
                    no_load_speed_froude=node["no_load_speed_froude"].number(
                        positive=True, hi=NO_LOAD_SPEED_FROUDE[1], unit="times sqrt(g/leg) rad/s")
-                   if node.has("no_load_speed_froude") else None)
+                   if node.has("no_load_speed_froude") else None,
+                   stiffness_mgl=node["stiffness_mgl"].number(positive=True, hi=STIFFNESS_MGL[1], unit="m g L per rad")
+                   if node.has("stiffness_mgl") else None)
 
 
 def _read_joint(node: Node, servo_robot: bool, default_model: str | None, model_robot: bool = False,

@@ -54,6 +54,7 @@ PD_KD = (0.0, 1_000.0)  # pd_gains.kd, > 0 [1/s]
 MAX_TORQUE_NM = (0.0, 5_000.0)  # pd_gains.max_torque_nm, > 0 [N m]
 MAX_TORQUE_NM_PER_KG = (0.0, 50.0)  # pd_gains.max_torque_nm_per_kg, > 0 [N m/kg] (the human's 4.08)
 NO_LOAD_SPEED_FROUDE = (0.0, 100.0)  # pd_gains.no_load_speed_froude, > 0 [1] (the XL430 on the biped's leg: 0.94)
+STIFFNESS_MGL = (0.0, 1_000.0)  # pd_gains.stiffness_mgl, > 0 [m g L per rad] (the XL430 on the biped: 2.0)
 CONTROL_TICK_S = (0.001, 1.0)  # control_tick_s [s]: the controller format's tick_s range
 PHYSICS_DT_S = (0.0002, 0.02)  # physics_dt_s [s]: MuJoCo's timestep
 
@@ -182,6 +183,11 @@ class PDGains:
     # [1] the no-load speed in Froude units, w0 sqrt(leg / g): torque falls linearly with joint speed from the
     # cap to zero at w0, and a goal moves at most w0 a second, as a servo's does; None: neither limit
     no_load_speed_froude: float | None = None
+    # [m g L per rad] every joint's stiffness this many times the body's weight times its leg length a
+    # radian, as a servo's is the same on every joint (the XL430 biped's: 2.0), in place of kp x I, which
+    # makes an ankle carrying the whole body 6-7 times stiffer than a hip; the damping keeps eq. 2's
+    # damping ratio kd / (2 sqrt(kp)); None: eq. 2's gains
+    stiffness_mgl: float | None = None
 
 
 @dataclass(frozen=True)

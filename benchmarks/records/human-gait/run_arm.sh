@@ -6,7 +6,7 @@
 #      clock_speed_flight_stop, clock_speed_soft, clock_speed_smooth, clock_speed_ankle0, clock_compliant,
 #      clock_compliant_straight, clock_compliant_straight_slow, clock_compliant_straight_slow_harness75,
 #      clock_compliant_straight_slow_pace, clock_medium_gait, clock_medium_gait_gyro,
-#      clock_medium_gait_flight_stop,
+#      clock_medium_gait_flight_stop, clock_uniform_gait,
 #      no_side_bias, no_sideways_harness, gait_term
 set -eu
 arm=${1:?"give an arm (see above)"}
@@ -35,6 +35,7 @@ case $arm in
   clock_medium_gait_gyro) config=$here/clock_gait_gyro.yaml; robot=$here/human_stepping_medium.yaml ;;
   clock_medium_gait_flight_stop)
     config=$here/clock_gait_flight_stop.yaml; robot=$here/human_stepping_medium.yaml ;;
+  clock_uniform_gait) config=$here/clock_gait_term.yaml; robot=$here/human_stepping_uniform.yaml ;;
   clock_speed_soft) config=$here/clock.yaml; robot=$here/human_stepping_speed_soft.yaml ;;
   clock_speed_flight_stop) config=$here/clock_flight_stop.yaml; robot=$here/human_stepping_speed.yaml ;;
   *) echo "unknown arm: $arm" >&2; exit 2 ;;

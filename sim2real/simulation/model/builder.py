@@ -49,6 +49,7 @@ from sim2real.errors import BipedError
 from sim2real.robot import Joint, RobotSpec
 from sim2real.robot.anatomy import anatomical_axis
 from sim2real.robot.servo_model import servo_physics
+from sim2real.robot.spec import GRAVITY
 from sim2real.simulation.model.joint_loads import axis_inertia, dot3
 from sim2real.simulation.model.parts import (
     COLLISION_BITS,
@@ -243,9 +244,13 @@ def _scale_pd_gains(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel
     the ground (the whole body above an ankle; the trunk for a waist joint), since a stance
     leg's joints carry the body; a joint scaled by its distal inertia alone could not stand.
     Box tree and model file alike (:func:`~sim2real.simulation.model.joint_loads.carried_bodies`:
-    an arm's or a neck's joint moves what lies beyond it).
+    an arm's or a neck's joint moves what lies beyond it).  With ``pd_gains.stiffness_mgl`` every
+    joint has that stiffness in units of the body's m g L a radian instead (as a servo's is one
+    number for every joint), at eq. 2's damping ratio on its own inertia.
     """
     assert robot.pd is not None
+    pd = robot.pd
+    uniform = None if pd.stiffness_mgl is None else pd.stiffness_mgl * robot.mass * GRAVITY * robot.leg_length  # [N m/rad]
     cap = robot.pd_torque_cap_nm  # [N m]; a model robot's per-kg cap on its measured mass
     no_load = robot.pd_no_load_speed_rad_s  # [rad/s]; inf: no speed limit
     data = mujoco.MjData(model)
@@ -254,7 +259,10 @@ def _scale_pd_gains(robot: RobotSpec, spec: mujoco.MjSpec, model: mujoco.MjModel
     for joint in robot.joints:
         inertia = axis_inertia(model, data, joint)
         act = spec.actuator(joint.name)
-        act.set_to_position(kp=inertia * robot.pd.kp, kv=inertia * robot.pd.kd)
+        if uniform is None:
+            act.set_to_position(kp=inertia * pd.kp, kv=inertia * pd.kd)
+        else:  # damping ratio kd / (2 sqrt(kp)) on stiffness `uniform` and this inertia
+            act.set_to_position(kp=uniform, kv=pd.kd * np.sqrt(uniform * inertia / pd.kp))
         act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         act.forcerange = [-cap, cap]
         if np.isfinite(no_load):  # a servo's torque-speed line: the cap at rest, nothing left at no-load speed
