@@ -298,7 +298,9 @@ def _refuse_body_keys(root: Node, preset: str | None) -> None:
 def _read_pd(node: Node, mass_kg: float | None) -> PDGains:
     """Eq. 2's gains and the torque cap: ``max_torque_nm`` for every body, or
     ``max_torque_nm_per_kg`` times the body's mass [kg] (strength in proportion to size);
-    ``mass_kg`` None (a body measured on its model later) keeps the cap per kg."""
+    ``mass_kg`` None (a body measured on its model later) keeps the cap per kg.  Optional: a
+    servo's speed limit (``no_load_speed_froude``) and one stiffness for every joint in body units
+    (``stiffness_mgl``), both checked here and applied by the model builder."""
     node.mapping(required=("kp", "kd"), optional=("max_torque_nm", "max_torque_nm_per_kg", "no_load_speed_froude",
                                                      "stiffness_mgl"))
     caps = [key for key in ("max_torque_nm", "max_torque_nm_per_kg") if node.has(key)]
