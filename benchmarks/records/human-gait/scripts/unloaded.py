@@ -1,6 +1,6 @@
 """Both feet unloaded at every physics step, not once a control tick (RESULTS.md, "Human gait,
-round four"): a controller's 10 s replay on a body, each sole's touch force read after every
-physics step against the foot switch's threshold (5 % of the body weight), the first 2 s skipped.
+round four"): a controller's 10 s replay on a body, each foot switch (the robot's own threshold,
+:meth:`RobotModel.feet_touching`) and sole force read after every physics step, the first 2 s skipped.
 
     python benchmarks/records/human-gait/scripts/unloaded.py CONTROLLER [BODY]
     python benchmarks/records/human-gait/scripts/unloaded.py configs/controllers/human_female_50.json human_stepping:female_50
@@ -15,25 +15,28 @@ import sys
 import numpy as np
 
 from evolve.replay import controller_setup
+from sim2real.robot.spec import GRAVITY
 
 path, body = sys.argv[1], (sys.argv[2] if len(sys.argv) > 2 else None)
 data, spec, ev, genome = controller_setup(path, body, 10.0, stagnation_stop=False)
-step_once, forces = ev.batch.step, []
+step_once, forces, touching = ev.batch.step, [], []
 
 
 def step(alive, n):
-    """The evaluator's tick of ``n`` physics steps, one at a time, keeping robot 0's sole forces."""
+    """The evaluator's tick of ``n`` physics steps, one at a time, keeping robot 0's sole forces and switches."""
     for _ in range(n):
         step_once(alive, 1)
         forces.append(ev.sensordata[0, ev.parts.touch].copy())
+        touching.append(ev.parts.feet_touching(ev.sensordata[0]))
 
 
 ev.batch.step = step
 result = ev.evaluate([genome], data.sigmoid_steepness, harness=0.0)
 dt = ev.tick_s / ev.substeps  # [s] one physics step
-weight = ev.mass * 9.81  # [N]
-f = np.array(forces)[int(2.0 / dt):]
-unloaded = ~(f > 0.05 * weight).any(axis=1)
+weight = ev.mass * GRAVITY  # [N]
+skip = int(2.0 / dt)
+f = np.array(forces)[skip:]
+unloaded = ~np.array(touching)[skip:].any(axis=1)
 spells, run = [], 0
 for x in unloaded:
     if x:
